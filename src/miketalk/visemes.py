@@ -83,7 +83,8 @@ def _read_tsv(path: Path | None, default: str) -> list[dict[str, str]]:
         except OSError as err:
             raise MiketalkError(f"cannot read table {path}: {err.strerror}") from err
         source = str(path)
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith("#")]
+    # comments are "# ..." lines; the silence row itself starts with "#\t"
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith("# ")]
     rows = list(csv.DictReader(lines, delimiter="\t"))
     if not rows:
         raise MiketalkError(f"table {source} has no rows")

@@ -52,12 +52,17 @@ class Utterance:
         Sample rate in Hz.
     phones : tuple of Phone
         The phones in order.
+    chunks : tuple of (str, int)
+        How the text was spoken: each chunk's text and its number of phones
+        (long text is spoken in chunks of whole sentences); re-synthesis
+        speaks the same chunks again.
     """
 
     text: str
     samples: np.ndarray
     rate: int
     phones: tuple[Phone, ...] = field(default_factory=tuple)
+    chunks: tuple[tuple[str, int], ...] = field(default_factory=tuple)
 
     @property
     def duration(self) -> float:

@@ -1,0 +1,62 @@
+"""The speech back-end interface and its registry."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.types import Utterance
+
+
+class SpeechBackend(ABC):
+    """A text-to-speech engine that reports its phones and their times."""
+
+    name: str = ""
+
+    @abstractmethod
+    def is_available(self) -> bool:
+        """Whether the engine (and its voice) can be run on this machine."""
+
+    @abstractmethod
+    def version(self) -> str:
+        """The engine's version string."""
+
+    @abstractmethod
+    def synthesize(self, text: str) -> Utterance:
+        """Speak ``text``: the wav and its timed phones."""
+
+    @abstractmethod
+    def resynthesize(self, utterance: Utterance, durations: Sequence[float]) -> Utterance:
+        """Speak ``utterance`` again with each phone lasting ``durations[i]`` seconds.
+
+        The returned phones follow the dictated durations exactly and the wav
+        ends at the last phone's end, so that video timed from the durations
+        stays in sync with the sound (paper §7).
+        """
+
+
+_BACKENDS: dict[str, type[SpeechBackend]] = {}
+
+
+def register(cls: type[SpeechBackend]) -> type[SpeechBackend]:
+    """Class decorator: make a back-end available by its ``name``."""
+    _BACKENDS[cls.name] = cls
+    return cls
+
+
+def get_backend(name: str = "festival", **settings: object) -> SpeechBackend:
+    """Instantiate the back-end called ``name``.
+
+    Raises
+    ------
+    MiketalkError
+        For an unknown name.
+    """
+    try:
+        cls = _BACKENDS[name]
+    except KeyError:
+        raise MiketalkError(
+            f"unknown speech back-end {name!r}; known: {', '.join(sorted(_BACKENDS))}"
+        ) from None
+    return cls(**settings)

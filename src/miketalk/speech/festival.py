@@ -1,0 +1,233 @@
+"""Festival (voice_kal_diphone) as a subprocess: text -> wav + timed radio phones.
+
+The Scheme program is package data (``scheme/synthesize.scm``); text and
+settings reach it through environment variables only, so user text is never
+parsed as Scheme (Festival's Scheme can run shell commands).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import wave
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from importlib import resources
+from itertools import pairwise
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.backend import SpeechBackend, register
+from miketalk.speech.text import normalize_text, split_chunks
+from miketalk.speech.types import Phone, Utterance
+
+APT_PACKAGES = "festival festvox-kallpc16k"
+_INSTALL_HINT = f"install it with: apt-get install -y {APT_PACKAGES}"
+
+
+@dataclass(frozen=True)
+class _Chunk:
+    text: str
+    samples: np.ndarray
+    rate: int
+    names: tuple[str, ...]
+    ends: tuple[float, ...]
+
+
+@register
+class FestivalBackend(SpeechBackend):
+    """Festival run as ``festival -b synthesize.scm``.
+
+    Parameters
+    ----------
+    executable : str, optional
+        Path to ``festival``; else ``$MIKETALK_FESTIVAL``; else ``festival`` on PATH.
+    voice : str
+        Festival voice function; only ``voice_kal_diphone`` is supported (its
+        phone set is the radio set that the viseme table maps).
+    max_words : int
+        Text is spoken in chunks of whole sentences of at most this many words
+        (Festival slows down and loses time precision on long utterances).
+    timeout : float
+        Seconds allowed per Festival run.
+    """
+
+    name = "festival"
+
+    def __init__(
+        self,
+        executable: str | None = None,
+        *,
+        voice: str = "voice_kal_diphone",
+        max_words: int = 40,
+        timeout: float = 600.0,
+    ) -> None:
+        self.executable = executable or os.environ.get("MIKETALK_FESTIVAL") or "festival"
+        self.voice = voice
+        self.max_words = max_words
+        self.timeout = timeout
+
+    # -- availability -----------------------------------------------------------------
+    def _path(self) -> str:
+        path = shutil.which(self.executable)
+        if path is None:
+            raise MiketalkError(f"Festival not found ({self.executable!r}); {_INSTALL_HINT}")
+        return path
+
+    def is_available(self) -> bool:
+        """Whether the executable exists and the voice loads."""
+        try:
+            self.synthesize("a")
+        except MiketalkError:
+            return False
+        return True
+
+    @cached_property
+    def _version(self) -> str:
+        out = subprocess.run(
+            [self._path(), "--version"], capture_output=True, text=True, timeout=30, check=False
+        )
+        match = re.search(r"System: ([0-9][^:\s]*)", out.stdout + out.stderr)
+        return match.group(1) if match else (out.stdout + out.stderr).strip()
+
+    def version(self) -> str:
+        """Festival's version, e.g. ``"2.5.0"``."""
+        return self._version
+
+    # -- synthesis ----------------------------------------------------------------------
+    def synthesize(self, text: str) -> Utterance:
+        """Speak ``text``.
+
+        Raises
+        ------
+        MiketalkError
+            Nothing speakable in ``text``, Festival missing, or Festival failing.
+        """
+        clean = normalize_text(text)
+        chunks = self._run(split_chunks(clean, max_words=self.max_words), None)
+        return _join(clean, chunks)
+
+    def resynthesize(self, utterance: Utterance, durations: Sequence[float]) -> Utterance:
+        """Speak ``utterance`` again with dictated phone durations (seconds).
+
+        The text is re-read through the modules up to Duration, each Segment's
+        end is set from ``durations``, then Int_Targets and Wave_Synth run.
+
+        Raises
+        ------
+        MiketalkError
+            Wrong number of durations, a non-positive or non-finite duration, or
+            Festival producing other phones than ``utterance`` has.
+        """
+        durations = np.asarray(durations, dtype=np.float64)
+        if durations.shape != (len(utterance.phones),):
+            raise MiketalkError(
+                f"{durations.size} durations given for {len(utterance.phones)} phones"
+            )
+        if not np.all(np.isfinite(durations)) or np.any(durations <= 0):
+            raise MiketalkError("every phone duration must be a positive number of seconds")
+        texts = split_chunks(utterance.text, max_words=self.max_words)
+        sizes = [n for _, n in utterance.chunks] if utterance.chunks else [len(durations)]
+        if len(sizes) != len(texts):
+            raise MiketalkError("the utterance's chunks do not match its text; synthesize it again")
+        bounds = np.cumsum([0, *sizes])
+        ends = [tuple(np.cumsum(durations[a:b]).tolist()) for a, b in pairwise(bounds)]
+        chunks = self._run(texts, ends)
+        got = [name for c in chunks for name in c.names]
+        if got != [p.name for p in utterance.phones]:
+            raise MiketalkError("Festival produced different phones on re-synthesis")
+        return _join(utterance.text, chunks)
+
+    def _run(self, texts: list[str], ends: list[tuple[float, ...]] | None) -> list[_Chunk]:
+        festival = self._path()
+        scheme = resources.files("miketalk.speech").joinpath("scheme/synthesize.scm")
+        with (
+            tempfile.TemporaryDirectory(prefix="miketalk-festival-") as tmp,
+            resources.as_file(scheme) as scheme_path,
+        ):
+            env = {
+                "PATH": os.environ.get("PATH", "/usr/bin:/bin"),
+                "HOME": tmp,
+                "MIKETALK_VOICE": self.voice,
+                "MIKETALK_OUT": tmp,
+                "MIKETALK_CHUNKS": str(len(texts)),
+            }
+            for i, chunk_text in enumerate(texts):
+                env[f"MIKETALK_TEXT_{i}"] = chunk_text
+                if ends is not None:
+                    path = Path(tmp) / f"{i}.ends"
+                    path.write_text("(" + " ".join(f"{e:.6f}" for e in ends[i]) + ")\n")
+                    env[f"MIKETALK_ENDS_{i}"] = str(path)
+            try:
+                proc = subprocess.run(
+                    [festival, "-b", str(scheme_path)],
+                    env=env,
+                    cwd=tmp,
+                    capture_output=True,
+                    text=True,
+                    timeout=self.timeout,
+                    check=False,
+                )
+            except subprocess.TimeoutExpired:
+                raise MiketalkError(f"Festival took longer than {self.timeout:.0f} s") from None
+            errors = proc.stderr.strip()
+            if proc.returncode != 0 or "SIOD ERROR" in errors or "SIOD ERROR" in proc.stdout:
+                if "voice_kal_diphone" in errors and "unbound" in errors:
+                    raise MiketalkError(f"Festival's kal voice is missing; {_INSTALL_HINT}")
+                tail = "\n".join((errors or proc.stdout).splitlines()[-5:])
+                raise MiketalkError(f"Festival failed (exit {proc.returncode}):\n{tail}")
+            return [_read_chunk(Path(tmp), i, t) for i, t in enumerate(texts)]
+
+
+def _read_chunk(directory: Path, index: int, text: str) -> _Chunk:
+    wav_path, phones_path = directory / f"{index}.wav", directory / f"{index}.phones"
+    if not wav_path.exists() or not phones_path.exists():
+        raise MiketalkError(f"Festival wrote no output for {text!r}")
+    with wave.open(str(wav_path), "rb") as w:
+        if w.getsampwidth() != 2 or w.getnchannels() != 1:
+            raise MiketalkError("Festival's wav is not 16-bit mono")
+        rate = w.getframerate()
+        samples = np.frombuffer(w.readframes(w.getnframes()), dtype="<i2").astype(np.int16)
+    names, ends = [], []
+    for line in phones_path.read_text().splitlines():
+        name, end = line.split()
+        names.append(name)
+        ends.append(float(end))
+    if not names:
+        raise MiketalkError(f"Festival returned no phones for {text!r}")
+    # The kal voice runs ~25 ms past the last phone: cut the wav at its end (or
+    # pad with silence) so that audio and phones end on the same sample.
+    n = round(ends[-1] * rate)
+    samples = samples[:n] if len(samples) >= n else np.pad(samples, (0, n - len(samples)))
+    return _Chunk(text, samples, rate, tuple(names), tuple(ends))
+
+
+def _join(text: str, chunks: list[_Chunk]) -> Utterance:
+    """Concatenate chunks; each chunk's times are offset by the samples before it."""
+    rate = chunks[0].rate
+    phones: list[Phone] = []
+    offset = 0
+    start = 0.0
+    for chunk in chunks:
+        # a chunk's last phone ends exactly on its last sample (it moves < half a
+        # sample), so the next chunk's phones start exactly where its wav does
+        stops = [offset / rate + end for end in chunk.ends[:-1]]
+        offset += len(chunk.samples)
+        stops.append(offset / rate)
+        for name, stop in zip(chunk.names, stops, strict=True):
+            phones.append(Phone(name, start, stop))
+            start = stop
+    samples = np.concatenate([c.samples for c in chunks])
+    return Utterance(
+        text=text,
+        samples=samples,
+        rate=rate,
+        phones=tuple(phones),
+        chunks=tuple((c.text, len(c.names)) for c in chunks),
+    )

@@ -1,0 +1,196 @@
+"""Festival front-end: timing, re-synthesis, injection safety, bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.speech import FestivalBackend, Utterance, normalize_text, split_chunks
+
+pytestmark = pytest.mark.skipif(
+    not FestivalBackend().is_available(), reason="Festival with voice_kal_diphone not installed"
+)
+
+
+@pytest.fixture(scope="module")
+def festival() -> FestivalBackend:
+    return FestivalBackend()
+
+
+@pytest.fixture(scope="module")
+def hello(festival: FestivalBackend) -> Utterance:
+    return festival.synthesize("Hello world")
+
+
+def test_hello_world_phones_and_wav_end_together(hello: Utterance) -> None:
+    assert [p.name for p in hello.phones] == "pau hh ax l ow w er l d pau".split()
+    assert hello.rate == 16000
+    assert len(hello.samples) == round(hello.phones[-1].end * hello.rate)
+    assert hello.phones[0].start == 0.0
+    for a, b in zip(hello.phones, hello.phones[1:], strict=False):
+        assert a.end == b.start and b.end > b.start
+
+
+def test_resynthesis_lengthens_one_phone_and_shifts_every_later_boundary(
+    festival: FestivalBackend, hello: Utterance
+) -> None:
+    k = 4  # "ow"
+    durations = hello.durations()
+    durations[k] += 0.040
+    longer = festival.resynthesize(hello, durations)
+    rate = hello.rate
+    shift = [
+        round((b.end - a.end) * rate) for a, b in zip(hello.phones, longer.phones, strict=True)
+    ]
+    assert all(s == 0 for s in shift[:k])
+    assert all(abs(s - 0.040 * rate) <= 1 for s in shift[k:])
+    assert abs(len(longer.samples) - len(hello.samples) - 0.040 * rate) <= 1
+
+    # The sound after the lengthened phone is the same sound, about 40 ms later:
+    # the best lag between log-energy envelopes (1 ms hops) of the two tails.
+    def envelope(x: np.ndarray) -> np.ndarray:
+        n = len(x) // 16
+        return np.log(1e-3 + (x[: n * 16].astype(float).reshape(n, 16) ** 2).mean(axis=1))
+
+    before, after = envelope(hello.samples), envelope(longer.samples)
+    c = round(hello.phones[k + 1].start * rate) // 16
+    tail = before[c : c + 150]
+    scores = [np.corrcoef(tail, after[c + lag : c + lag + 150])[0, 1] for lag in range(80)]
+    assert abs(int(np.argmax(scores)) - 40) <= 5 and max(scores) > 0.8
+
+
+def test_resynthesis_follows_dictated_durations_exactly(
+    festival: FestivalBackend, hello: Utterance
+) -> None:
+    durations = np.linspace(0.05, 0.2, len(hello.phones))
+    out = festival.resynthesize(hello, durations)
+    assert np.allclose(out.durations(), durations, atol=1.5e-6)
+    assert len(out.samples) == round(out.phones[-1].end * out.rate)
+
+
+def test_resynthesis_rejects_bad_durations(festival: FestivalBackend, hello: Utterance) -> None:
+    with pytest.raises(MiketalkError, match="durations given"):
+        festival.resynthesize(hello, [0.1, 0.2])
+    with pytest.raises(MiketalkError, match="positive"):
+        festival.resynthesize(hello, [0.1] * (len(hello.phones) - 1) + [-1.0])
+
+
+INJECTION = '") (system "touch /tmp/x") ("'
+
+
+def test_scheme_injection_is_spoken_not_run(festival: FestivalBackend, tmp_path: Path) -> None:
+    target = Path("/tmp/x")
+    target.unlink(missing_ok=True)
+    utt = festival.synthesize(INJECTION)
+    names = [p.name for p in utt.phones]
+    assert not target.exists()
+    # "system" and "touch" are spoken as words
+    assert names[1:7] == ["s", "ih", "s", "t", "ax", "m"]
+    assert "ch" in names
+    # the same through a file given to the CLI
+    text_file = tmp_path / "inject.txt"
+    text_file.write_text(INJECTION + "\n" + '(system "touch /tmp/x")')
+    out = subprocess.run(
+        [sys.executable, "-m", "miketalk.cli", "phones", "-f", str(text_file), "--json"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert json.loads(out.stdout)["phones"]
+    assert not target.exists()
+
+
+@pytest.mark.parametrize("text", ["", "   \n\t ", "?!...", '"("', "—…"])
+def test_nothing_to_speak_is_a_clear_error(festival: FestivalBackend, text: str) -> None:
+    with pytest.raises(MiketalkError, match="nothing to speak"):
+        festival.synthesize(text)
+
+
+def test_non_ascii_is_transliterated(festival: FestivalBackend) -> None:
+    assert normalize_text("café naïve Straße “déjà vu”") == "cafe naive Strasse deja vu"
+    assert [p.name for p in festival.synthesize("café").phones] == [
+        p.name for p in festival.synthesize("cafe").phones
+    ]
+
+
+def test_untransliterable_characters_are_reported(caplog: pytest.LogCaptureFixture) -> None:
+    assert normalize_text("I ❤ tea") == "I tea"
+    assert "❤" in caplog.text
+
+
+def test_ten_thousand_words(festival: FestivalBackend) -> None:
+    rng = np.random.default_rng(0)
+    vocab = "the quick brown fox jumps over a lazy dog while seven children sing".split()
+    sentences = [" ".join(rng.choice(vocab, 10)).capitalize() + "." for _ in range(1000)]
+    text = " ".join(sentences)
+    assert len(text.split()) == 10_000
+    utt = festival.synthesize(text)
+    assert len(utt.chunks) > 1
+    assert len(utt.samples) == round(utt.phones[-1].end * utt.rate)
+    starts = np.array([p.start for p in utt.phones])
+    ends = np.array([p.end for p in utt.phones])
+    assert np.all(ends > starts) and np.array_equal(starts[1:], ends[:-1])
+    # each chunk's wav is placed exactly where its phones say it starts
+    first = festival.synthesize(utt.chunks[0][0])
+    assert np.array_equal(utt.samples[: len(first.samples)], first.samples)
+    n0 = utt.chunks[0][1]
+    assert utt.phones[n0].start * utt.rate == pytest.approx(len(first.samples), abs=1e-6)
+
+
+def test_split_chunks_keeps_sentences_and_every_word() -> None:
+    text = "One two three. Four five! " + " ".join(["word"] * 95) + ". Six?"
+    chunks = split_chunks(text, max_words=40)
+    assert all(len(c.split()) <= 40 for c in chunks)
+    assert " ".join(chunks).split() == text.split()
+    assert split_chunks("Hello. ... ! Bye.", max_words=40) == ["Hello. Bye."]
+
+
+def test_festival_missing_names_the_packages(tmp_path: Path) -> None:
+    backend = FestivalBackend(executable=str(tmp_path / "no-such-festival"))
+    assert not backend.is_available()
+    with pytest.raises(MiketalkError, match="apt-get install -y festival festvox-kallpc16k"):
+        backend.synthesize("hello")
+
+
+def test_festival_missing_from_path(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.delenv("MIKETALK_FESTIVAL", raising=False)
+    with pytest.raises(MiketalkError, match="festvox-kallpc16k"):
+        FestivalBackend().synthesize("hello")
+
+
+def test_festival_crash_is_a_clear_error(tmp_path: Path) -> None:
+    fake = tmp_path / "festival"
+    fake.write_text("#!/bin/sh\necho 'Segmentation fault' >&2\nexit 139\n")
+    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
+    with pytest.raises(MiketalkError, match="Festival failed"):
+        FestivalBackend(executable=str(fake)).synthesize("hello")
+
+
+def test_version(festival: FestivalBackend) -> None:
+    assert festival.version()[0].isdigit()
+
+
+def test_cli_phones_prints_visemes_and_zero_offset() -> None:
+    env = dict(os.environ)
+    out = subprocess.run(
+        [sys.executable, "-m", "miketalk.cli", "phones", "Hello world"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=env,
+    ).stdout
+    assert "o-ou+u" in out and "wav - last end = 0 samples" in out
+    bad = subprocess.run(
+        [sys.executable, "-m", "miketalk.cli", "phones", "  "], capture_output=True, text=True
+    )
+    assert bad.returncode == 2
+    assert "Traceback" not in bad.stderr and "nothing to speak" in bad.stderr
