@@ -34,6 +34,13 @@ VISEMES: tuple[str, ...] = (
 SILENCE = "#"
 
 
+def viseme_slug(viseme: str) -> str:
+    """A file-name-safe name for a viseme (``#`` -> ``sil``; others keep theirs)."""
+    if viseme == SILENCE:
+        return "sil"
+    return "".join(ch if ch.isalnum() or ch == "-" else "_" for ch in viseme)
+
+
 @dataclass(frozen=True)
 class CorpusTarget:
     """One target nucleus of the recorded corpus.
