@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 import pytest
 
@@ -35,7 +37,7 @@ def test_transition_stream_covers_the_audio() -> None:
     stream = lipsync.transitions(keys, 0.8)
     assert stream[0].start == 0.0 and stream[0].source == stream[0].target == "#"
     assert stream[-1].start + stream[-1].duration == pytest.approx(0.8)
-    for a, b in zip(stream, stream[1:], strict=False):
+    for a, b in pairwise(stream):
         assert a.start + a.duration == pytest.approx(b.start)
         assert a.target == b.source
     assert [(t.source, t.target) for t in stream[1:-1]] == [

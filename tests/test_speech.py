@@ -7,6 +7,7 @@ import os
 import stat
 import subprocess
 import sys
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ def test_hello_world_phones_and_wav_end_together(hello: Utterance) -> None:
     assert hello.rate == 16000
     assert len(hello.samples) == round(hello.phones[-1].end * hello.rate)
     assert hello.phones[0].start == 0.0
-    for a, b in zip(hello.phones, hello.phones[1:], strict=False):
+    for a, b in pairwise(hello.phones):
         assert a.end == b.start and b.end > b.start
 
 

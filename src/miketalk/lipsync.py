@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -185,7 +186,7 @@ def oversampled_durations(
         raise MiketalkError(f"max_px_per_frame must be positive, not {max_px_per_frame}")
     durations = np.array([p.duration for p in phones], dtype=np.float64)
     keys = keyframes(phones, table)
-    pairs = [(a, b) for a, b in zip(keys, keys[1:], strict=False)]
+    pairs = list(pairwise(keys))
     need = [displacement(a.viseme, b.viseme) / (max_px_per_frame * fps) for a, b in pairs]
     for _ in range(10):
         changed = False
