@@ -1,0 +1,105 @@
+"""Mono 16-bit PCM wav files: read and write (atomically) with the standard library."""
+
+from __future__ import annotations
+
+import numbers
+import os
+import wave
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.atomic import atomic_path
+from miketalk.errors import MiketalkError
+
+_SAMPLE_WIDTH = 2  # bytes: int16
+
+
+def check_samples(samples: object, name: str = "samples") -> np.ndarray:
+    """Return ``samples`` after checking it is a 1-D int16 array.
+
+    Raises
+    ------
+    MiketalkError
+        Naming ``name``.
+    """
+    if not isinstance(samples, np.ndarray):
+        raise MiketalkError(f"{name} must be a numpy int16 array, got {type(samples).__name__}")
+    if samples.ndim != 1:
+        raise MiketalkError(f"{name} must be 1-D (mono), got shape {samples.shape}")
+    if samples.dtype != np.int16:
+        raise MiketalkError(
+            f"{name} must be int16, got dtype {samples.dtype}; scale floats in [-1, 1] "
+            "by 32767 and convert with .astype(np.int16)"
+        )
+    return samples
+
+
+def check_rate(rate: object, name: str = "rate") -> int:
+    """Return ``rate`` as an int after checking it is a positive whole number of Hz."""
+    if isinstance(rate, bool | np.bool_) or not isinstance(rate, numbers.Integral) or rate <= 0:
+        raise MiketalkError(f"{name} must be a positive integer sample rate in Hz, got {rate!r}")
+    return int(rate)
+
+
+def write_wav(path: str | os.PathLike[str], samples: np.ndarray, rate: int) -> None:
+    """Write mono int16 ``samples`` at ``rate`` Hz to a PCM wav file, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The wav file; its directory is created if needed.
+    samples : ndarray of int16, shape (n,)
+        The audio.
+    rate : int
+        Sample rate in Hz.
+
+    Raises
+    ------
+    MiketalkError
+        If ``samples`` is not 1-D int16 or ``rate`` is not a positive integer.
+    """
+    samples = check_samples(samples)
+    rate = check_rate(rate)
+    with atomic_path(path) as tmp, wave.open(str(tmp), "wb") as out:
+        out.setnchannels(1)
+        out.setsampwidth(_SAMPLE_WIDTH)
+        out.setframerate(rate)
+        out.writeframes(samples.astype("<i2", copy=False).tobytes())
+
+
+def read_wav(path: str | os.PathLike[str]) -> tuple[np.ndarray, int]:
+    """Read a mono 16-bit PCM wav file.
+
+    Parameters
+    ----------
+    path : path-like
+        The wav file.
+
+    Returns
+    -------
+    samples : ndarray of int16, shape (n,)
+        The audio.
+    rate : int
+        Sample rate in Hz.
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, is not a PCM wav file, or is not mono 16-bit.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MiketalkError(f"wav file not found: {path}")
+    try:
+        with wave.open(str(path), "rb") as wav:
+            channels, width = wav.getnchannels(), wav.getsampwidth()
+            rate, data = wav.getframerate(), wav.readframes(wav.getnframes())
+    except (wave.Error, EOFError) as exc:
+        raise MiketalkError(f"{path} is not a readable PCM wav file: {exc}") from exc
+    if channels != 1 or width != _SAMPLE_WIDTH:
+        raise MiketalkError(
+            f"{path} has {channels} channel(s) of {8 * width}-bit samples; "
+            "mono 16-bit PCM is required (convert with: ffmpeg -i IN -ac 1 -c:a pcm_s16le OUT.wav)"
+        )
+    return np.frombuffer(data, dtype="<i2").astype(np.int16), rate

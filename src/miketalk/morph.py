@@ -1,0 +1,769 @@
+"""Viseme morphing (paper §5.3-5.4): forward warps, hole-aware blend, hole filling, median.
+
+The morph between images ``I0`` and ``I1`` with correspondence maps ``C0``
+(``flow01``, from ``I0`` to ``I1``) and ``C1`` (``flow10``, from ``I1`` to
+``I0``) at time ``alpha`` in ``[0, 1]`` is built in four stages:
+
+1. **Forward warps** (Eq. 3-6, Fig. 6). Every pixel ``p = (x, y)`` of ``I0`` is
+   pushed to ``RND(p + alpha * C0(p))`` and every pixel of ``I1`` to
+   ``RND(p + (1 - alpha) * C1(p))``. ``RND(t) = floor(t + 0.5)`` (halves round
+   up). Pixels landing outside the image are dropped. Destination pixels that no
+   source pixel reaches are *holes*.
+2. **Blend** (Eq. 7 and the hole-aware rule of §5.4). Where both warps reached a
+   pixel it gets ``(1 - alpha) * I0w + alpha * I1w``; where only one did, it gets
+   that warp's value unblended; where neither did it stays a hole.
+3. **Hole filling**: each row is scanned and every run of holes is filled by
+   linear interpolation between the non-hole pixels at its two ends (see
+   :func:`fill_holes_scanline` for the edge rules).
+4. **3x3 median filter** (``cv2.medianBlur``, per channel, replicated borders).
+
+Collision rule
+--------------
+When several source pixels of one warp land on the same destination pixel, the
+one that moves the *farthest* (largest ``|C(p)|``, which for a given warp is the
+same order for every ``alpha``) wins: a moving part of the face (a lip sliding
+over skin or teeth) is drawn in front of what it moves over, on every side of
+it, independently of the scan direction. Ties (e.g. equal motion) go to the
+source pixel that comes last in row-major scan order, which is exactly the
+paper's Fig. 6 "last write wins". ``collision="scan"`` selects the plain Fig. 6
+rule (last in scan order always wins). Both rules are deterministic.
+
+Speed
+-----
+Both splats, the blend and the hole filling of one frame run in a single numba
+kernel (``cache=True``, so the compiled code is stored next to this file and
+reused by later processes); the median is ``cv2.medianBlur``. :class:`Morpher`
+checks and prepares one pair once and renders any number of frames from it.
+
+Switching stages off
+--------------------
+``hole_aware_blend=False`` uses Eq. 7 everywhere, with a hole reading as the
+reserved hole colour (black, 0): where one warp left a hole the other warp's
+value is darkened by its blend weight (the artefact the rule of §5.4 removes).
+``fill_holes=False`` leaves holes black. ``median=False`` skips the median.
+:func:`cross_dissolve` is the no-warp baseline.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+from numba import njit
+
+from miketalk.errors import MiketalkError
+
+__all__ = [
+    "HOLE_VALUE",
+    "Collision",
+    "MorphStages",
+    "Morpher",
+    "cross_dissolve",
+    "fill_holes_scanline",
+    "forward_warp",
+    "morph",
+    "morph_stages",
+]
+
+Collision = Literal["motion", "scan"]
+
+#: The reserved colour holes hold before filling (paper §5.4: "a special reserved color").
+HOLE_VALUE = 0
+
+_NO_SOURCE = -1  # index-buffer value of a hole
+
+
+# ---------------------------------------------------------------------------
+# numba kernels (no checks: callers pass C-contiguous arrays of the right types)
+# ---------------------------------------------------------------------------
+
+
+@njit(cache=True, nogil=True)
+def _splat(
+    flow: np.ndarray, priority: np.ndarray, scale: float, index: np.ndarray, depth: np.ndarray
+) -> None:
+    """Forward-splat source indices along ``scale * flow`` into ``index`` (-1 = hole).
+
+    ``index[q]`` receives the row-major source index ``y * W + x`` of the pixel
+    that lands on ``q``; on a collision the larger ``priority`` wins, ties going
+    to the later pixel in scan order. ``depth`` is the winning priority so far.
+    """
+    h, w = index.shape
+    for y in range(h):
+        for x in range(w):
+            index[y, x] = _NO_SOURCE
+            depth[y, x] = -1.0
+    for y in range(h):
+        for x in range(w):
+            fx = np.floor(x + scale * flow[y, x, 0] + 0.5)
+            fy = np.floor(y + scale * flow[y, x, 1] + 0.5)
+            if fx < 0.0 or fx >= w or fy < 0.0 or fy >= h:
+                continue
+            qx = int(fx)
+            qy = int(fy)
+            p = priority[y, x]
+            if p >= depth[qy, qx]:
+                depth[qy, qx] = p
+                index[qy, qx] = y * w + x
+
+
+@njit(cache=True, nogil=True)
+def _blend_row(
+    pixels0: np.ndarray,
+    pixels1: np.ndarray,
+    index0: np.ndarray,
+    index1: np.ndarray,
+    alpha: float,
+    hole_aware: bool,
+    out: np.ndarray,
+    hole: np.ndarray,
+    y: int,
+) -> None:
+    """Blend row ``y`` of two splatted warps into ``out`` (H, W, C); mark holes in ``hole``.
+
+    ``pixels0``/``pixels1`` are the source images flattened to ``(H*W, C)``.
+    Values are rounded half up.
+    """
+    w, nc = out.shape[1], out.shape[2]
+    a0 = 1.0 - alpha
+    for x in range(w):
+        i0 = index0[y, x]
+        i1 = index1[y, x]
+        hole[y, x] = i0 < 0 and i1 < 0
+        if i0 >= 0 and i1 >= 0:
+            for c in range(nc):
+                out[y, x, c] = np.uint8(a0 * pixels0[i0, c] + alpha * pixels1[i1, c] + 0.5)
+        elif i0 >= 0:
+            for c in range(nc):
+                if hole_aware:
+                    out[y, x, c] = pixels0[i0, c]
+                else:
+                    out[y, x, c] = np.uint8(a0 * pixels0[i0, c] + 0.5)
+        elif i1 >= 0:
+            for c in range(nc):
+                if hole_aware:
+                    out[y, x, c] = pixels1[i1, c]
+                else:
+                    out[y, x, c] = np.uint8(alpha * pixels1[i1, c] + 0.5)
+        else:
+            for c in range(nc):
+                out[y, x, c] = HOLE_VALUE
+
+
+@njit(cache=True, nogil=True)
+def _lerp_run(out: np.ndarray, y: int, start: int, stop: int, left: int, right: int) -> None:
+    """Fill ``out[y, start:stop]`` between ``out[y, left]`` and ``out[y, right]``.
+
+    ``left == -1`` or ``right == -1`` means that end is the row's edge: the other
+    endpoint's value is extended. Both ``-1`` is not allowed.
+    """
+    nc = out.shape[2]
+    if left < 0:
+        left = right
+    if right < 0:
+        right = left
+    span = right - left
+    for x in range(start, stop):
+        t = (x - left) / span if span != 0 else 0.0
+        for c in range(nc):
+            lo = float(out[y, left, c])
+            out[y, x, c] = np.uint8(lo + t * (float(out[y, right, c]) - lo) + 0.5)
+
+
+@njit(cache=True, nogil=True)
+def _lerp_rows(out: np.ndarray, start: int, stop: int, above: int, below: int) -> None:
+    """Fill whole rows ``start:stop`` between rows ``above`` and ``below`` (-1 = image edge)."""
+    w, nc = out.shape[1], out.shape[2]
+    if above < 0:
+        above = below
+    if below < 0:
+        below = above
+    span = below - above
+    for y in range(start, stop):
+        t = (y - above) / span if span != 0 else 0.0
+        for x in range(w):
+            for c in range(nc):
+                lo = float(out[above, x, c])
+                out[y, x, c] = np.uint8(lo + t * (float(out[below, x, c]) - lo) + 0.5)
+
+
+@njit(cache=True, nogil=True)
+def _fill_row(out: np.ndarray, hole: np.ndarray, y: int) -> bool:
+    """Fill the holes of row ``y`` in place; returns True if the row had no non-hole pixel."""
+    w = hole.shape[1]
+    last = -1  # last non-hole column seen
+    x = 0
+    while x < w:
+        if not hole[y, x]:
+            last = x
+            x += 1
+            continue
+        start = x
+        while x < w and hole[y, x]:
+            x += 1
+        if last < 0 and x == w:
+            return True
+        _lerp_run(out, y, start, x, last, x if x < w else -1)
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _fill_empty_rows(out: np.ndarray, empty_row: np.ndarray) -> bool:
+    """Fill rows with no data in the column direction; returns False if every row is empty."""
+    h = empty_row.shape[0]
+    last = -1  # last non-empty row seen
+    y = 0
+    while y < h:
+        if not empty_row[y]:
+            last = y
+            y += 1
+            continue
+        start = y
+        while y < h and empty_row[y]:
+            y += 1
+        if last < 0 and y == h:
+            return False
+        _lerp_rows(out, start, y, last, y if y < h else -1)
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _fill_holes(out: np.ndarray, hole: np.ndarray) -> bool:
+    """Scanline hole filling in place; returns False if there was no non-hole pixel at all."""
+    h = hole.shape[0]
+    empty_row = np.zeros(h, dtype=np.bool_)
+    for y in range(h):
+        empty_row[y] = _fill_row(out, hole, y)
+    return _fill_empty_rows(out, empty_row)
+
+
+@njit(cache=True, nogil=True)
+def _render(
+    pixels0: np.ndarray,
+    pixels1: np.ndarray,
+    flow0: np.ndarray,
+    flow1: np.ndarray,
+    priority0: np.ndarray,
+    priority1: np.ndarray,
+    alpha: float,
+    hole_aware: bool,
+    fill: bool,
+    index0: np.ndarray,
+    index1: np.ndarray,
+    depth0: np.ndarray,
+    depth1: np.ndarray,
+    out: np.ndarray,
+    hole: np.ndarray,
+) -> bool:
+    """One morph frame before the median: both splats, then blend and fill row by row.
+
+    Returns False when the fill found no pixel to fill from (every pixel of both
+    images left the frame); ``out`` is then meaningless.
+    """
+    _splat(flow0, priority0, alpha, index0, depth0)
+    _splat(flow1, priority1, 1.0 - alpha, index1, depth1)
+    h = out.shape[0]
+    empty_row = np.zeros(h, dtype=np.bool_)
+    for y in range(h):
+        _blend_row(pixels0, pixels1, index0, index1, alpha, hole_aware, out, hole, y)
+        if fill:
+            empty_row[y] = _fill_row(out, hole, y)
+    if fill:
+        return _fill_empty_rows(out, empty_row)
+    return True
+
+
+# ---------------------------------------------------------------------------
+# checks and small helpers
+# ---------------------------------------------------------------------------
+
+
+def _check_image(image: object, name: str) -> np.ndarray:
+    """Return ``image`` as an ndarray after checking it is an (H, W) or (H, W, 3) uint8 image."""
+    if not isinstance(image, np.ndarray):
+        raise MiketalkError(f"{name} must be a numpy array, got {type(image).__name__}")
+    if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
+        raise MiketalkError(
+            f"{name} must be an (H, W) grey or (H, W, 3) RGB image, got shape {image.shape}"
+        )
+    if image.shape[0] < 1 or image.shape[1] < 1:
+        raise MiketalkError(f"{name} is empty (shape {image.shape})")
+    if image.dtype != np.uint8:
+        raise MiketalkError(
+            f"{name} must be uint8 (0-255), got dtype {image.dtype}; "
+            "convert it with skimage.util.img_as_ubyte"
+        )
+    return image
+
+
+def _check_flow(flow: object, name: str, size: tuple[int, int]) -> np.ndarray:
+    """Return ``flow`` as C-contiguous float32 after checking shape and finiteness."""
+    if not isinstance(flow, np.ndarray):
+        raise MiketalkError(f"{name} must be a numpy array, got {type(flow).__name__}")
+    if flow.ndim != 3 or flow.shape[2] != 2:
+        raise MiketalkError(f"{name} must be an (H, W, 2) flow field, got shape {flow.shape}")
+    if flow.shape[:2] != size:
+        raise MiketalkError(
+            f"{name} has size {flow.shape[:2]} but the images are {size}; "
+            "a flow must be computed on the images it morphs"
+        )
+    if not (np.issubdtype(flow.dtype, np.floating) or np.issubdtype(flow.dtype, np.integer)):
+        raise MiketalkError(f"{name} must be a float flow field, got dtype {flow.dtype}")
+    flow = _writable_contiguous(flow, np.float32)
+    if not np.isfinite(flow).all():
+        raise MiketalkError(f"{name} holds NaN or inf values")
+    return flow
+
+
+def _check_alpha(alpha: object, name: str = "alpha") -> float:
+    """Return ``alpha`` as a float after checking it is a real number in [0, 1]."""
+    if isinstance(alpha, bool | np.bool_) or not isinstance(alpha, numbers.Real):
+        raise MiketalkError(f"{name} must be a number in [0, 1], got {alpha!r}")
+    value = float(alpha)
+    if not 0.0 <= value <= 1.0:  # also rejects NaN
+        raise MiketalkError(f"{name} must be in [0, 1], got {value}")
+    return value
+
+
+def _check_collision(collision: object) -> str:
+    if collision not in ("motion", "scan"):
+        raise MiketalkError(f'collision must be "motion" or "scan", got {collision!r}')
+    return str(collision)
+
+
+def _writable_contiguous(array: np.ndarray, dtype: type) -> np.ndarray:
+    """C-contiguous, writable ``dtype`` array, copying only when needed.
+
+    Writable matters: numba compiles a separate specialisation for read-only arrays.
+    """
+    array = np.ascontiguousarray(array, dtype=dtype)
+    if not array.flags.writeable:
+        array = array.copy()
+    return array
+
+
+def _as_hwc(image: np.ndarray) -> np.ndarray:
+    """(H, W) or (H, W, C) uint8 -> C-contiguous writable (H, W, C)."""
+    if image.ndim == 2:
+        image = image[:, :, None]
+    return _writable_contiguous(image, np.uint8)
+
+
+def _priority(flow: np.ndarray, collision: str) -> np.ndarray:
+    """Collision priority of each source pixel: squared motion length, or 0 for scan order."""
+    if collision == "scan":
+        return np.zeros(flow.shape[:2], dtype=np.float32)
+    return np.ascontiguousarray(np.einsum("ijk,ijk->ij", flow, flow, dtype=np.float32))
+
+
+def _median3(image: np.ndarray) -> np.ndarray:
+    """3x3 median filter of an (H, W, C) uint8 image, per channel."""
+    if image.shape[2] == 1:
+        return cv2.medianBlur(image[:, :, 0], 3)[:, :, None]
+    return cv2.medianBlur(image, 3)
+
+
+def _gather(pixels: np.ndarray, index: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """Warped image from a splat's index buffer; holes get :data:`HOLE_VALUE`."""
+    warped = pixels[np.maximum(index, 0).ravel()].reshape(shape)
+    warped[index < 0] = HOLE_VALUE
+    return warped
+
+
+# ---------------------------------------------------------------------------
+# public API
+# ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MorphStages:
+    """Every intermediate image of one morph frame (for figures like the paper's Fig. 7).
+
+    All images have the shape of the input images and dtype uint8; holes are
+    :data:`HOLE_VALUE` (black) in ``warp0``, ``warp1`` and ``blend``.
+
+    Attributes
+    ----------
+    alpha : float
+        The morph parameter.
+    warp0, hole0 : ndarray
+        ``I0`` forward-warped along ``alpha * C0`` and its hole mask (Fig. 7a).
+    warp1, hole1 : ndarray
+        ``I1`` forward-warped along ``(1 - alpha) * C1`` and its hole mask (Fig. 7b).
+    blend, hole : ndarray
+        The (hole-aware) blend and the pixels neither warp reached (Fig. 7c).
+    filled : ndarray
+        ``blend`` after scanline hole filling.
+    final : ndarray
+        ``filled`` after the 3x3 median: the morph frame (Fig. 7d).
+    """
+
+    alpha: float
+    warp0: np.ndarray
+    hole0: np.ndarray
+    warp1: np.ndarray
+    hole1: np.ndarray
+    blend: np.ndarray
+    hole: np.ndarray
+    filled: np.ndarray
+    final: np.ndarray
+
+
+class Morpher:
+    """One viseme pair, checked and prepared once, rendering morph frames for any alpha.
+
+    Parameters
+    ----------
+    image0, image1 : ndarray, shape (H, W) or (H, W, 3), uint8
+        The two visemes ``I0`` and ``I1``.
+    flow01 : ndarray, shape (H, W, 2)
+        Correspondence map ``C0``: ``I0(p) ~ I1(p + flow01(p))``.
+    flow10 : ndarray, shape (H, W, 2)
+        Correspondence map ``C1``: ``I1(p) ~ I0(p + flow10(p))``.
+    hole_aware_blend, fill_holes, median : bool, keyword-only
+        Switch the refinements of §5.4 on or off (see the module docstring).
+    collision : {"motion", "scan"}, keyword-only
+        Collision rule of the forward warps (see the module docstring).
+
+    Raises
+    ------
+    MiketalkError
+        Naming the argument: a non-uint8 or non-image array, images of different
+        shapes, a flow of the wrong size or holding NaN/inf, a bad ``collision``.
+
+    Notes
+    -----
+    Work buffers are reused between frames, so one ``Morpher`` must not be used
+    from several threads at once. Returned frames are always new arrays.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> image = np.zeros((4, 6), np.uint8); image[:, 2] = 200
+    >>> flow = np.zeros((4, 6, 2), np.float32)
+    >>> Morpher(image, image, flow, flow, median=False).frame(0.5)[0]
+    array([  0,   0, 200,   0,   0,   0], dtype=uint8)
+    """
+
+    def __init__(
+        self,
+        image0: np.ndarray,
+        image1: np.ndarray,
+        flow01: np.ndarray,
+        flow10: np.ndarray,
+        *,
+        hole_aware_blend: bool = True,
+        fill_holes: bool = True,
+        median: bool = True,
+        collision: Collision = "motion",
+    ) -> None:
+        image0 = _check_image(image0, "image0")
+        image1 = _check_image(image1, "image1")
+        if image1.shape != image0.shape:
+            raise MiketalkError(
+                f"image1 has shape {image1.shape} but image0 has shape {image0.shape}; "
+                "the two visemes must have the same size and number of channels"
+            )
+        size = image0.shape[:2]
+        self._flow0 = _check_flow(flow01, "flow01", size)
+        self._flow1 = _check_flow(flow10, "flow10", size)
+        collision = _check_collision(collision)
+        self.shape: tuple[int, ...] = image0.shape
+        self.hole_aware_blend = bool(hole_aware_blend)
+        self.fill_holes = bool(fill_holes)
+        self.median = bool(median)
+        self.collision = collision
+        self._image0 = _as_hwc(image0)
+        self._image1 = _as_hwc(image1)
+        h, w, nc = self._image0.shape
+        self._pixels0 = self._image0.reshape(h * w, nc)
+        self._pixels1 = self._image1.reshape(h * w, nc)
+        self._priority0 = _priority(self._flow0, collision)
+        self._priority1 = _priority(self._flow1, collision)
+        self._index0 = np.empty((h, w), np.int32)
+        self._index1 = np.empty((h, w), np.int32)
+        self._depth0 = np.empty((h, w), np.float32)
+        self._depth1 = np.empty((h, w), np.float32)
+        self._out = np.empty((h, w, nc), np.uint8)
+        self._hole = np.empty((h, w), np.bool_)
+
+    def _render(self, alpha: float, fill: bool) -> np.ndarray:
+        """Run the fused kernel; return the (H, W, C) blend (filled if ``fill``) buffer."""
+        complete = _render(
+            self._pixels0,
+            self._pixels1,
+            self._flow0,
+            self._flow1,
+            self._priority0,
+            self._priority1,
+            alpha,
+            self.hole_aware_blend,
+            fill,
+            self._index0,
+            self._index1,
+            self._depth0,
+            self._depth1,
+            self._out,
+            self._hole,
+        )
+        if not complete:  # every pixel of both images left the frame: nothing to fill from
+            self._out[...] = cross_dissolve(self._image0, self._image1, alpha)
+        return self._out
+
+    def frame(self, alpha: float) -> np.ndarray:
+        """The morph frame at ``alpha`` (0 gives ``image0``, 1 gives ``image1``).
+
+        Parameters
+        ----------
+        alpha : float
+            Morph parameter in ``[0, 1]``.
+
+        Returns
+        -------
+        ndarray
+            uint8, the shape of ``image0``. With ``fill_holes=True`` it holds no hole.
+
+        Raises
+        ------
+        MiketalkError
+            If ``alpha`` is not a number in ``[0, 1]``.
+        """
+        alpha = _check_alpha(alpha)
+        out = self._render(alpha, self.fill_holes)
+        out = _median3(out) if self.median else out.copy()
+        return out.reshape(self.shape)
+
+    def frames(self, alphas: Iterable[float]) -> Iterator[np.ndarray]:
+        """Yield :meth:`frame` for each alpha in turn."""
+        for alpha in alphas:
+            yield self.frame(alpha)
+
+    def stages(self, alpha: float) -> MorphStages:
+        """Every intermediate image of the frame at ``alpha`` (see :class:`MorphStages`).
+
+        ``hole_aware_blend`` and ``collision`` apply; ``filled`` and ``final`` are
+        always computed, whatever ``fill_holes`` and ``median`` say.
+        """
+        alpha = _check_alpha(alpha)
+        blend = self._render(alpha, False).copy()
+        hole = self._hole.copy()
+        hwc = self._image0.shape
+        warp0 = _gather(self._pixels0, self._index0, hwc)
+        warp1 = _gather(self._pixels1, self._index1, hwc)
+        filled = blend.copy()
+        if not _fill_holes(filled, hole):
+            filled[...] = cross_dissolve(self._image0, self._image1, alpha)
+        final = _median3(filled)
+        return MorphStages(
+            alpha=alpha,
+            warp0=warp0.reshape(self.shape),
+            hole0=self._index0 < 0,
+            warp1=warp1.reshape(self.shape),
+            hole1=self._index1 < 0,
+            blend=blend.reshape(self.shape),
+            hole=hole,
+            filled=filled.reshape(self.shape),
+            final=final.reshape(self.shape),
+        )
+
+
+def morph(
+    image0: np.ndarray,
+    image1: np.ndarray,
+    flow01: np.ndarray,
+    flow10: np.ndarray,
+    alpha: float,
+    *,
+    hole_aware_blend: bool = True,
+    fill_holes: bool = True,
+    median: bool = True,
+    collision: Collision = "motion",
+) -> np.ndarray:
+    """Morph two visemes at ``alpha`` (paper §5.3-5.4).
+
+    Forward-warps ``image0`` along ``alpha * flow01`` and ``image1`` along
+    ``(1 - alpha) * flow10``, blends them (hole-aware), fills the remaining holes
+    along scanlines and applies a 3x3 median filter. To render many frames of
+    one pair use :class:`Morpher`, which does the checks and set-up once.
+
+    Parameters
+    ----------
+    image0, image1 : ndarray, shape (H, W) or (H, W, 3), uint8
+        The visemes ``I0`` and ``I1``.
+    flow01, flow10 : ndarray, shape (H, W, 2)
+        Correspondence maps ``C0`` (``I0 -> I1``) and ``C1`` (``I1 -> I0``).
+    alpha : float
+        Morph parameter in ``[0, 1]``.
+    hole_aware_blend, fill_holes, median : bool, keyword-only
+        Switch the refinements of §5.4 on or off.
+    collision : {"motion", "scan"}, keyword-only
+        Forward-warp collision rule (module docstring).
+
+    Returns
+    -------
+    ndarray
+        The morph frame, uint8, the shape of ``image0``.
+
+    Raises
+    ------
+    MiketalkError
+        Naming the argument, for any malformed input.
+    """
+    alpha = _check_alpha(alpha)
+    morpher = Morpher(
+        image0,
+        image1,
+        flow01,
+        flow10,
+        hole_aware_blend=hole_aware_blend,
+        fill_holes=fill_holes,
+        median=median,
+        collision=collision,
+    )
+    return morpher.frame(alpha)
+
+
+def morph_stages(
+    image0: np.ndarray,
+    image1: np.ndarray,
+    flow01: np.ndarray,
+    flow10: np.ndarray,
+    alpha: float,
+    *,
+    hole_aware_blend: bool = True,
+    collision: Collision = "motion",
+) -> MorphStages:
+    """Every intermediate image of :func:`morph` at ``alpha``, for figures like Fig. 7.
+
+    Parameters are those of :func:`morph`; see :class:`MorphStages` for the result.
+    """
+    alpha = _check_alpha(alpha)
+    morpher = Morpher(
+        image0, image1, flow01, flow10, hole_aware_blend=hole_aware_blend, collision=collision
+    )
+    return morpher.stages(alpha)
+
+
+def forward_warp(
+    image: np.ndarray, flow: np.ndarray, alpha: float, *, collision: Collision = "motion"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Forward-warp ``image`` along ``alpha * flow`` (paper Eq. 3-4, Fig. 6).
+
+    Pixel ``p`` is pushed to ``RND(p + alpha * flow(p))`` with
+    ``RND(t) = floor(t + 0.5)``; pixels landing outside the image are dropped;
+    collisions follow ``collision`` (module docstring).
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W) or (H, W, 3), uint8
+        The image to push.
+    flow : ndarray, shape (H, W, 2)
+        Displacements ``(dx, dy)`` of each pixel of ``image``.
+    alpha : float
+        Scale of the flow, in ``[0, 1]``.
+    collision : {"motion", "scan"}, keyword-only
+        Collision rule.
+
+    Returns
+    -------
+    warped : ndarray
+        uint8, the shape of ``image``; holes hold :data:`HOLE_VALUE` (0).
+    hole : ndarray of bool, shape (H, W)
+        True where no source pixel landed.
+
+    Raises
+    ------
+    MiketalkError
+        Naming the argument, for any malformed input.
+    """
+    image = _check_image(image, "image")
+    flow = _check_flow(flow, "flow", image.shape[:2])
+    alpha = _check_alpha(alpha)
+    collision = _check_collision(collision)
+    hwc = _as_hwc(image)
+    h, w, nc = hwc.shape
+    index = np.empty((h, w), np.int32)
+    depth = np.empty((h, w), np.float32)
+    _splat(flow, _priority(flow, collision), alpha, index, depth)
+    warped = _gather(hwc.reshape(h * w, nc), index, hwc.shape)
+    return warped.reshape(image.shape), index < 0
+
+
+def fill_holes_scanline(image: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """Fill holes along scanlines by linear interpolation (paper §5.4, after [9]).
+
+    Each row is scanned left to right; a run of hole pixels between two
+    non-hole pixels gets the values on the straight line between them
+    (per channel, rounded half up). A run touching the left or right edge of
+    the row takes the value of its one non-hole end (the nearest non-hole pixel
+    is extended). A row with no non-hole pixel at all is filled afterwards in
+    the column direction the same way, between the nearest complete rows above
+    and below (extended at the top and bottom of the image). So no hole is left,
+    unless the image has no non-hole pixel at all: then it is returned unchanged.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W) or (H, W, 3), uint8
+        The image with holes (their values are ignored).
+    hole : ndarray of bool, shape (H, W)
+        True at the pixels to fill.
+
+    Returns
+    -------
+    ndarray
+        A filled copy of ``image``.
+
+    Raises
+    ------
+    MiketalkError
+        If ``image`` is not a uint8 image or ``hole`` is not a bool mask of its size.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> row = np.array([[0, 10, 0, 0, 40, 0]], np.uint8)
+    >>> fill_holes_scanline(row, row == 0)
+    array([[10, 10, 20, 30, 40, 40]], dtype=uint8)
+    """
+    image = _check_image(image, "image")
+    if not isinstance(hole, np.ndarray) or hole.dtype != np.bool_:
+        raise MiketalkError("hole must be a numpy bool array")
+    if hole.shape != image.shape[:2]:
+        raise MiketalkError(f"hole has shape {hole.shape} but image is {image.shape[:2]}")
+    out = _as_hwc(image).copy()
+    if not _fill_holes(out, _writable_contiguous(hole, np.bool_)):
+        return image.copy()
+    return out.reshape(image.shape)
+
+
+def cross_dissolve(image0: np.ndarray, image1: np.ndarray, alpha: float) -> np.ndarray:
+    """Plain cross-dissolve ``(1 - alpha) * image0 + alpha * image1``: the no-warp baseline.
+
+    Parameters
+    ----------
+    image0, image1 : ndarray, shape (H, W) or (H, W, 3), uint8
+        Images of the same shape.
+    alpha : float
+        Blend parameter in ``[0, 1]``.
+
+    Returns
+    -------
+    ndarray
+        uint8 (rounded half up), the shape of ``image0``.
+
+    Raises
+    ------
+    MiketalkError
+        Naming the argument, for any malformed input.
+    """
+    image0 = _check_image(image0, "image0")
+    image1 = _check_image(image1, "image1")
+    if image1.shape != image0.shape:
+        raise MiketalkError(f"image1 has shape {image1.shape} but image0 has shape {image0.shape}")
+    alpha = _check_alpha(alpha)
+    mixed = image0 * np.float32(1.0 - alpha) + image1 * np.float32(alpha)
+    return np.floor(mixed + np.float32(0.5)).astype(np.uint8)

@@ -1,0 +1,318 @@
+"""MP4 output (H.264 + AAC) through the ffmpeg binary bundled with imageio-ffmpeg.
+
+:func:`write_mp4` is deterministic (the same frames and audio give a
+byte-identical file) and atomic (the mp4 appears complete under its name, or
+not at all, also on errors and Ctrl-C). It works in two ffmpeg passes inside a
+private temporary directory:
+
+1. the frames are piped as raw video to ffmpeg and encoded to H.264 (yuv420p,
+   ``-threads 1`` so the bitstream does not depend on the machine's core count);
+   frames are streamed, so an iterator of any length works;
+2. once the number of frames ``n`` is known, the audio is padded with silence or
+   trimmed to exactly ``round(n * rate / fps)`` samples, written to a wav, and
+   muxed with the copied video stream while being encoded to AAC.
+
+So the audio and video streams have the same duration ``n / fps`` to within one
+audio sample (well within one frame). :func:`probe_durations` measures both by
+decoding the file.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+import subprocess
+import tempfile
+from collections.abc import Iterable, Iterator
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.atomic import atomic_path
+from miketalk.audio import check_rate, check_samples, write_wav
+from miketalk.errors import MiketalkError
+
+__all__ = ["ffmpeg_exe", "probe_durations", "write_mp4"]
+
+_BITEXACT = ["-fflags", "+bitexact", "-map_metadata", "-1"]
+_AUDIO_BITRATE = "96k"
+_MAX_CRF = 51
+_STDERR_TAIL = 15  # lines of ffmpeg's log quoted in errors
+
+
+def ffmpeg_exe() -> str:
+    """Path of the ffmpeg binary bundled with imageio-ffmpeg.
+
+    Raises
+    ------
+    MiketalkError
+        If imageio-ffmpeg or its binary is missing.
+    """
+    try:
+        import imageio_ffmpeg
+
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError) as exc:
+        raise MiketalkError(
+            f"ffmpeg not found ({exc}); reinstall miketalk's dependencies "
+            "(pip install imageio-ffmpeg)"
+        ) from exc
+
+
+def write_mp4(
+    path: str | os.PathLike[str],
+    frames: Iterable[np.ndarray] | np.ndarray,
+    fps: float,
+    audio: np.ndarray | None = None,
+    rate: int | None = None,
+    *,
+    crf: int = 18,
+    preset: str = "medium",
+) -> None:
+    """Write frames and mono audio to an H.264 (yuv420p) + AAC mp4, atomically and reproducibly.
+
+    Parameters
+    ----------
+    path : path-like
+        The mp4 file; its directory is created if needed.
+    frames : iterable of ndarray, or ndarray
+        ``(H, W, 3)`` RGB or ``(H, W)`` grey uint8 frames, all of one shape; or
+        one ``(N, H, W, 3)`` / ``(N, H, W)`` array. An odd width or height (which
+        yuv420p cannot hold) is padded by one by repeating the last column/row.
+    fps : float
+        Frame rate, > 0 (a float such as 29.97 is turned into the nearest fraction).
+    audio : ndarray of int16, shape (n,), optional
+        Mono audio. It is padded with silence at the end, or trimmed at the end,
+        to last exactly ``n_frames / fps`` (rounded to the nearest sample). None
+        writes a file without an audio stream.
+    rate : int
+        Sample rate of ``audio`` in Hz; required with ``audio``.
+    crf : int, keyword-only
+        x264 constant rate factor, 0 (lossless) to 51; 18 is visually lossless.
+    preset : str, keyword-only
+        x264 preset (speed/size trade-off; does not affect determinism).
+
+    Raises
+    ------
+    MiketalkError
+        On malformed arguments or frames (naming the argument or the frame), or if
+        ffmpeg fails (quoting the end of its log). No file is left behind.
+    """
+    fps_q = _check_fps(fps)
+    if isinstance(crf, bool) or not isinstance(crf, numbers.Integral) or not 0 <= crf <= _MAX_CRF:
+        raise MiketalkError(f"crf must be an integer from 0 to {_MAX_CRF}, got {crf!r}")
+    if audio is not None:
+        audio = check_samples(audio, "audio")
+        if rate is None:
+            raise MiketalkError("rate (the audio sample rate in Hz) is required with audio")
+        rate = check_rate(rate)
+    exe = ffmpeg_exe()
+    with tempfile.TemporaryDirectory(prefix="miketalk-mp4-") as tmp:
+        work = Path(tmp)
+        video, n_frames = _encode_video(exe, work, _iter_frames(frames), fps_q, int(crf), preset)
+        inputs = ["-i", str(video)]
+        maps = ["-map", "0:v:0", "-c:v", "copy"]
+        if audio is not None and rate is not None:
+            n_samples = round(Fraction(n_frames) * rate / fps_q)
+            wav = work / "audio.wav"
+            write_wav(wav, _fit(audio, n_samples), rate)
+            inputs += ["-i", str(wav)]
+            maps += ["-map", "1:a:0", "-c:a", "aac", "-b:a", _AUDIO_BITRATE]
+            maps += ["-flags:a", "+bitexact"]
+        with atomic_path(path, suffix=".mp4") as out:
+            args = [*inputs, *maps, *_BITEXACT, "-movflags", "+faststart", "-f", "mp4", str(out)]
+            _run(exe, args, work / "mux.log", what=f"muxing {Path(path).name}")
+
+
+def probe_durations(path: str | os.PathLike[str]) -> tuple[float, float]:
+    """Durations in seconds of the video and audio streams of a media file, by decoding it.
+
+    Each stream's duration is ``end - start`` of its decoded frames (the last
+    frame's timestamp plus its duration, minus the first timestamp), after the
+    container's edit lists are applied, i.e. what a player plays.
+
+    Parameters
+    ----------
+    path : path-like
+        An mp4 (or any file ffmpeg reads).
+
+    Returns
+    -------
+    video_seconds, audio_seconds : float
+        0.0 for a stream the file does not have.
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing or ffmpeg cannot decode it.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MiketalkError(f"media file not found: {path}")
+    args = ["-hide_banner", "-nostdin", "-loglevel", "error", "-i", str(path), "-f", "framemd5"]
+    proc = subprocess.run(
+        [ffmpeg_exe(), *args, "-"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if proc.returncode != 0:
+        raise MiketalkError(f"ffmpeg could not read {path}:\n{_tail(proc.stderr)}")
+    return _durations_from_framemd5(proc.stdout)
+
+
+# ---------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------
+
+
+def _check_fps(fps: object) -> Fraction:
+    """``fps`` as an exact fraction (nearest with a denominator up to 1001)."""
+    if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not math.isfinite(fps):
+        raise MiketalkError(f"fps must be a positive number, got {fps!r}")
+    if fps <= 0:
+        raise MiketalkError(f"fps must be positive, got {fps}")
+    return Fraction(fps).limit_denominator(1001)
+
+
+def _iter_frames(frames: Iterable[np.ndarray] | np.ndarray) -> Iterator[np.ndarray]:
+    """Yield checked, even-sized, C-contiguous uint8 frames of one shape."""
+    if isinstance(frames, np.ndarray):
+        if frames.ndim == 3 and frames.shape[2] == 3:
+            raise MiketalkError(
+                f"frames has shape {frames.shape}, which looks like one RGB image; pass a "
+                "list of frames or an (N, H, W, 3) array"
+            )
+        if frames.ndim not in (3, 4):
+            raise MiketalkError(
+                f"frames must be an (N, H, W, 3) or (N, H, W) array, got shape {frames.shape}"
+            )
+    elif not isinstance(frames, Iterable):
+        raise MiketalkError(f"frames must be an iterable of images, got {type(frames).__name__}")
+    first: tuple[int, ...] | None = None
+    for i, frame in enumerate(frames):
+        if not isinstance(frame, np.ndarray):
+            raise MiketalkError(f"frame {i} is a {type(frame).__name__}, not a numpy array")
+        if frame.dtype != np.uint8:
+            raise MiketalkError(f"frame {i} has dtype {frame.dtype}; frames must be uint8")
+        if first is None:
+            if frame.ndim not in (2, 3) or (frame.ndim == 3 and frame.shape[2] != 3):
+                raise MiketalkError(
+                    f"frame 0 has shape {frame.shape}; frames must be (H, W, 3) RGB or (H, W) grey"
+                )
+            first = frame.shape
+        elif frame.shape != first:
+            raise MiketalkError(f"frame {i} has shape {frame.shape} but frame 0 has {first}")
+        yield _even(frame)
+
+
+def _even(frame: np.ndarray) -> np.ndarray:
+    """Pad an odd height/width by repeating the last row/column (yuv420p needs even sizes)."""
+    pad_h, pad_w = frame.shape[0] % 2, frame.shape[1] % 2
+    if pad_h or pad_w:
+        widths = ((0, pad_h), (0, pad_w)) + ((0, 0),) * (frame.ndim - 2)
+        frame = np.pad(frame, widths, mode="edge")
+    return np.ascontiguousarray(frame)
+
+
+def _fit(audio: np.ndarray, n_samples: int) -> np.ndarray:
+    """Trim ``audio`` to ``n_samples`` or pad it with silence (zeros) at the end."""
+    if audio.size >= n_samples:
+        return audio[:n_samples]
+    return np.concatenate([audio, np.zeros(n_samples - audio.size, np.int16)])
+
+
+def _encode_video(
+    exe: str, work: Path, frames: Iterator[np.ndarray], fps: Fraction, crf: int, preset: str
+) -> tuple[Path, int]:
+    """Pass 1: pipe the frames to ffmpeg, H.264 into ``work/video.mp4``; returns (path, count)."""
+    first = next(frames, None)
+    if first is None:
+        raise MiketalkError("frames is empty; a video needs at least one frame")
+    height, width = first.shape[:2]
+    pix_fmt = "rgb24" if first.ndim == 3 else "gray"
+    video, log = work / "video.mp4", work / "video.log"
+    args = [
+        "-f", "rawvideo", "-pix_fmt", pix_fmt, "-s", f"{width}x{height}",
+        "-framerate", f"{fps.numerator}/{fps.denominator}", "-i", "pipe:0",
+        "-c:v", "libx264", "-preset", preset, "-crf", str(crf), "-pix_fmt", "yuv420p",
+        "-threads", "1", "-flags:v", "+bitexact", *_BITEXACT, "-f", "mp4", str(video),
+    ]  # fmt: skip
+    count = 0
+    with log.open("wb") as err:
+        proc = subprocess.Popen(
+            [exe, "-hide_banner", "-nostats", "-loglevel", "error", "-y", *args],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+        )
+        try:
+            stdin = proc.stdin
+            if stdin is None:  # pragma: no cover - Popen(stdin=PIPE) always sets it
+                raise RuntimeError("no pipe to ffmpeg")
+            for frame in _chain(first, frames):
+                stdin.write(frame.data)
+                count += 1
+            stdin.close()
+            code = proc.wait()
+        except BrokenPipeError:
+            code = proc.wait()
+        finally:
+            if proc.poll() is None:  # an exception (bad frame, Ctrl-C) while ffmpeg runs
+                proc.kill()
+                proc.wait()
+    if code != 0:
+        raise MiketalkError(f"ffmpeg failed encoding the video:\n{_tail(log.read_text())}")
+    return video, count
+
+
+def _chain(first: np.ndarray, rest: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
+    yield first
+    yield from rest
+
+
+def _run(exe: str, args: list[str], log: Path, *, what: str) -> None:
+    """Run ffmpeg with ``args``; raise MiketalkError quoting its log on failure."""
+    with log.open("wb") as err:
+        code = subprocess.run(
+            [exe, "-hide_banner", "-nostdin", "-nostats", "-loglevel", "error", "-y", *args],
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            check=False,
+        ).returncode
+    if code != 0:
+        raise MiketalkError(f"ffmpeg failed {what}:\n{_tail(log.read_text())}")
+
+
+def _tail(text: str) -> str:
+    lines = text.strip().splitlines()[-_STDERR_TAIL:]
+    return "\n".join(lines) if lines else "(ffmpeg printed nothing)"
+
+
+def _durations_from_framemd5(text: str) -> tuple[float, float]:
+    """(video, audio) seconds from ffmpeg's framemd5 listing of the decoded frames."""
+    media: dict[str, str] = {}
+    time_base: dict[str, Fraction] = {}
+    spans: dict[str, tuple[int, int]] = {}
+    for line in text.splitlines():
+        if line.startswith("#media_type") or line.startswith("#tb"):
+            key, value = line[1:].split(":", 1)
+            kind, stream = key.split()
+            if kind == "tb":
+                time_base[stream] = Fraction(value.strip())
+            else:
+                media[stream] = value.strip()
+        elif line and not line.startswith("#"):
+            stream, _dts, pts, duration = (f.strip() for f in line.split(",")[:4])
+            start, end = int(pts), int(pts) + int(duration)
+            old = spans.get(stream, (start, end))
+            spans[stream] = (min(old[0], start), max(old[1], end))
+    seconds = {"video": 0.0, "audio": 0.0}
+    for stream, (start, end) in spans.items():
+        kind = media.get(stream)
+        if kind in seconds and seconds[kind] == 0.0:  # first stream of each kind
+            seconds[kind] = float((end - start) * time_base[stream])
+    return seconds["video"], seconds["audio"]

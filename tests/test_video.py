@@ -1,0 +1,155 @@
+"""Tests of miketalk.video (mp4 output, duration probe) and miketalk.audio (wav files)."""
+
+from __future__ import annotations
+
+import tempfile
+import wave
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from miketalk.audio import read_wav, write_wav
+from miketalk.errors import MiketalkError
+from miketalk.video import probe_durations, write_mp4
+
+RATE = 16000
+
+
+def _frames(n: int, h: int = 48, w: int = 64, seed: int = 0) -> np.ndarray:
+    """A moving gradient with a little noise: ``(n, h, w, 3)`` uint8."""
+    rng = np.random.default_rng(seed)
+    ys, xs = np.mgrid[0:h, 0:w]
+    frames = np.stack([(xs * 4 + ys * 2 + 9 * k) % 256 for k in range(n)])
+    rgb = np.stack([frames, frames[:, ::-1], 255 - frames], axis=-1)
+    return (rgb + rng.integers(0, 8, rgb.shape)).clip(0, 255).astype(np.uint8)
+
+
+def _tone(seconds: float) -> np.ndarray:
+    t = np.arange(round(seconds * RATE)) / RATE
+    return (8000 * np.sin(2 * np.pi * 440 * t)).astype(np.int16)
+
+
+@pytest.mark.parametrize(("fps", "audio_seconds"), [(25, 0.8), (30, 0.3), (29.97, 0.6)])
+def test_durations_are_equal_within_one_frame(tmp_path, fps, audio_seconds):
+    n = 20
+    path = tmp_path / "out" / "talk.mp4"
+    write_mp4(path, _frames(n), fps, _tone(audio_seconds), RATE)  # trimmed, padded, ~equal
+    video, audio = probe_durations(path)
+    assert video == pytest.approx(n / fps, abs=1e-6)
+    assert abs(audio - video) <= 1 / RATE + 1e-9
+    assert abs(audio - video) < 1 / fps
+
+
+def test_same_input_gives_identical_bytes(tmp_path):
+    frames, audio = _frames(12), _tone(0.5)
+    write_mp4(tmp_path / "a.mp4", frames, 25, audio, RATE)
+    write_mp4(tmp_path / "b.mp4", iter(list(frames)), 25, audio, RATE)  # streamed
+    assert (tmp_path / "a.mp4").read_bytes() == (tmp_path / "b.mp4").read_bytes()
+
+
+def test_grey_odd_sized_frames_without_audio(tmp_path):
+    frames = _frames(5, h=33, w=45)[..., 0]
+    write_mp4(tmp_path / "grey.mp4", frames, 10)
+    assert probe_durations(tmp_path / "grey.mp4") == (pytest.approx(0.5), 0.0)
+
+
+def _bad_stream(n_good: int) -> Iterator[np.ndarray]:
+    yield from _frames(n_good)
+    yield np.zeros((10, 10, 3), np.uint8)
+
+
+def _interrupted_stream(n_good: int) -> Iterator[np.ndarray]:
+    yield from _frames(n_good)
+    raise KeyboardInterrupt
+
+
+@pytest.mark.parametrize(
+    ("stream", "error", "match"),
+    [
+        (_bad_stream, MiketalkError, "frame 7 has shape"),
+        (_interrupted_stream, KeyboardInterrupt, None),
+    ],
+)
+def test_failure_mid_stream_leaves_nothing_behind(tmp_path, monkeypatch, stream, error, match):
+    scratch = tmp_path / "scratch"  # where the intermediate files go
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    out = tmp_path / "out"
+    with pytest.raises(error, match=match):
+        write_mp4(out / "bad.mp4", stream(7), 25, _tone(0.3), RATE)
+    assert not out.exists() or list(out.iterdir()) == []
+    assert list(scratch.iterdir()) == []
+
+
+def test_failure_keeps_an_existing_file(tmp_path):
+    path = tmp_path / "keep.mp4"
+    path.write_bytes(b"old")
+    with pytest.raises(MiketalkError, match="dtype"):
+        write_mp4(path, [np.zeros((8, 8, 3), np.float32)], 25)
+    assert path.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.mp4"]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"fps": 0}, "fps"),
+        ({"fps": float("nan")}, "fps"),
+        ({"audio": _tone(0.1).astype(np.float32)}, "audio"),
+        ({"audio": np.zeros((10, 2), np.int16)}, "audio"),
+        ({"rate": None}, "rate"),
+        ({"rate": 0}, "rate"),
+        ({"crf": 60}, "crf"),
+        ({"frames": []}, "empty"),
+        ({"frames": np.zeros((8, 8, 3), np.uint8)}, "one RGB image"),
+        ({"frames": [np.zeros((8, 8, 4), np.uint8)]}, "frame 0"),
+    ],
+)
+def test_bad_arguments(tmp_path, kwargs, match):
+    args = {"frames": _frames(2), "fps": 25, "audio": _tone(0.1), "rate": RATE, **kwargs}
+    with pytest.raises(MiketalkError, match=match):
+        write_mp4(tmp_path / "x.mp4", **args)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_probe_missing_file(tmp_path):
+    with pytest.raises(MiketalkError, match="not found"):
+        probe_durations(tmp_path / "nope.mp4")
+    (tmp_path / "junk.mp4").write_bytes(b"not a video")
+    with pytest.raises(MiketalkError, match="could not read"):
+        probe_durations(tmp_path / "junk.mp4")
+
+
+# ------------------------------------------------------------------------- wav
+
+
+def test_wav_round_trip(tmp_path):
+    samples = _tone(0.25)
+    write_wav(tmp_path / "a" / "t.wav", samples, RATE)
+    back, rate = read_wav(tmp_path / "a" / "t.wav")
+    assert rate == RATE and back.dtype == np.int16
+    np.testing.assert_array_equal(back, samples)
+    assert [p.name for p in (tmp_path / "a").iterdir()] == ["t.wav"]
+
+
+def test_wav_errors(tmp_path):
+    with pytest.raises(MiketalkError, match="not found"):
+        read_wav(tmp_path / "missing.wav")
+    stereo = tmp_path / "stereo.wav"
+    with wave.open(str(stereo), "wb") as out:
+        out.setnchannels(2)
+        out.setsampwidth(2)
+        out.setframerate(RATE)
+        out.writeframes(b"\0" * 40)
+    with pytest.raises(MiketalkError, match="mono 16-bit"):
+        read_wav(stereo)
+    Path(tmp_path / "junk.wav").write_bytes(b"RIFFjunk")
+    with pytest.raises(MiketalkError, match="not a readable"):
+        read_wav(tmp_path / "junk.wav")
+    with pytest.raises(MiketalkError, match="int16"):
+        write_wav(tmp_path / "f.wav", np.zeros(4, np.float32), RATE)
+    with pytest.raises(MiketalkError, match="rate"):
+        write_wav(tmp_path / "f.wav", np.zeros(4, np.int16), 0)
+    assert not (tmp_path / "f.wav").exists()
