@@ -1,0 +1,62 @@
+"""``python -m miketalk.bench --out DIR``: every benchmark, one summary table.
+
+Each benchmark module has ``run(out_dir) -> dict[str, float]``; this runs them in
+turn, each in its own process (so one core-pinned benchmark does not affect the
+next), and writes ``summary.json`` and ``summary.md`` to ``DIR`` so a regression
+shows in a diff.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from miketalk.atomic import write_text_atomic
+
+MODULES = ("synth_face", "flow", "morph", "pipeline")
+
+
+def main() -> int:
+    """Run the benchmarks named on the command line (default: all)."""
+    parser = argparse.ArgumentParser(prog="python -m miketalk.bench")
+    parser.add_argument("--out", type=Path, default=Path("results/bench"))
+    parser.add_argument("only", nargs="*", help=f"benchmarks to run, of: {' '.join(MODULES)}")
+    args = parser.parse_args()
+    unknown = sorted(set(args.only) - set(MODULES))
+    if unknown:
+        parser.error(f"unknown benchmark(s): {' '.join(unknown)}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    summary: dict[str, dict[str, float]] = {}
+    for name in args.only or MODULES:
+        start = time.monotonic()
+        code = (
+            "import json, pathlib, sys\n"
+            f"from miketalk.bench.{name} import run\n"
+            f"figures = run(pathlib.Path({str(args.out / name)!r}))\n"
+            "print('@@' + json.dumps(figures))\n"
+        )
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        sys.stdout.write(proc.stdout.replace("@@", "figures: ", 1) if proc.stdout else "")
+        if proc.returncode != 0:
+            sys.stderr.write(proc.stderr)
+            print(f"benchmark {name} FAILED", file=sys.stderr)
+            return 1
+        line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("@@"))
+        summary[name] = json.loads(line[2:])
+        summary[name]["bench_seconds"] = round(time.monotonic() - start, 1)
+    write_text_atomic(args.out / "summary.json", json.dumps(summary, indent=1, sort_keys=True))
+    lines = ["| benchmark | figure | value |", "| --- | --- | --- |"]
+    for name, figures in summary.items():
+        lines += [f"| {name} | {k} | {v:.4g} |" for k, v in sorted(figures.items())]
+    table = "\n".join(lines) + "\n"
+    write_text_atomic(args.out / "summary.md", table)
+    print(table)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,192 @@
+"""A talking-face model on disk: viseme images, their flow database, a manifest.
+
+Layout of a model directory::
+
+    manifest.json        format, visemes, image size, estimator + settings,
+                         and each transition's largest flow displacement
+    visemes/<slug>.png   one image per viseme (RGB)
+    flows/               the flow database (:class:`miketalk.flow.FlowDatabase`)
+
+The manifest is validated when the model is opened (every image present and of
+the declared size, every flow file present); flows are read lazily, each file
+checked as it is read, and morphers for recently used transitions are cached.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from collections import OrderedDict
+from collections.abc import Iterator
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.atomic import write_text_atomic
+from miketalk.errors import MiketalkError
+from miketalk.extract import read_image
+from miketalk.flow import FlowDatabase
+from miketalk.lipsync import Timeline
+from miketalk.morph import Morpher
+from miketalk.visemes import viseme_slug
+
+FORMAT = "miketalk-model/1"
+
+
+class Model:
+    """A model opened from ``directory`` (see the module docstring).
+
+    Raises
+    ------
+    MiketalkError
+        If the directory, its manifest, an image or a flow file is missing or
+        does not match the manifest.
+    """
+
+    def __init__(self, directory: str | os.PathLike[str], *, cache_size: int = 24) -> None:
+        self.directory = Path(directory)
+        path = self.directory / "manifest.json"
+        if not path.exists():
+            raise MiketalkError(f"no model at {self.directory} (missing manifest.json)")
+        try:
+            manifest = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as err:
+            raise MiketalkError(f"cannot read model manifest {path}: {err}") from err
+        if manifest.get("format") != FORMAT:
+            raise MiketalkError(f"{path} is not a {FORMAT} manifest")
+        self.manifest = manifest
+        self.visemes: tuple[str, ...] = tuple(manifest["visemes"])
+        self.size: tuple[int, int] = tuple(manifest["size"])  # (H, W)
+        self._images: dict[str, np.ndarray] = {}
+        for viseme in self.visemes:
+            image = read_image(self.directory / manifest["images"][viseme])
+            if image.shape[:2] != self.size:
+                raise MiketalkError(
+                    f"viseme image {manifest['images'][viseme]} is {image.shape[1]}x"
+                    f"{image.shape[0]}, the manifest says {self.size[1]}x{self.size[0]}"
+                )
+            self._images[viseme] = image
+        self.flows = FlowDatabase(self.directory / "flows")
+        check_complete(self.flows, self.visemes)
+        self._displacement = {
+            tuple(k.split("|")): float(v) for k, v in manifest["max_displacement"].items()
+        }
+        self._morphers: OrderedDict[tuple[str, str], Morpher] = OrderedDict()
+        self._cache_size = cache_size
+
+    def image(self, viseme: str) -> np.ndarray:
+        """The viseme's image, (H, W, 3) uint8."""
+        self._check(viseme)
+        return self._images[viseme]
+
+    def displacement(self, a: str, b: str) -> float:
+        """The largest flow displacement of transition a -> b, in pixels (0 for a == b)."""
+        self._check(a)
+        self._check(b)
+        return 0.0 if a == b else self._displacement[(a, b)]
+
+    def morpher(self, a: str, b: str) -> Morpher:
+        """A morpher for transition a -> b (cached)."""
+        key = (a, b)
+        if key in self._morphers:
+            self._morphers.move_to_end(key)
+            return self._morphers[key]
+        morpher = Morpher(
+            self.image(a), self.image(b), self.flows.flow(a, b), self.flows.flow(b, a)
+        )
+        self._morphers[key] = morpher
+        if len(self._morphers) > self._cache_size:
+            self._morphers.popitem(last=False)
+        return morpher
+
+    def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
+        """The morph from viseme a to b at ``alpha``."""
+        if a == b or alpha <= 0.0:
+            return self.image(a)
+        if alpha >= 1.0:
+            return self.image(b)
+        return self.morpher(a, b).frame(alpha)
+
+    def render(self, timeline: Timeline) -> Iterator[np.ndarray]:
+        """The frames of a timeline, in order."""
+        for sample in timeline.frames:
+            t = timeline.transitions[sample.transition]
+            yield self.frame(t.source, t.target, sample.alpha)
+
+    def _check(self, viseme: str) -> None:
+        if viseme not in self._images:
+            raise MiketalkError(
+                f"the model has no viseme {viseme!r} (it has {' '.join(self.visemes)})"
+            )
+
+
+def check_complete(flows: FlowDatabase, visemes: tuple[str, ...] | list[str]) -> None:
+    """Raise MiketalkError naming the first missing pair file of ``visemes``."""
+    for a, b in combinations(visemes, 2):
+        path = flows.path_for(a, b)
+        if not path.exists():
+            raise MiketalkError(f"flow file {path} for visemes {a!r} and {b!r} is missing")
+
+
+def largest_displacement(flow: np.ndarray) -> float:
+    """The length of the longest flow vector (the paper's maximal offset vector)."""
+    return float(np.sqrt((flow.astype(np.float64) ** 2).sum(axis=-1)).max())
+
+
+def build_model(
+    out_dir: str | os.PathLike[str],
+    *,
+    images: dict[str, str | os.PathLike[str]],
+    flows_dir: str | os.PathLike[str],
+    estimator: str,
+    settings: dict,
+) -> Path:
+    """Assemble a model directory from viseme images and a flow database.
+
+    Images and flow files are hard-linked where possible (copied otherwise);
+    the manifest is written last, so a model without one is incomplete.
+    """
+    out = Path(out_dir)
+    (out / "visemes").mkdir(parents=True, exist_ok=True)
+    names = list(images)
+    sizes = set()
+    image_paths = {}
+    for viseme, src in images.items():
+        rel = f"visemes/{viseme_slug(viseme)}.png"
+        sizes.add(read_image(src).shape[:2])
+        _link(Path(src), out / rel)
+        image_paths[viseme] = rel
+    if len(sizes) != 1:
+        raise MiketalkError(f"viseme images differ in size: {sorted(sizes)}")
+    source = FlowDatabase(flows_dir)
+    check_complete(source, names)
+    if (out / "flows").exists():
+        shutil.rmtree(out / "flows")
+    (out / "flows").mkdir()
+    for a, b in combinations(names, 2):
+        path = source.path_for(a, b)
+        _link(path, out / "flows" / path.name)
+    displacement = {
+        f"{a}|{b}": largest_displacement(source.flow(a, b)) for a in names for b in names if a != b
+    }
+    manifest = {
+        "format": FORMAT,
+        "visemes": names,
+        "size": list(sizes.pop()),
+        "estimator": estimator,
+        "settings": settings,
+        "images": image_paths,
+        "max_displacement": displacement,
+    }
+    write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
+    return out
+
+
+def _link(src: Path, dst: Path) -> None:
+    dst.unlink(missing_ok=True)
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copyfile(src, dst)

@@ -1,0 +1,39 @@
+"""Support for the Snakemake scripts in ``workflow/scripts``: logging and clean errors."""
+
+from __future__ import annotations
+
+import logging
+import sys
+import traceback
+from collections.abc import Callable
+from typing import Any
+
+from miketalk.errors import MiketalkError
+
+
+def run_stage(smk: Any, stage: Callable[[], object]) -> None:
+    """Run one rule's work with its log file set up.
+
+    Log records go to the rule's ``log`` file (and stderr). A
+    :class:`MiketalkError` (a user mistake: bad config, missing file) is
+    reported as one line and ends the job with exit status 1; any other error
+    keeps its traceback, in the log.
+    """
+    handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
+    if smk.log:
+        handlers.append(logging.FileHandler(str(smk.log[0]), mode="w"))
+    logging.basicConfig(
+        level=logging.INFO,
+        format="%(asctime)s %(name)s %(levelname)s: %(message)s",
+        handlers=handlers,
+        force=True,
+    )
+    log = logging.getLogger(f"miketalk.rule.{smk.rule}")
+    try:
+        stage()
+    except MiketalkError as err:
+        log.error("%s", err)
+        sys.exit(1)
+    except Exception:
+        log.error("unexpected failure:\n%s", traceback.format_exc())
+        raise
