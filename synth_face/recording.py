@@ -30,11 +30,11 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from miketalk.atomic import atomic_path, write_text_atomic
+from miketalk.atomic import write_text_atomic
 from miketalk.audio import write_wav
+from miketalk.images import write_png
 from miketalk.speech.festival import FestivalBackend
 from miketalk.speech.types import Utterance
 from miketalk.video import write_mp4
@@ -167,11 +167,7 @@ def record_corpus(
         for k in range(n_frames):
             image = renderer.render(params[k])
             frames.append(image)
-            ok, png = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-            if not ok:
-                raise RuntimeError("PNG encoding failed")
-            with atomic_path(frames_dir / f"{k:06d}.png") as tmp:
-                tmp.write_bytes(png.tobytes())
+            write_png(frames_dir / f"{k:06d}.png", image)
     finally:
         renderer.close()
 

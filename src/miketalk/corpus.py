@@ -14,13 +14,13 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-import cv2
 import imageio_ffmpeg
 import numpy as np
 
 from miketalk.atomic import atomic_path, write_text_atomic
 from miketalk.audio import read_wav, write_wav
 from miketalk.errors import MiketalkError
+from miketalk.images import write_png
 from miketalk.speech.festival import FestivalBackend
 
 
@@ -49,9 +49,7 @@ def ingest_video(
     n = 0
     for raw in reader:
         frame = np.frombuffer(raw, np.uint8).reshape(height, width, 3)
-        ok, png = cv2.imencode(".png", cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
-        with atomic_path(frames_dir / f"{n:06d}.png") as tmp:
-            tmp.write_bytes(png.tobytes())
+        write_png(frames_dir / f"{n:06d}.png", frame)
         n += 1
     if n < 3:
         raise MiketalkError(f"corpus video {video} has {n} frames")

@@ -34,6 +34,7 @@ import pandas as pd
 from miketalk.align import locate_words, map_times
 from miketalk.audio import read_wav
 from miketalk.errors import MiketalkError
+from miketalk.images import read_image
 from miketalk.speech.festival import FestivalBackend
 from miketalk.visemes import VisemeTable
 
@@ -59,14 +60,6 @@ class CorpusVideo:
         if not 0 <= index < len(paths):
             raise MiketalkError(f"frame {index} is outside the recording (0..{len(paths) - 1})")
         return read_image(paths[index])
-
-
-def read_image(path: str | Path) -> np.ndarray:
-    """Read an image file as (H, W, 3) uint8 RGB, or raise MiketalkError naming it."""
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if image is None:
-        raise MiketalkError(f"cannot read image {path}")
-    return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
 
 
 def open_corpus(directory: str | Path, *, words: list[str] | None = None) -> CorpusVideo:
@@ -243,7 +236,8 @@ def extract_visemes_stage(
     ``sheet``, ``strip``.
     """
     from miketalk.atomic import write_text_atomic
-    from miketalk.sheets import grid, save_png
+    from miketalk.images import write_png
+    from miketalk.sheets import grid
     from miketalk.visemes import viseme_slug
 
     table = VisemeTable(grouping=grouping)
@@ -280,7 +274,7 @@ def extract_visemes_stage(
         image = video.frame(int(row.frame))
         images.append(image)
         path = images_dir / f"{viseme_slug(row.viseme)}.png"
-        save_png(path, image)
+        write_png(path, image)
         paths.append(path.name)
     chosen["image"] = paths
     write_text_atomic(out.visemes, chosen.to_csv(sep="\t", index=False))
@@ -288,7 +282,7 @@ def extract_visemes_stage(
         f"{r.viseme} ({r.key}) f{r.frame}" + ("" if pd.isna(r.error) else f" err {int(r.error):+d}")
         for r in chosen.itertuples()
     ]
-    save_png(out.sheet, grid(images, labels, cols=4))
+    write_png(out.sheet, grid(images, labels, cols=4))
     # one corpus word's frames: the word of the \w-au\ viseme's target if recorded
     word = next(
         (table.representative(v).word for v in ("w-au", "aa", "p") if v in table.visemes), None
@@ -298,4 +292,4 @@ def extract_visemes_stage(
     t1 = float(rows["time"].max()) + 0.25
     frames = range(max(0, int(t0 * video.fps)), min(n_frames, int(t1 * video.fps) + 1))
     strip = [video.frame(k) for k in frames]
-    save_png(out.strip, grid(strip, [f"{word} f{k}" for k in frames], cols=8, scale=0.5))
+    write_png(out.strip, grid(strip, [f"{word} f{k}" for k in frames], cols=8, scale=0.5))

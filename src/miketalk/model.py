@@ -26,8 +26,8 @@ import numpy as np
 
 from miketalk.atomic import write_text_atomic
 from miketalk.errors import MiketalkError
-from miketalk.extract import read_image
 from miketalk.flow import FlowDatabase
+from miketalk.images import read_image
 from miketalk.lipsync import Timeline
 from miketalk.morph import Morpher
 from miketalk.visemes import viseme_slug

@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 
 import cv2
 import numpy as np
-
-from miketalk.atomic import atomic_path
 
 
 def grid(
@@ -39,13 +36,3 @@ def grid(
         y, x = pad + r * (h + pad), pad + c * (w + pad)
         sheet[y : y + h, x : x + w] = tile
     return sheet
-
-
-def save_png(path: str | Path, image: np.ndarray) -> None:
-    """Write an RGB image as PNG, atomically."""
-    bgr = cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if image.ndim == 3 else image
-    ok, data = cv2.imencode(".png", bgr)
-    if not ok:
-        raise ValueError(f"cannot encode {path}")
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(data.tobytes())

@@ -28,7 +28,6 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.extract import read_image
 from miketalk.flow import (
     concatenate_up_flows,
     get_estimator,
@@ -36,6 +35,7 @@ from miketalk.flow import (
     pair_path,
     write_flow_pair,
 )
+from miketalk.images import read_image
 
 log = logging.getLogger(__name__)
 
