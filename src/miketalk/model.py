@@ -38,6 +38,16 @@ FORMAT = "miketalk-model/1"
 class Model:
     """A model opened from ``directory`` (see the module docstring).
 
+    Parameters
+    ----------
+    directory : path
+        The model directory.
+    cache_size : int
+        How many transitions' morphers to keep ready.
+    morph_options : dict, optional
+        Keyword flags for :class:`miketalk.morph.Morpher` (``hole_aware_blend``,
+        ``fill_holes``, ``median``).
+
     Raises
     ------
     MiketalkError
@@ -45,8 +55,15 @@ class Model:
         does not match the manifest.
     """
 
-    def __init__(self, directory: str | os.PathLike[str], *, cache_size: int = 24) -> None:
+    def __init__(
+        self,
+        directory: str | os.PathLike[str],
+        *,
+        cache_size: int = 24,
+        morph_options: dict | None = None,
+    ) -> None:
         self.directory = Path(directory)
+        self.morph_options = dict(morph_options or {})
         path = self.directory / "manifest.json"
         if not path.exists():
             raise MiketalkError(f"no model at {self.directory} (missing manifest.json)")

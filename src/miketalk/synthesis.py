@@ -34,7 +34,7 @@ def default_model_dir() -> Path:
     return checkout if checkout.exists() else here
 
 
-def open_model(directory: str | os.PathLike[str] | None) -> Model:
+def open_model(directory: str | os.PathLike[str] | None, **options: object) -> Model:
     """Open a model, with a hint on how to build the default one when it is missing."""
     path = Path(directory) if directory is not None else default_model_dir()
     if not (path / "manifest.json").exists():
@@ -44,7 +44,7 @@ def open_model(directory: str | os.PathLike[str] | None) -> Model:
             else "pass --model with a directory built by the workflow"
         )
         raise MiketalkError(f"no model at {path}: {hint}")
-    return Model(path)
+    return Model(path, **options)
 
 
 def say(

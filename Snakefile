@@ -1,0 +1,30 @@
+# miketalk: corpus -> visemes -> flows -> model -> utterances -> metrics -> figures -> report
+from snakemake.utils import min_version, validate
+
+
+min_version("8.0")
+
+
+configfile: "config.yaml"
+
+
+validate(config, "workflow/schemas/config.schema.yaml")
+
+
+report: "workflow/report/workflow.rst"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/corpus.smk"
+include: "workflow/rules/visemes.smk"
+include: "workflow/rules/flows.smk"
+include: "workflow/rules/model.smk"
+include: "workflow/rules/utterances.smk"
+include: "workflow/rules/metrics.smk"
+include: "workflow/rules/figures.smk"
+
+
+rule all:
+    input:
+        all_outputs(),
+    default_target: True

@@ -1,0 +1,96 @@
+# Names, paths and lookups shared by the rules.
+import json
+
+
+FACE = config["face"]
+SYNTHETIC = config["corpus"]["source"] == "synthetic"
+CORPUS = f"results/corpus/{FACE}"
+VISEMES = f"results/visemes/{FACE}"
+FLOWS = f"results/flows/{FACE}"
+MODEL = f"results/model/{FACE}"
+METRICS = "results/metrics"
+FIGURES = "results/figures"
+STRATEGIES = ["direct", "concat", "mixed"]
+
+
+def sweep_methods():
+    """Flow methods of the pyramid-depth sweep: '<estimator>-L<levels>'."""
+    out = {}
+    for estimator in config["sweeps"]["level_estimators"]:
+        base = dict(config["flow"]["methods"].get(estimator, {}).get("settings", {}))
+        for levels in config["sweeps"]["pyramid_levels"]:
+            out[f"{estimator}-L{levels}"] = {
+                "estimator": estimator,
+                "settings": {**base, "levels": levels},
+            }
+    return out
+
+
+METHODS = {**config["flow"]["methods"], **sweep_methods()}
+
+
+def method_json(name):
+    """The estimator name and settings of flow method ``name``, as JSON."""
+    spec = METHODS[name]
+    return json.dumps(
+        {"estimator": spec["estimator"], "settings": spec.get("settings", {})},
+        sort_keys=True,
+    )
+
+
+def method_spec(wildcards):
+    """method_json of the {method} wildcard."""
+    return method_json(wildcards.method)
+
+
+def epe_tables():
+    """Per-method, per-strategy EPE tables (configured methods: all strategies)."""
+    if not SYNTHETIC:
+        return []
+    tables = [
+        f"{METRICS}/epe/{FACE}/{m}/{s}.csv"
+        for m in config["flow"]["methods"]
+        for s in STRATEGIES
+    ]
+    tables += [f"{METRICS}/epe/{FACE}/{m}/direct.csv" for m in sweep_methods()]
+    return tables
+
+
+def utterance_videos():
+    return [f"results/utterances/{FACE}/{name}.mp4" for name in config["sentences"]]
+
+
+def sync_tables():
+    return [f"{METRICS}/sync/{FACE}/{name}.csv" for name in config["sentences"]]
+
+
+def sync_sweep_tables():
+    s = config["sweeps"]
+    return [
+        f"{METRICS}/sync_sweep/{FACE}/px{px}_fps{fps}.csv"
+        for px in s["max_px_per_frame"]
+        for fps in s["fps"]
+    ]
+
+
+def all_outputs():
+    out = [
+        f"{VISEMES}/contact_sheet.png",
+        MODEL,
+        *utterance_videos(),
+        f"{FIGURES}/lipsync_diagram.png",
+        f"{FIGURES}/morph_strip.png",
+    ]
+    if SYNTHETIC:
+        out += [
+            f"{METRICS}/flow_epe.csv",
+            f"{METRICS}/morph_fidelity.csv",
+            f"{METRICS}/sync.csv",
+            f"{METRICS}/sync_sweep.csv",
+            f"{FIGURES}/epe_vs_levels.png",
+            f"{FIGURES}/morph_psnr_vs_alpha.png",
+            f"{FIGURES}/sync_vs_max_px.png",
+        ]
+    if config["metrics"]["motorcycle"]:
+        out.append(f"{METRICS}/motorcycle_epe.csv")
+    return out

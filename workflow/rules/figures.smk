@@ -1,0 +1,84 @@
+# Figures drawn from the tidy tables (and two drawn from the model itself).
+
+
+rule figure_epe_vs_levels:
+    input:
+        rules.flow_epe_table.output.table,
+    output:
+        report(
+            f"{FIGURES}/epe_vs_levels.png",
+            caption="../report/epe_vs_levels.rst",
+            category="Optical flow",
+        ),
+    log:
+        "logs/figures/epe_vs_levels.log",
+    script:
+        "../scripts/figures.py"
+
+
+rule figure_morph_psnr:
+    input:
+        rules.morph_fidelity.output.table,
+    output:
+        report(
+            f"{FIGURES}/morph_psnr_vs_alpha.png",
+            caption="../report/morph_psnr_vs_alpha.rst",
+            category="Morphing",
+        ),
+    log:
+        "logs/figures/morph_psnr_vs_alpha.log",
+    script:
+        "../scripts/figures.py"
+
+
+rule figure_sync_sweep:
+    input:
+        rules.sync_sweep_table.output.summary,
+    output:
+        report(
+            f"{FIGURES}/sync_vs_max_px.png",
+            caption="../report/sync_vs_max_px.rst",
+            category="Lip-sync",
+        ),
+    log:
+        "logs/figures/sync_vs_max_px.log",
+    script:
+        "../scripts/figures.py"
+
+
+rule figure_lipsync_diagram:
+    input:
+        model=rules.model.output[0],
+    output:
+        report(
+            f"{FIGURES}/lipsync_diagram.png",
+            caption="../report/lipsync_diagram.rst",
+            category="Lip-sync",
+        ),
+    params:
+        word="one",
+        fps=config["lipsync"]["fps"],
+        max_px=config["lipsync"]["max_px_per_frame"],
+    log:
+        "logs/figures/lipsync_diagram.log",
+    script:
+        "../scripts/figures.py"
+
+
+rule figure_morph_strip:
+    input:
+        model=rules.model.output[0],
+    output:
+        report(
+            f"{FIGURES}/morph_strip.png",
+            caption="../report/morph_strip.rst",
+            category="Morphing",
+        ),
+    params:
+        pair=["p", "aa"],
+        alphas=[0.25, 0.5, 0.75],
+        morph=config["morph"],
+    log:
+        "logs/figures/morph_strip.log",
+    script:
+        "../scripts/figures.py"

@@ -1,0 +1,92 @@
+# Measurements against the synthetic face's truth (skipped for a person's recording).
+
+
+rule morph_fidelity:
+    input:
+        visemes=rules.visemes.output.visemes,
+        images=rules.visemes.output.images,
+        flows=rules.model.input.flows,
+        truth=rules.true_flows.output.flows,
+        mouth=rules.true_flows.output.mouth,
+        table=rules.corpus.output.table,
+    output:
+        table=report(
+            f"{METRICS}/morph_fidelity.csv",
+            caption="../report/morph_fidelity.rst",
+            category="Morphing",
+        ),
+        summary=f"{METRICS}/morph_fidelity_summary.csv",
+    params:
+        alphas=config["metrics"]["alphas"],
+        morph=config["morph"],
+    log:
+        f"logs/morph_fidelity/{FACE}.log",
+    benchmark:
+        f"benchmarks/morph_fidelity/{FACE}.tsv"
+    script:
+        "../scripts/morph_fidelity.py"
+
+
+rule sync:
+    input:
+        model=rules.model.output[0],
+        mouth=rules.true_flows.output.mouth,
+        video=f"results/utterances/{FACE}/{{sentence}}.mp4",
+    output:
+        f"{METRICS}/sync/{FACE}/{{sentence}}.csv",
+    params:
+        text=lambda wildcards: config["sentences"][wildcards.sentence],
+        fps=config["lipsync"]["fps"],
+        max_px=config["lipsync"]["max_px_per_frame"],
+        morph=config["morph"],
+        grouping=config["visemes"]["grouping"],
+    log:
+        f"logs/sync/{FACE}/{{sentence}}.log",
+    script:
+        "../scripts/sync.py"
+
+
+rule sync_sweep_point:
+    input:
+        model=rules.model.output[0],
+        mouth=rules.true_flows.output.mouth,
+    output:
+        f"{METRICS}/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.csv",
+    params:
+        text=config["sentences"][config["sweeps"]["sentence"]],
+        morph=config["morph"],
+        grouping=config["visemes"]["grouping"],
+    log:
+        f"logs/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.log",
+    script:
+        "../scripts/sync.py"
+
+
+rule sync_table:
+    input:
+        sync_tables(),
+    output:
+        table=report(
+            f"{METRICS}/sync.csv", caption="../report/sync.rst", category="Lip-sync"
+        ),
+        summary=f"{METRICS}/sync_summary.csv",
+    log:
+        "logs/sync_table.log",
+    script:
+        "../scripts/sync_summary.py"
+
+
+rule sync_sweep_table:
+    input:
+        sync_sweep_tables(),
+    output:
+        table=f"{METRICS}/sync_sweep.csv",
+        summary=report(
+            f"{METRICS}/sync_sweep_summary.csv",
+            caption="../report/sync_sweep.rst",
+            category="Lip-sync",
+        ),
+    log:
+        "logs/sync_sweep_table.log",
+    script:
+        "../scripts/sync_summary.py"

@@ -1,0 +1,17 @@
+# The talking-face model: viseme images + the chosen flow database + a manifest.
+
+
+rule model:
+    input:
+        visemes=rules.visemes.output.visemes,
+        images=rules.visemes.output.images,
+        flows=f"{FLOWS}/{config['flow']['method']}/{config['flow']['strategy']}",
+    output:
+        directory(MODEL),
+    params:
+        spec=method_json(config["flow"]["method"]),
+        strategy=config["flow"]["strategy"],
+    log:
+        f"logs/model/{FACE}.log",
+    script:
+        "../scripts/model.py"

@@ -1,0 +1,24 @@
+# Each configured sentence as a talking-face mp4 with its timeline.
+
+
+rule utterance:
+    input:
+        model=rules.model.output[0],
+    output:
+        video=report(
+            f"results/utterances/{FACE}/{{sentence}}.mp4",
+            caption="../report/utterance.rst",
+            category="Utterances",
+        ),
+        timeline=f"results/utterances/{FACE}/{{sentence}}.json",
+    params:
+        text=lambda wildcards: config["sentences"][wildcards.sentence],
+        fps=config["lipsync"]["fps"],
+        max_px=config["lipsync"]["max_px_per_frame"],
+        morph=config["morph"],
+    log:
+        f"logs/utterances/{FACE}/{{sentence}}.log",
+    benchmark:
+        f"benchmarks/utterances/{FACE}/{{sentence}}.tsv"
+    script:
+        "../scripts/utterance.py"

@@ -1,0 +1,42 @@
+"""Rule corpus: record the synthetic subject, or ingest a person's video."""
+
+from pathlib import Path
+
+from miketalk.workflow import run_stage
+
+
+def main() -> None:
+    from miketalk.corpus import ingest_video
+    from miketalk.errors import MiketalkError
+    from miketalk.speech import FestivalBackend
+    from miketalk.visemes import VisemeTable
+
+    corpus = snakemake.params.corpus
+    table = VisemeTable(grouping=snakemake.params.grouping)
+    words = corpus["words"] or table.corpus_words()
+    unknown = sorted(set(words) - set(table.corpus_words()))
+    if unknown:
+        raise MiketalkError(f"corpus.words names words not in the corpus: {unknown}")
+    needed = {table.representative(v).word for v in table.visemes} - {"-"}
+    if missing := sorted(needed - set(words)):
+        raise MiketalkError(f"corpus.words lacks words that visemes are taken from: {missing}")
+    out = Path(snakemake.output.audio).parent
+    festival = FestivalBackend()
+    if corpus["source"] == "synthetic":
+        from synth_face.recording import record_corpus
+
+        record_corpus(
+            out,
+            backend=festival,
+            table=table,
+            size=corpus["size"],
+            fps=corpus["fps"],
+            words=words,
+        )
+    else:
+        if not corpus["video"]:
+            raise MiketalkError("corpus.source is video but corpus.video is not set")
+        ingest_video(corpus["video"], out, words=words, backend=festival)
+
+
+run_stage(snakemake, main)

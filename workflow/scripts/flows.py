@@ -1,0 +1,31 @@
+"""Rule flows: one flow database for a method (estimator + settings) and strategy."""
+
+import json
+from pathlib import Path
+
+from miketalk.workflow import run_stage
+
+
+def main() -> None:
+    import pandas as pd
+
+    from miketalk.atomic import write_text_atomic
+    from miketalk.viseme_flows import build_flow_database
+
+    spec = json.loads(snakemake.params.spec)
+    visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
+    choices = build_flow_database(
+        snakemake.output.flows,
+        visemes=visemes,
+        images_dir=Path(snakemake.input.images),
+        frames_dir=Path(snakemake.input.frames),
+        estimator=spec["estimator"],
+        settings=spec["settings"],
+        strategy=snakemake.wildcards.strategy,
+        window=snakemake.params.window,
+        workers=snakemake.threads,
+    )
+    write_text_atomic(snakemake.output.choices, choices.to_csv(sep="\t", index=False))
+
+
+run_stage(snakemake, main)

@@ -1,0 +1,29 @@
+"""Rule model: assemble the model directory."""
+
+import json
+from pathlib import Path
+
+from miketalk.workflow import run_stage
+
+
+def main() -> None:
+    import pandas as pd
+
+    from miketalk.model import build_model
+
+    spec = json.loads(snakemake.params.spec)
+    visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
+    images = {
+        v: Path(snakemake.input.images) / name
+        for v, name in zip(visemes["viseme"], visemes["image"], strict=True)
+    }
+    build_model(
+        snakemake.output[0],
+        images=images,
+        flows_dir=snakemake.input.flows,
+        estimator=spec["estimator"],
+        settings={**spec["settings"], "strategy": snakemake.params.strategy},
+    )
+
+
+run_stage(snakemake, main)
