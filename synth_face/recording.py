@@ -195,9 +195,12 @@ def record_corpus(
         order = np.lexsort((np.abs(times[near] - pose.time), np.round(distance[near], 9)))
         frame = int(near[order[0]])
         writer.writerow([pose.target, pose.word, pose.phone, f"{pose.time:.6f}", frame])
-    for pose in silence:  # held still: the frame at the pause's middle
-        frame = min(n_frames - 1, round(pose.time * fps))
-        writer.writerow([pose.target, pose.word, pose.phone, f"{pose.time:.6f}", frame])
+    for pose, (start, end) in silence:
+        # held still from one pause keyframe to the next: frames whose neighbours
+        # are both inside the hold are identical; the truth is the middle one
+        first, last = int(np.ceil(start * fps)) + 1, int(np.floor(end * fps)) - 1
+        frame = min(n_frames - 1, (first + last) // 2)
+        writer.writerow([pose.target, pose.word, pose.phone, f"{frame / fps:.6f}", frame])
     write_text_atomic(out / "truth.tsv", buf.getvalue())
     write_text_atomic(
         out / "words.json",
@@ -208,15 +211,13 @@ def record_corpus(
     return out
 
 
-def _silence_truth(poses: list[Pose], words: list[str]) -> list[Pose]:
-    """The silence target: the middle of the first pause between two words."""
+def _silence_truth(poses: list[Pose], words: list[str]) -> list[tuple[Pose, tuple[float, float]]]:
+    """The silence target and the span it is held: the first pause between two words."""
     pauses = [p for p in poses if p.phone == "pau"]
     if len(words) > 1:
         # the first word's trailing pause and the second word's leading one
         first_end = next(i for i, p in enumerate(pauses) if p.word == words[1]) - 1
         a, b = pauses[first_end], pauses[first_end + 1]
-        middle = 0.5 * (a.time + b.time)
     else:
-        a = pauses[0]
-        middle = a.time
-    return [Pose(middle, a.params, "-", "pau", "#")]
+        a = b = pauses[0]
+    return [(Pose(0.5 * (a.time + b.time), a.params, "-", "pau", "#"), (a.time, b.time))]

@@ -181,14 +181,14 @@ def extract_targets(
 def _still_middle(energy: np.ndarray, fps: float, start: float, end: float) -> int:
     """The middle of the longest still run of frames in a pause ``[start, end]`` s.
 
-    Still: motion energy within 10% of the pause's range above its minimum.
+    Still: motion energy within 5% of the pause's range above its minimum.
     """
     lo = max(0, int(np.ceil(start * fps)))
     hi = min(len(energy) - 1, int(np.floor(end * fps)))
     if hi <= lo:
         return int(np.clip(round(0.5 * (start + end) * fps), 0, len(energy) - 1))
     e = energy[lo : hi + 1]
-    still = e <= e.min() + 0.1 * (e.max() - e.min())
+    still = e <= e.min() + 0.05 * (e.max() - e.min())
     edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
     runs = list(zip(edges[::2], edges[1::2], strict=True))
     first, last = max(runs, key=lambda r: (r[1] - r[0], -r[0]))

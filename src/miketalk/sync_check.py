@@ -41,31 +41,45 @@ def true_parameters(timeline: Timeline, face: object) -> np.ndarray:
 def viseme_offsets(
     frames: np.ndarray, timeline: Timeline, model: Model, mouth: np.ndarray
 ) -> list[dict]:
-    """Where each keyframe's viseme shows: the frame most like the viseme image.
+    """When the video shows each keyframe's viseme, measured from the frames.
 
-    Among the frames within two of the keyframe's time, the one whose mouth
-    region is closest (mean squared error) to the viseme image, ties going to
-    the frame nearest the keyframe; reported as its offset from the keyframe
-    time in frames (the target is |offset| <= 0.5).
+    Each frame inside a transition A -> B is matched (mouth-region mean squared
+    error) against the model's morphs of A -> B at alpha = 0, 0.02, ..., 1,
+    which recovers the alpha it shows. A straight line fitted to recovered
+    alpha against frame time gives the time at which the video is at alpha = 0,
+    i.e. shows viseme A. Its offset from the keyframe (the phone's middle) in
+    frames is reported (target: |offset| <= 0.5). Transitions covering fewer
+    than two frames, or between identical visemes, say nothing and are skipped.
     """
-    rows = []
     fps = timeline.fps
-    for key in timeline.keyframes:
-        centre = key.time * fps
-        lo = max(0, int(np.floor(centre)) - 2)
-        hi = min(len(frames) - 1, int(np.ceil(centre)) + 2)
-        ks = np.arange(lo, hi + 1)
-        image = model.image(key.viseme).astype(np.float64)
-        err = [np.mean((frames[k].astype(np.float64) - image)[mouth] ** 2) for k in ks]
-        order = np.lexsort((np.abs(ks - centre), np.round(err, 6)))
-        k = int(ks[order[0]])
+    grid = np.linspace(0.0, 1.0, 51)
+    samples: dict[int, list[tuple[float, float]]] = {}
+    for f in timeline.frames:
+        samples.setdefault(f.transition, []).append((f.time, f.index))
+    rows = []
+    for i, t in enumerate(timeline.transitions):
+        here = samples.get(i, [])
+        if t.source == t.target or len(here) < 2:
+            continue
+        candidates = np.stack([model.frame(t.source, t.target, a) for a in grid])
+        cand = candidates[:, mouth].astype(np.float64)
+        times, alphas = [], []
+        for time, k in here:
+            err = ((cand - frames[k][mouth].astype(np.float64)) ** 2).mean(axis=(1, 2))
+            times.append(time)
+            alphas.append(grid[int(np.argmin(err))])
+        slope, intercept = np.polyfit(times, alphas, 1)
+        if slope <= 0:
+            continue
+        shown = -intercept / slope  # time at alpha = 0
+        key = next(k for k in timeline.keyframes if abs(k.time - t.start) < 1e-9)
         rows.append(
             {
-                "viseme": key.viseme,
+                "viseme": t.source,
                 "phone": timeline.phones[key.phone].name,
                 "time": key.time,
-                "frame": k,
-                "offset_frames": k - centre,
+                "frame": shown * fps,
+                "offset_frames": (shown - key.time) * fps,
             }
         )
     return rows
