@@ -6,7 +6,7 @@ import argparse
 import json
 import logging
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 from miketalk import __version__
@@ -72,6 +72,28 @@ def cmd_phones(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_say(args: argparse.Namespace) -> int:
+    """Speak a text as an mp4."""
+    from miketalk.synthesis import open_model, say
+
+    text = _read_text(args)
+    model = open_model(args.model)
+    long_text = len(text.split()) > 40
+    utterance, timeline = say(
+        text,
+        args.output,
+        model=model,
+        fps=args.fps,
+        max_px_per_frame=None if args.no_oversampling else args.max_px_per_frame,
+        progress=args.progress or (long_text and sys.stderr.isatty()),
+    )
+    print(
+        f"{args.output}: {len(timeline.frames)} frames at {args.fps:g} fps, "
+        f"{utterance.duration:.2f} s of audio"
+    )
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
     parser = argparse.ArgumentParser(
@@ -87,18 +109,26 @@ def build_parser() -> argparse.ArgumentParser:
     phones.add_argument("--json", action="store_true", help="print JSON")
     phones.set_defaults(func=cmd_phones)
 
-    for register in _EXTRA_COMMANDS:
-        register(sub)
+    say = sub.add_parser("say", help="speak a text as a talking-face mp4")
+    say.add_argument("text", nargs="?", help="the text (or use --file)")
+    say.add_argument("-f", "--file", help="read the text from this UTF-8 file")
+    say.add_argument("-o", "--output", required=True, help="the mp4 to write")
+    say.add_argument("--model", help="model directory (default: the one `make run` builds)")
+    say.add_argument("--fps", type=float, default=30.0, help="frame rate (default 30)")
+    say.add_argument(
+        "--max-px-per-frame",
+        type=float,
+        default=2.5,
+        help="oversample transitions moving more than this per frame (default 2.5)",
+    )
+    say.add_argument("--no-oversampling", action="store_true", help="turn oversampling off")
+    say.add_argument("--progress", action="store_true", help="always show a progress bar")
+    say.set_defaults(func=cmd_say)
     return parser
-
-
-# Sub-commands defined in other modules add themselves here (see miketalk.cli_say).
-_EXTRA_COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = []
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; user mistakes print one clear line and exit with status 2."""
-    _load_extra_commands()
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
@@ -119,17 +149,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-
-
-def _load_extra_commands() -> None:
-    import importlib
-
-    for name in ("miketalk.cli_say",):
-        try:
-            importlib.import_module(name)
-        except ModuleNotFoundError as err:
-            if err.name != name:
-                raise
 
 
 if __name__ == "__main__":

@@ -1,0 +1,144 @@
+"""The model on disk, the say pipeline, and their errors (a tiny model of noise textures)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.flow import get_estimator, pair_path, write_flow_pair
+from miketalk.images import write_png
+from miketalk.model import Model, build_model
+from miketalk.speech import FestivalBackend
+from miketalk.visemes import VISEMES
+
+needs_festival = pytest.mark.skipif(
+    not FestivalBackend().is_available(), reason="Festival not installed"
+)
+
+
+def texture(seed: int, size: int = 48) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    noise = rng.random((size // 4, size // 4, 3))
+    image = cv2.resize(noise, (size, size), interpolation=cv2.INTER_CUBIC)
+    return np.clip(image * 255, 0, 255).astype(np.uint8)
+
+
+@pytest.fixture(scope="module")
+def model_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """All 16 visemes: shifted copies of one texture, flows by our estimator."""
+    root = tmp_path_factory.mktemp("model")
+    base = texture(0, 64)
+    images, paths = {}, {}
+    for i, v in enumerate(VISEMES):
+        shifted = np.roll(base, (i % 4) - 2, axis=1)[8:56, 8:56]
+        images[v] = np.ascontiguousarray(shifted)
+        paths[v] = root / "src" / f"{i}.png"
+        paths[v].parent.mkdir(exist_ok=True)
+        write_png(paths[v], images[v])
+    estimate = get_estimator("bergen", levels=2)
+    flows = root / "flows"
+    flows.mkdir()
+    for i, a in enumerate(VISEMES):
+        for b in VISEMES[i + 1 :]:
+            write_flow_pair(
+                pair_path(flows, a, b),
+                estimate(images[a], images[b]),
+                estimate(images[b], images[a]),
+                source=a,
+                target=b,
+                estimator="bergen",
+                settings={"levels": 2},
+            )
+    return build_model(
+        root / "model", images=paths, flows_dir=flows, estimator="bergen", settings={}
+    )
+
+
+def test_model_loads_and_morphs(model_dir: Path) -> None:
+    model = Model(model_dir)
+    assert model.visemes == VISEMES and model.size == (48, 48)
+    assert model.displacement("p", "p") == 0.0
+    assert 0 < model.displacement("p", "f") < 5
+    assert np.array_equal(model.frame("p", "f", 0.0), model.image("p"))
+    assert np.array_equal(model.frame("p", "f", 1.0), model.image("f"))
+    middle = model.frame("p", "f", 0.5)
+    assert middle.shape == (48, 48, 3) and middle.dtype == np.uint8
+
+
+def test_model_errors(model_dir: Path, tmp_path: Path) -> None:
+    with pytest.raises(MiketalkError, match="no model"):
+        Model(tmp_path / "nothing")
+    broken = tmp_path / "broken"
+    shutil.copytree(model_dir, broken)
+    manifest = json.loads((broken / "manifest.json").read_text())
+    manifest["size"] = [50, 50]
+    (broken / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(MiketalkError, match="the manifest says 50x50"):
+        Model(broken)
+    missing = tmp_path / "missing"
+    shutil.copytree(model_dir, missing)
+    next((missing / "flows").glob("*.exr")).unlink()
+    with pytest.raises(MiketalkError, match="is missing"):
+        Model(missing)
+    corrupt = tmp_path / "corrupt"
+    shutil.copytree(model_dir, corrupt)
+    victim = pair_path(corrupt / "flows", "p", "f")
+    victim.write_bytes(victim.read_bytes()[:100])
+    with pytest.raises(MiketalkError, match=victim.name):
+        Model(corrupt).frame("p", "f", 0.5)
+    with pytest.raises(MiketalkError, match="no viseme 'zz'"):
+        Model(model_dir).image("zz")
+
+
+@needs_festival
+def test_say_writes_mp4_and_timeline(model_dir: Path, tmp_path: Path) -> None:
+    from miketalk.synthesis import say
+    from miketalk.video import probe_durations
+
+    out = tmp_path / "hello.mp4"
+    utterance, timeline = say("Hello world", out, model=Model(model_dir), fps=30)
+    video_s, audio_s = probe_durations(out)
+    assert abs(video_s - audio_s) <= 1 / 30
+    assert abs(len(timeline.frames) / 30 - utterance.duration) <= 1 / 30
+    doc = json.loads(out.with_suffix(".json").read_text())
+    assert doc["largest_step_px"] <= 2.5 + 1e-6
+    assert len(doc["frames"]) == len(timeline.frames)
+
+
+@needs_festival
+def test_say_bad_input_leaves_nothing(model_dir: Path, tmp_path: Path) -> None:
+    from miketalk.synthesis import say
+
+    out = tmp_path / "empty.mp4"
+    with pytest.raises(MiketalkError, match="nothing to speak"):
+        say("  ?! ", out, model=Model(model_dir))
+    assert list(tmp_path.iterdir()) == []
+
+
+@needs_festival
+def test_cli_say_errors_are_one_line(model_dir: Path, tmp_path: Path) -> None:
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "miketalk.cli", "say", *args],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+        )
+
+    missing = run("Hello", "-o", "x.mp4", "--model", str(tmp_path / "none"))
+    assert missing.returncode == 2 and "no model at" in missing.stderr
+    assert "Traceback" not in missing.stderr
+    empty = run("", "-o", "x.mp4", "--model", str(model_dir))
+    assert empty.returncode == 2 and "nothing to speak" in empty.stderr
+    ok = run("Hi there.", "-o", "hi.mp4", "--model", str(model_dir))
+    assert ok.returncode == 0, ok.stderr
+    assert (tmp_path / "hi.mp4").exists() and (tmp_path / "hi.json").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hi.json", "hi.mp4"]
