@@ -38,7 +38,7 @@ $(STAMP): pyproject.toml
 	touch $@
 
 run: setup
-	$(BIN)/snakemake --cores $(CORES)
+	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete
 
 report: run
 	$(BIN)/snakemake --cores 1 --report results/report.html

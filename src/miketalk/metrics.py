@@ -40,19 +40,22 @@ def ssim(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = Non
     )
 
 
-def mouth_opening(frames: np.ndarray, region: np.ndarray, *, dark: int = 60) -> np.ndarray:
-    """Per-frame mouth opening: the fraction of dark pixels (mouth interior) in ``region``.
+def mouth_opening(frames: np.ndarray, region: np.ndarray) -> np.ndarray:
+    """Per-frame mouth opening signal: the mean darkness of ``region``.
+
+    An open mouth shows its dark interior, so the region's mean darkness
+    ``1 - grey / 255`` rises as the mouth opens. Unlike a count of pixels under
+    a threshold, it is linear in a blend of two images, so a morph and a render
+    with the same timing give signals with the same timing.
 
     Parameters
     ----------
     frames : (N, H, W, 3) or (N, H, W) uint8
     region : (H, W) bool
         The mouth region.
-    dark : int
-        Grey level below which a pixel counts as mouth interior.
     """
     grey = frames.mean(axis=-1) if frames.ndim == 4 else frames.astype(np.float64)
-    return (grey[:, region] < dark).mean(axis=1)
+    return 1.0 - grey[:, region].mean(axis=1) / 255.0
 
 
 def lag_frames(signal: np.ndarray, reference: np.ndarray, *, max_lag: int = 10) -> int:

@@ -1,7 +1,6 @@
 # Names, paths and lookups shared by the rules.
 import json
 
-
 FACE = config["face"]
 SYNTHETIC = config["corpus"]["source"] == "synthetic"
 CORPUS = f"results/corpus/{FACE}"

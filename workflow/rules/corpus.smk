@@ -9,15 +9,17 @@ rule corpus:
         table=f"{CORPUS}/frames.tsv",
         truth=f"{CORPUS}/truth.tsv",
         video=f"{CORPUS}/corpus.mp4",
-    params:
-        corpus=config["corpus"],
-        grouping=config["visemes"]["grouping"],
     log:
-        f"logs/corpus/{FACE}.log",
+        f"results/logs/corpus/{FACE}.log",
     benchmark:
-        f"benchmarks/corpus/{FACE}.tsv"
+        f"results/benchmarks/corpus/{FACE}.tsv"
     resources:
         mem_mb=4000,
         runtime=30,
+    params:
+        corpus=config["corpus"],
+        grouping=config["visemes"]["grouping"],
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/corpus.py"

@@ -11,7 +11,9 @@ rule figure_epe_vs_levels:
             category="Optical flow",
         ),
     log:
-        "logs/figures/epe_vs_levels.log",
+        "results/logs/figures/epe_vs_levels.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"
 
@@ -26,7 +28,9 @@ rule figure_morph_psnr:
             category="Morphing",
         ),
     log:
-        "logs/figures/morph_psnr_vs_alpha.log",
+        "results/logs/figures/morph_psnr_vs_alpha.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"
 
@@ -41,7 +45,9 @@ rule figure_sync_sweep:
             category="Lip-sync",
         ),
     log:
-        "logs/figures/sync_vs_max_px.log",
+        "results/logs/figures/sync_vs_max_px.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"
 
@@ -55,12 +61,14 @@ rule figure_lipsync_diagram:
             caption="../report/lipsync_diagram.rst",
             category="Lip-sync",
         ),
+    log:
+        "results/logs/figures/lipsync_diagram.log",
     params:
         word="one",
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
-    log:
-        "logs/figures/lipsync_diagram.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"
 
@@ -74,11 +82,13 @@ rule figure_morph_strip:
             caption="../report/morph_strip.rst",
             category="Morphing",
         ),
+    log:
+        "results/logs/figures/morph_strip.log",
     params:
         pair=["p", "aa"],
         alphas=[0.25, 0.5, 0.75],
         morph=config["morph"],
-    log:
-        "logs/figures/morph_strip.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"

@@ -10,19 +10,21 @@ rule flows:
     output:
         flows=directory(f"{FLOWS}/{{method}}/{{strategy}}"),
         choices=f"{FLOWS}/{{method}}/{{strategy}}.tsv",
+    log:
+        f"results/logs/flows/{FACE}/{{method}}/{{strategy}}.log",
+    benchmark:
+        f"results/benchmarks/flows/{FACE}/{{method}}/{{strategy}}.tsv"
     wildcard_constraints:
         strategy="direct|concat|mixed",
-    params:
-        spec=method_spec,
-        window=config["flow"]["mixed_window"],
     threads: config["flow"]["workers"]
-    log:
-        f"logs/flows/{FACE}/{{method}}/{{strategy}}.log",
-    benchmark:
-        f"benchmarks/flows/{FACE}/{{method}}/{{strategy}}.tsv"
     resources:
         mem_mb=6000,
         runtime=60,
+    params:
+        spec=method_spec,
+        window=config["flow"]["mixed_window"],
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/flows.py"
 
@@ -34,12 +36,14 @@ rule true_flows:
     output:
         flows=directory(f"results/truth/{FACE}/flows"),
         mouth=f"results/truth/{FACE}/mouth_mask.png",
+    log:
+        f"results/logs/true_flows/{FACE}.log",
+    benchmark:
+        f"results/benchmarks/true_flows/{FACE}.tsv"
     params:
         size=config["corpus"]["size"],
-    log:
-        f"logs/true_flows/{FACE}.log",
-    benchmark:
-        f"benchmarks/true_flows/{FACE}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/true_flows.py"
 
@@ -51,10 +55,12 @@ rule flow_epe:
         mouth=rules.true_flows.output.mouth,
     output:
         f"{METRICS}/epe/{FACE}/{{method}}/{{strategy}}.csv",
+    log:
+        f"results/logs/flow_epe/{FACE}/{{method}}/{{strategy}}.log",
     params:
         spec=method_spec,
-    log:
-        f"logs/flow_epe/{FACE}/{{method}}/{{strategy}}.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/flow_epe.py"
 
@@ -70,7 +76,9 @@ rule flow_epe_table:
         ),
         summary=f"{METRICS}/flow_epe_summary.csv",
     log:
-        "logs/flow_epe_table.log",
+        "results/logs/flow_epe_table.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/concat_tables.py"
 
@@ -82,11 +90,13 @@ rule motorcycle:
             caption="../report/motorcycle.rst",
             category="Optical flow",
         ),
+    log:
+        "results/logs/motorcycle.log",
+    benchmark:
+        "results/benchmarks/motorcycle.tsv"
     params:
         methods={name: spec for name, spec in config["flow"]["methods"].items()},
-    log:
-        "logs/motorcycle.log",
-    benchmark:
-        "benchmarks/motorcycle.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/motorcycle.py"

@@ -16,13 +16,15 @@ rule morph_fidelity:
             category="Morphing",
         ),
         summary=f"{METRICS}/morph_fidelity_summary.csv",
+    log:
+        f"results/logs/morph_fidelity/{FACE}.log",
+    benchmark:
+        f"results/benchmarks/morph_fidelity/{FACE}.tsv"
     params:
         alphas=config["metrics"]["alphas"],
         morph=config["morph"],
-    log:
-        f"logs/morph_fidelity/{FACE}.log",
-    benchmark:
-        f"benchmarks/morph_fidelity/{FACE}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/morph_fidelity.py"
 
@@ -34,14 +36,16 @@ rule sync:
         video=f"results/utterances/{FACE}/{{sentence}}.mp4",
     output:
         f"{METRICS}/sync/{FACE}/{{sentence}}.csv",
+    log:
+        f"results/logs/sync/{FACE}/{{sentence}}.log",
     params:
         text=lambda wildcards: config["sentences"][wildcards.sentence],
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
         morph=config["morph"],
         grouping=config["visemes"]["grouping"],
-    log:
-        f"logs/sync/{FACE}/{{sentence}}.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/sync.py"
 
@@ -52,12 +56,14 @@ rule sync_sweep_point:
         mouth=rules.true_flows.output.mouth,
     output:
         f"{METRICS}/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.csv",
+    log:
+        f"results/logs/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.log",
     params:
         text=config["sentences"][config["sweeps"]["sentence"]],
         morph=config["morph"],
         grouping=config["visemes"]["grouping"],
-    log:
-        f"logs/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/sync.py"
 
@@ -71,7 +77,9 @@ rule sync_table:
         ),
         summary=f"{METRICS}/sync_summary.csv",
     log:
-        "logs/sync_table.log",
+        "results/logs/sync_table.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/sync_summary.py"
 
@@ -87,6 +95,8 @@ rule sync_sweep_table:
             category="Lip-sync",
         ),
     log:
-        "logs/sync_sweep_table.log",
+        "results/logs/sync_sweep_table.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/sync_summary.py"

@@ -8,10 +8,12 @@ rule model:
         flows=f"{FLOWS}/{config['flow']['method']}/{config['flow']['strategy']}",
     output:
         directory(MODEL),
+    log:
+        f"results/logs/model/{FACE}.log",
     params:
         spec=method_json(config["flow"]["method"]),
         strategy=config["flow"]["strategy"],
-    log:
-        f"logs/model/{FACE}.log",
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/model.py"

@@ -11,14 +11,16 @@ rule utterance:
             category="Utterances",
         ),
         timeline=f"results/utterances/{FACE}/{{sentence}}.json",
+    log:
+        f"results/logs/utterances/{FACE}/{{sentence}}.log",
+    benchmark:
+        f"results/benchmarks/utterances/{FACE}/{{sentence}}.tsv"
     params:
         text=lambda wildcards: config["sentences"][wildcards.sentence],
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
         morph=config["morph"],
-    log:
-        f"logs/utterances/{FACE}/{{sentence}}.log",
-    benchmark:
-        f"benchmarks/utterances/{FACE}/{{sentence}}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/utterance.py"

@@ -25,12 +25,14 @@ rule visemes:
             caption="../report/word_strip.rst",
             category="Visemes",
         ),
+    log:
+        f"results/logs/visemes/{FACE}.log",
+    benchmark:
+        f"results/benchmarks/visemes/{FACE}.tsv"
     params:
         grouping=config["visemes"]["grouping"],
         frames_table=config["visemes"]["frames_table"],
-    log:
-        f"logs/visemes/{FACE}.log",
-    benchmark:
-        f"benchmarks/visemes/{FACE}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     script:
         "../scripts/visemes.py"

@@ -3,7 +3,16 @@
 from miketalk.workflow import run_stage
 
 
+def psnr_of_mean_mse(psnr):
+    """PSNR of the mean squared error over frames (identical frames have infinite PSNR)."""
+    import numpy as np
+
+    mse = 255.0**2 / np.power(10.0, np.asarray(psnr, float) / 10.0)
+    return float(10 * np.log10(255.0**2 / mse.mean())) if mse.mean() > 0 else float("inf")
+
+
 def main() -> None:
+    import numpy as np
     import pandas as pd
 
     from miketalk.atomic import write_text_atomic
@@ -20,8 +29,9 @@ def main() -> None:
             dict(zip(keys, group, strict=True))
             | {
                 "frames": int((part["quantity"] == "psnr_full").sum()),
-                "mean_psnr_mouth": q.get_group("psnr_mouth").mean(),
-                "mean_psnr_full": q.get_group("psnr_full").mean(),
+                "psnr_mouth": psnr_of_mean_mse(q.get_group("psnr_mouth")),
+                "psnr_full": psnr_of_mean_mse(q.get_group("psnr_full")),
+                "identical_frames": int(np.isinf(q.get_group("psnr_full")).sum()),
                 "mouth_lag_frames": q.get_group("mouth_lag_frames").iloc[0],
                 "mouth_opening_corr": q.get_group("mouth_opening_corr").iloc[0],
                 "max_abs_viseme_offset_frames": offsets.max(),

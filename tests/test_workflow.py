@@ -1,0 +1,136 @@
+"""The whole workflow end to end on the tiny .test configuration.
+
+One run builds everything (corpus -> visemes -> flows -> model -> utterance ->
+metrics -> figures); the tests then check outputs, metric bounds, that a rerun
+has nothing to do, that stages rebuild byte-identically, and that a killed run
+leaves nothing that a later run takes as complete.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from miketalk.speech import FestivalBackend
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = Path(sys.executable).parent / "snakemake"
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(not FestivalBackend().is_available(), reason="Festival not installed"),
+]
+
+
+def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.CompletedProcess:
+    proc = subprocess.run(
+        [str(SNAKEMAKE), "--snakefile", str(ROOT / "Snakefile"), "--directory", str(workdir),
+         "--cores", "2", "--rerun-incomplete", *args],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    if check and proc.returncode != 0:
+        raise AssertionError(f"snakemake failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    return proc
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    workdir = tmp_path_factory.mktemp("workflow")
+    shutil.copy(ROOT / ".test" / "config.yaml", workdir / "config.yaml")
+    snakemake(workdir)
+    return workdir
+
+
+def digest(paths: list[Path]) -> dict[str, str]:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(paths)}
+
+
+def test_outputs_exist(run: Path) -> None:
+    results = run / "results"
+    for path in [
+        "corpus/synthetic/corpus.mp4",
+        "visemes/synthetic/contact_sheet.png",
+        "model/synthetic/manifest.json",
+        "utterances/synthetic/hello.mp4",
+        "utterances/synthetic/hello.json",
+        "metrics/flow_epe.csv",
+        "metrics/morph_fidelity.csv",
+        "metrics/sync.csv",
+        "metrics/sync_sweep.csv",
+        "figures/epe_vs_levels.png",
+        "figures/morph_psnr_vs_alpha.png",
+        "figures/sync_vs_max_px.png",
+        "figures/lipsync_diagram.png",
+        "figures/morph_strip.png",
+    ]:
+        assert (results / path).stat().st_size > 0, path
+    assert len(list((results / "visemes/synthetic/images").glob("*.png"))) == 16
+
+
+def test_metrics_within_bounds(run: Path) -> None:
+    results = run / "results"
+    targets = pd.read_csv(results / "visemes/synthetic/targets.tsv", sep="\t")
+    assert targets["error"].abs().max() <= 1
+    epe = pd.read_csv(results / "metrics/flow_epe.csv")
+    mixed = epe[(epe["method"] == "bergen") & (epe["strategy"] == "mixed")]
+    assert len(mixed) == 2 * 240
+    assert mixed[mixed["region"] == "valid"]["mean_epe"].mean() < 1.0
+    morph = pd.read_csv(results / "metrics/morph_fidelity.csv")
+    mouth = morph[(morph["region"] == "mouth") & (morph["alpha"] == 0.5)]
+    by = mouth.groupby("candidate")["psnr"].mean()
+    assert by["morph_true_flow"] > by["cross_dissolve"]
+    assert by["morph_estimated_flow"] > by["cross_dissolve"]
+    assert morph["holes_left"].max() == 0
+    sync = pd.read_csv(results / "metrics/sync_summary.csv").iloc[0]
+    assert sync["mouth_lag_frames"] == 0
+    assert abs(sync["duration_diff_frames"]) <= 1
+    assert sync["largest_step_px_oversampled"] <= 2.5 + 1e-6
+    assert sync["max_abs_viseme_offset_frames"] <= 0.5
+
+
+def test_rerun_has_nothing_to_do(run: Path) -> None:
+    start = time.monotonic()
+    proc = snakemake(run)
+    assert "Nothing to be done" in proc.stdout + proc.stderr
+    assert time.monotonic() - start < 30
+
+
+def test_stages_rebuild_byte_identical(run: Path) -> None:
+    results = run / "results"
+    visemes = sorted((results / "visemes/synthetic").rglob("*.*"))
+    flows = sorted((results / "flows/synthetic/bergen/mixed").glob("*.exr"))
+    before = digest(visemes) | digest(flows)
+    snakemake(run, "--forcerun", "visemes", "flows", "--until", "visemes", "flows")
+    after = digest(sorted((results / "visemes/synthetic").rglob("*.*")))
+    after |= digest(sorted((results / "flows/synthetic/bergen/mixed").glob("*.exr")))
+    assert after == before
+
+
+def test_killed_run_is_redone(tmp_path: Path) -> None:
+    shutil.copy(ROOT / ".test" / "config.yaml", tmp_path / "config.yaml")
+    proc = subprocess.Popen(
+        [str(SNAKEMAKE), "--snakefile", str(ROOT / "Snakefile"), "--directory", str(tmp_path),
+         "--cores", "1", "results/corpus/synthetic/corpus.mp4"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    )  # fmt: skip
+    frames = tmp_path / "results/corpus/synthetic/frames"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(frames.glob("*.png"))) < 20:
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    partial = len(list(frames.glob("*.png")))
+    assert 0 < partial
+    assert not (tmp_path / "results/corpus/synthetic/corpus.mp4").exists()
+    snakemake(tmp_path, "results/corpus/synthetic/corpus.mp4")
+    table = pd.read_csv(tmp_path / "results/corpus/synthetic/frames.tsv", sep="\t")
+    assert len(list(frames.glob("*.png"))) == len(table) > partial
