@@ -41,7 +41,7 @@ PAIRS: tuple[tuple[str, str], ...] = (
 _SWEEP_FRAMES = 60
 
 
-def _render_fps(renderer, p_a: np.ndarray, p_b: np.ndarray) -> float:  # noqa: ANN001
+def _render_fps(renderer, p_a: np.ndarray, p_b: np.ndarray) -> float:
     renderer.render(p_a)
     start = time.perf_counter()
     for i in range(_SWEEP_FRAMES):
@@ -50,7 +50,7 @@ def _render_fps(renderer, p_a: np.ndarray, p_b: np.ndarray) -> float:  # noqa: A
     return _SWEEP_FRAMES / (time.perf_counter() - start)
 
 
-def _flow_seconds(renderer, p_a: np.ndarray, p_b: np.ndarray, runs: int = 5) -> float:  # noqa: ANN001
+def _flow_seconds(renderer, p_a: np.ndarray, p_b: np.ndarray, runs: int = 5) -> float:
     renderer.true_flow(p_a, p_b)
     start = time.perf_counter()
     for _ in range(runs):
