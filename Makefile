@@ -52,7 +52,7 @@ lint: setup
 test: setup lint
 	$(BIN)/pytest -q
 
-bench: setup
+bench: run
 	$(BIN)/python -m miketalk.bench --out results/bench
 
 clean:

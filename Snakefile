@@ -1,7 +1,6 @@
 # miketalk: corpus -> visemes -> flows -> model -> utterances -> metrics -> figures -> report
 from snakemake.utils import min_version, validate
 
-
 min_version("8.0")
 
 
@@ -25,6 +24,6 @@ include: "workflow/rules/figures.smk"
 
 
 rule all:
+    default_target: True
     input:
         all_outputs(),
-    default_target: True

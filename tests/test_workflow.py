@@ -17,6 +17,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -109,7 +110,8 @@ def test_stages_rebuild_byte_identical(run: Path) -> None:
     visemes = sorted((results / "visemes/synthetic").rglob("*.*"))
     flows = sorted((results / "flows/synthetic/bergen/mixed").glob("*.exr"))
     before = digest(visemes) | digest(flows)
-    snakemake(run, "--forcerun", "visemes", "flows", "--until", "visemes", "flows")
+    snakemake(run, "results/visemes/synthetic/visemes.tsv", "--forcerun", "visemes")
+    snakemake(run, "results/flows/synthetic/bergen/mixed", "--forcerun", "flows")
     after = digest(sorted((results / "visemes/synthetic").rglob("*.*")))
     after |= digest(sorted((results / "flows/synthetic/bergen/mixed").glob("*.exr")))
     assert after == before
@@ -131,6 +133,62 @@ def test_killed_run_is_redone(tmp_path: Path) -> None:
     partial = len(list(frames.glob("*.png")))
     assert 0 < partial
     assert not (tmp_path / "results/corpus/synthetic/corpus.mp4").exists()
+    # a hard kill leaves Snakemake's lock behind; its message tells the user to unlock
+    assert (
+        "--unlock" in snakemake(tmp_path, "results/corpus/synthetic/corpus.mp4", check=False).stderr
+    )
+    snakemake(tmp_path, "--unlock")
     snakemake(tmp_path, "results/corpus/synthetic/corpus.mp4")
     table = pd.read_csv(tmp_path / "results/corpus/synthetic/frames.tsv", sep="\t")
     assert len(list(frames.glob("*.png"))) == len(table) > partial
+
+
+def test_a_persons_video_takes_the_corpus_place(run: Path, tmp_path: Path) -> None:
+    """The synthetic corpus's own mp4, fed in as if it were a person's recording."""
+    import yaml
+
+    config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
+    config["face"] = "person"
+    config["corpus"]["source"] = "video"
+    config["corpus"]["video"] = str(run / "results/corpus/synthetic/corpus.mp4")
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    snakemake(tmp_path)
+    results = tmp_path / "results"
+    assert (results / "utterances/person/hello.mp4").stat().st_size > 0
+    assert "no\nground truth" in (results / "metrics/SKIPPED.txt").read_text()
+    assert not (results / "metrics/flow_epe.csv").exists()
+    # extraction from the decoded video still finds the synthetic face's true frames
+    found = pd.read_csv(results / "visemes/person/targets.tsv", sep="\t")
+    truth = pd.read_csv(run / "results/corpus/synthetic/truth.tsv", sep="\t")
+    both = found.merge(truth, on="key", suffixes=("", "_true"))
+    assert len(both) == len(truth)
+    assert (both["frame"] - both["frame_true"]).abs().max() <= 1
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium not installed")
+def test_report_renders_in_headless_chromium(run: Path) -> None:
+    import cv2
+
+    report = run / "report.html"
+    proc = snakemake(run, "--report", str(report))
+    assert report.stat().st_size > 10_000, proc.stderr[-2000:]
+    html = report.read_text(errors="replace")
+    for caption in ("Every corpus target", "Morph fidelity", "paper's Figure 8"):
+        assert caption in html
+    shot = run / "report.png"
+    subprocess.run(
+        [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+         "--no-first-run", "--disable-background-networking", "--disable-component-update",
+         "--disable-sync", f"--user-data-dir={run / 'chromium-profile'}",
+         "--window-size=1280,900", "--virtual-time-budget=5000",
+         f"--screenshot={shot}", report.as_uri()],
+        capture_output=True, timeout=120, check=True,
+    )  # fmt: skip
+    image = cv2.imread(str(shot))
+    assert image is not None and image.shape[:2] == (900, 1280)
+    # a rendered page, not a blank one: many distinct colours and real contrast
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 50
+    assert image.std() > 20

@@ -20,7 +20,7 @@ from miketalk.speech.types import Utterance
 from miketalk.video import write_mp4
 from miketalk.visemes import VisemeTable, default_table
 
-DEFAULT_MODEL = Path("results/model/default")
+DEFAULT_MODEL = Path("results/model/synthetic")
 
 
 def default_model_dir() -> Path:

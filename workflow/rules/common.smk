@@ -90,6 +90,8 @@ def all_outputs():
             f"{FIGURES}/morph_psnr_vs_alpha.png",
             f"{FIGURES}/sync_vs_max_px.png",
         ]
+    else:
+        out.append(f"{METRICS}/SKIPPED.txt")
     if config["metrics"]["motorcycle"]:
         out.append(f"{METRICS}/motorcycle_epe.csv")
     return out

@@ -13,13 +13,13 @@ rule corpus:
         f"results/logs/corpus/{FACE}.log",
     benchmark:
         f"results/benchmarks/corpus/{FACE}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     resources:
         mem_mb=4000,
         runtime=30,
     params:
         corpus=config["corpus"],
         grouping=config["visemes"]["grouping"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/corpus.py"

@@ -63,12 +63,12 @@ rule figure_lipsync_diagram:
         ),
     log:
         "results/logs/figures/lipsync_diagram.log",
+    conda:
+        "../envs/miketalk.yaml"
     params:
         word="one",
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"
 
@@ -84,11 +84,11 @@ rule figure_morph_strip:
         ),
     log:
         "results/logs/figures/morph_strip.log",
+    conda:
+        "../envs/miketalk.yaml"
     params:
         pair=["p", "aa"],
         alphas=[0.25, 0.5, 0.75],
         morph=config["morph"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/figures.py"

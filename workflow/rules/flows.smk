@@ -16,6 +16,8 @@ rule flows:
         f"results/benchmarks/flows/{FACE}/{{method}}/{{strategy}}.tsv"
     wildcard_constraints:
         strategy="direct|concat|mixed",
+    conda:
+        "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]
     resources:
         mem_mb=6000,
@@ -23,8 +25,6 @@ rule flows:
     params:
         spec=method_spec,
         window=config["flow"]["mixed_window"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/flows.py"
 
@@ -40,10 +40,10 @@ rule true_flows:
         f"results/logs/true_flows/{FACE}.log",
     benchmark:
         f"results/benchmarks/true_flows/{FACE}.tsv"
-    params:
-        size=config["corpus"]["size"],
     conda:
         "../envs/miketalk.yaml"
+    params:
+        size=config["corpus"]["size"],
     script:
         "../scripts/true_flows.py"
 
@@ -57,10 +57,10 @@ rule flow_epe:
         f"{METRICS}/epe/{FACE}/{{method}}/{{strategy}}.csv",
     log:
         f"results/logs/flow_epe/{FACE}/{{method}}/{{strategy}}.log",
-    params:
-        spec=method_spec,
     conda:
         "../envs/miketalk.yaml"
+    params:
+        spec=method_spec,
     script:
         "../scripts/flow_epe.py"
 
@@ -94,9 +94,9 @@ rule motorcycle:
         "results/logs/motorcycle.log",
     benchmark:
         "results/benchmarks/motorcycle.tsv"
-    params:
-        methods={name: spec for name, spec in config["flow"]["methods"].items()},
     conda:
         "../envs/miketalk.yaml"
+    params:
+        methods={name: spec for name, spec in config["flow"]["methods"].items()},
     script:
         "../scripts/motorcycle.py"

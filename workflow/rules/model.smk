@@ -10,10 +10,10 @@ rule model:
         directory(MODEL),
     log:
         f"results/logs/model/{FACE}.log",
+    conda:
+        "../envs/miketalk.yaml"
     params:
         spec=method_json(config["flow"]["method"]),
         strategy=config["flow"]["strategy"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/model.py"

@@ -15,12 +15,12 @@ rule utterance:
         f"results/logs/utterances/{FACE}/{{sentence}}.log",
     benchmark:
         f"results/benchmarks/utterances/{FACE}/{{sentence}}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     params:
         text=lambda wildcards: config["sentences"][wildcards.sentence],
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
         morph=config["morph"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/utterance.py"

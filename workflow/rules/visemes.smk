@@ -29,10 +29,10 @@ rule visemes:
         f"results/logs/visemes/{FACE}.log",
     benchmark:
         f"results/benchmarks/visemes/{FACE}.tsv"
+    conda:
+        "../envs/miketalk.yaml"
     params:
         grouping=config["visemes"]["grouping"],
         frames_table=config["visemes"]["frames_table"],
-    conda:
-        "../envs/miketalk.yaml"
     script:
         "../scripts/visemes.py"

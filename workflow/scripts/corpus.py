@@ -13,10 +13,11 @@ def main() -> None:
 
     corpus = snakemake.params.corpus
     table = VisemeTable(grouping=snakemake.params.grouping)
-    words = corpus["words"] or table.corpus_words()
-    unknown = sorted(set(words) - set(table.corpus_words()))
-    if unknown:
+    chosen = set(corpus["words"] or table.corpus_words())
+    if unknown := sorted(chosen - set(table.corpus_words())):
         raise MiketalkError(f"corpus.words names words not in the corpus: {unknown}")
+    # spoken in the corpus order (Figure 3), whatever order the config lists them in
+    words = [w for w in table.corpus_words() if w in chosen]
     needed = {table.representative(v).word for v in table.visemes} - {"-"}
     if missing := sorted(needed - set(words)):
         raise MiketalkError(f"corpus.words lacks words that visemes are taken from: {missing}")

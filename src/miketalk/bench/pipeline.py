@@ -1,0 +1,67 @@
+"""Benchmark of the whole pipeline on the default model (``make run`` builds it).
+
+``run(out_dir)`` times
+
+* the flow database of the 16 visemes at the recording's size, direct flows with
+  our estimator on 2 worker processes (the issue's target: <= 2 minutes);
+* ``miketalk say`` of a 10-word sentence end to end, as a user runs it (a fresh
+  process: Festival, lip-sync, morphing, mp4), first call and warm calls
+  (target: < 1.5 s).
+"""
+
+from __future__ import annotations
+
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import pandas as pd
+
+from miketalk.errors import MiketalkError
+from miketalk.synthesis import DEFAULT_MODEL
+
+SENTENCE = "The quick brown fox jumps over the lazy dog today."
+VISEMES = pathlib.Path("results/visemes/synthetic")
+FRAMES = pathlib.Path("results/corpus/synthetic/frames")
+
+
+def _say_seconds(model: pathlib.Path, out: pathlib.Path) -> float:
+    start = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "miketalk.cli", "say", SENTENCE, "-o", str(out),
+         "--model", str(model)],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    return time.perf_counter() - start
+
+
+def run(out_dir: pathlib.Path) -> dict[str, float]:
+    """Time the flow database build and ``miketalk say``; print and return the figures."""
+    from miketalk.viseme_flows import build_flow_database
+
+    if not (DEFAULT_MODEL / "manifest.json").exists() or not (VISEMES / "visemes.tsv").exists():
+        raise MiketalkError("no default model: run `make run` first (make bench does)")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    figures: dict[str, float] = {}
+    visemes = pd.read_csv(VISEMES / "visemes.tsv", sep="\t", keep_default_na=False)
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        build_flow_database(
+            pathlib.Path(tmp) / "flows", visemes=visemes, images_dir=VISEMES / "images",
+            frames_dir=FRAMES, estimator="bergen", settings={}, strategy="direct", workers=2,
+        )  # fmt: skip
+        figures["flow_database_direct_bergen_2workers_s"] = time.perf_counter() - start
+        say = [_say_seconds(DEFAULT_MODEL, pathlib.Path(tmp) / f"say{i}.mp4") for i in range(4)]
+    figures["say_10_words_first_s"] = say[0]
+    figures["say_10_words_warm_s"] = min(say[1:])
+    for name, value in figures.items():
+        print(f"{name:45s} {value:8.3f}")
+    (out_dir / "pipeline.json").write_text(json.dumps(figures, indent=1))
+    return figures
+
+
+if __name__ == "__main__":
+    run(pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "results/bench/pipeline"))
