@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -82,9 +83,9 @@ def test_metrics_within_bounds(run: Path) -> None:
     targets = pd.read_csv(results / "visemes/synthetic/targets.tsv", sep="\t")
     assert targets["error"].abs().max() <= 1
     epe = pd.read_csv(results / "metrics/flow_epe.csv")
-    mixed = epe[(epe["method"] == "bergen") & (epe["strategy"] == "mixed")]
-    assert len(mixed) == 2 * 240
-    assert mixed[mixed["region"] == "valid"]["mean_epe"].mean() < 1.0
+    model_flows = epe[(epe["method"] == "bergen") & (epe["strategy"] == "bridge")]
+    assert len(model_flows) == 2 * 240
+    assert model_flows[model_flows["region"] == "valid"]["mean_epe"].mean() < 1.0
     morph = pd.read_csv(results / "metrics/morph_fidelity.csv")
     mouth = morph[(morph["region"] == "mouth") & (morph["alpha"] == 0.5)]
     by = mouth.groupby("candidate")["psnr"].mean()
@@ -108,12 +109,12 @@ def test_rerun_has_nothing_to_do(run: Path) -> None:
 def test_stages_rebuild_byte_identical(run: Path) -> None:
     results = run / "results"
     visemes = sorted((results / "visemes/synthetic").rglob("*.*"))
-    flows = sorted((results / "flows/synthetic/bergen/mixed").glob("*.exr"))
+    flows = sorted((results / "flows/synthetic/bergen/bridge").glob("*.exr"))
     before = digest(visemes) | digest(flows)
     snakemake(run, "results/visemes/synthetic/visemes.tsv", "--forcerun", "visemes")
-    snakemake(run, "results/flows/synthetic/bergen/mixed", "--forcerun", "flows")
+    snakemake(run, "results/flows/synthetic/bergen/bridge", "--forcerun", "flows")
     after = digest(sorted((results / "visemes/synthetic").rglob("*.*")))
-    after |= digest(sorted((results / "flows/synthetic/bergen/mixed").glob("*.exr")))
+    after |= digest(sorted((results / "flows/synthetic/bergen/bridge").glob("*.exr")))
     assert after == before
 
 
@@ -192,3 +193,21 @@ def test_report_renders_in_headless_chromium(run: Path) -> None:
     # a rendered page, not a blank one: many distinct colours and real contrast
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 50
     assert image.std() > 20
+
+
+def test_pyramid_depth_change_reruns_only_what_depends_on_it(run: Path, tmp_path: Path) -> None:
+    """A dry run after changing flow.methods.bergen.settings.levels lists the jobs to redo."""
+    import yaml
+
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["flow"]["methods"]["bergen"]["settings"]["levels"] += 1
+    changed = tmp_path / "levels.yaml"
+    changed.write_text(yaml.safe_dump(config))
+    proc = snakemake(run, "--configfile", str(changed), "--dry-run", "--quiet", "rules")
+    table = proc.stdout.split("Job stats:")[-1]
+    rules = {line.split()[0] for line in table.splitlines()[2:] if len(line.split()) == 2}
+    assert {"flows", "model", "utterance", "morph_fidelity", "sync"} <= rules
+    # upstream of the flows, the truth and the depth sweep's own methods stay as they are
+    assert not rules & {"corpus", "visemes", "true_flows", "motorcycle"}
+    flows = re.findall(r"flows/synthetic/([\w-]+)/(\w+)", proc.stdout)
+    assert flows and {method for method, _ in flows} == {"bergen"}

@@ -54,8 +54,8 @@ def mouth_opening(frames: np.ndarray, region: np.ndarray) -> np.ndarray:
     region : (H, W) bool
         The mouth region.
     """
-    grey = frames.mean(axis=-1) if frames.ndim == 4 else frames.astype(np.float64)
-    return 1.0 - grey[:, region].mean(axis=1) / 255.0
+    pixels = frames[:, region].astype(np.float64)  # (N, M) or (N, M, 3): the region only
+    return 1.0 - pixels.reshape(len(frames), -1).mean(axis=1) / 255.0
 
 
 def lag_frames(signal: np.ndarray, reference: np.ndarray, *, max_lag: int = 10) -> int:

@@ -53,33 +53,34 @@ def viseme_offsets(
     """
     fps = timeline.fps
     grid = np.linspace(0.0, 1.0, 51)
-    samples: dict[int, list[tuple[float, float]]] = {}
+    samples: dict[int, list[tuple[float, int]]] = {}
     for f in timeline.frames:
         samples.setdefault(f.transition, []).append((f.time, f.index))
+    shown = frames[:, mouth].reshape(len(frames), -1).astype(np.float64)
     rows = []
     for i, t in enumerate(timeline.transitions):
         here = samples.get(i, [])
         if t.source == t.target or len(here) < 2:
             continue
-        candidates = np.stack([model.frame(t.source, t.target, a) for a in grid])
-        cand = candidates[:, mouth].astype(np.float64)
-        times, alphas = [], []
-        for time, k in here:
-            err = ((cand - frames[k][mouth].astype(np.float64)) ** 2).mean(axis=(1, 2))
-            times.append(time)
-            alphas.append(grid[int(np.argmin(err))])
+        candidates = np.stack([model.frame(t.source, t.target, a)[mouth] for a in grid])
+        cand = candidates.reshape(len(grid), -1).astype(np.float64)
+        times = np.array([time for time, _ in here])
+        observed = shown[[k for _, k in here]]
+        # squared distance of every frame to every candidate: |f|^2 + |c|^2 - 2 f.c
+        dist = (cand * cand).sum(axis=1)[None, :] - 2.0 * observed @ cand.T
+        alphas = grid[np.argmin(dist, axis=1)]
         slope, intercept = np.polyfit(times, alphas, 1)
         if slope <= 0:
             continue
-        shown = -intercept / slope  # time at alpha = 0
+        at_zero = -intercept / slope  # the time the video shows viseme A (alpha = 0)
         key = next(k for k in timeline.keyframes if abs(k.time - t.start) < 1e-9)
         rows.append(
             {
                 "viseme": t.source,
                 "phone": timeline.phones[key.phone].name,
                 "time": key.time,
-                "frame": shown * fps,
-                "offset_frames": (shown - key.time) * fps,
+                "frame": at_zero * fps,
+                "offset_frames": (at_zero - key.time) * fps,
             }
         )
     return rows

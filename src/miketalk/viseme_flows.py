@@ -1,4 +1,4 @@
-"""The flows between visemes, by strategy: direct, concatenated, or mixed (paper §5.2).
+"""The flows between visemes, by strategy: direct, concatenated, mixed or bridged (paper §5.2).
 
 ``direct``  the estimator between the two viseme images.
 ``concat``  concatenation (CONCATENATION-UP, Fig. 11) of the consecutive flows of
@@ -7,6 +7,9 @@
 ``mixed``   the paper's mix: a direct flow from the start viseme to a frame that
             looks like it and lies shortly before the end viseme's frame, then
             concatenated flow from there (:func:`miketalk.flow.mixed_flow`).
+``bridge``  ours: concatenated flow from the first viseme's frame to the nearest
+            rest frame, one direct flow to the rest frame nearest the second
+            viseme, concatenated flow from there (:mod:`miketalk.flow.bridge`).
 
 Each unordered pair is one OpenEXR file (forward and backward layers). Pairs are
 independent jobs, spread over worker processes; results do not depend on the
@@ -28,18 +31,14 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.flow import (
-    concatenate_up_flows,
-    get_estimator,
-    mixed_flow,
-    pair_path,
-    write_flow_pair,
-)
+from miketalk.flow import get_estimator, mixed_flow, pair_path, window_chains, write_flow_pair
+from miketalk.flow.bridge import nearest_rest, rest_frames
+from miketalk.flow.concat import _concat, concatenate_up_flows
 from miketalk.images import read_image
 
 log = logging.getLogger(__name__)
 
-STRATEGIES = ("direct", "concat", "mixed")
+STRATEGIES = ("direct", "concat", "mixed", "bridge")
 
 # worker-process state, set by _init
 _STATE: dict = {}
@@ -59,30 +58,40 @@ def _frame(index: int) -> np.ndarray:
     return cache[index]
 
 
-def _consecutive_job(job: tuple[int, int]) -> None:
-    """Consecutive flows k -> k+1 (forward) and k+1 -> k (backward) for k in [lo, hi)."""
-    lo, hi = job
+def _consecutive_job(steps: list[int]) -> None:
+    """Consecutive flows k -> k+1 (forward) and k+1 -> k (backward) for k in ``steps``."""
     estimate = _STATE["estimate"]
     forward, backward = _STATE["consecutive"]
-    for k in range(lo, hi):
+    for k in steps:
         forward[k] = estimate(_frame(k), _frame(k + 1))
         backward[k] = estimate(_frame(k + 1), _frame(k))
     forward.flush()
     backward.flush()
 
 
-def _chain(start: int, end: int) -> np.ndarray:
-    """Concatenated flow along the recording from frame ``start`` to frame ``end``.
+def _chains_from(job: tuple[int, list[int]]) -> dict[int, np.ndarray]:
+    """Concatenated flows along the recording from frame ``start`` to each frame of ``ends``.
 
-    Uses the consecutive flows computed once for the whole recording
-    (CONCATENATION-UP over ``|end - start|`` flows).
+    CONCATENATION-UP (Fig. 11) over the consecutive flows computed once for the
+    whole recording, one pass forward in time for the later ends and one pass
+    backward for the earlier ones. ``C_{s,k+1} = C_{s,k} + C_{k,k+1}(p + C_{s,k}(p))``
+    is a left fold, so each end's flow is the fold's value when it reaches that
+    frame: the same numbers as folding that end's chain alone, in one pass.
     """
+    start, ends = job
     forward, backward = _STATE["consecutive"]
-    if end > start:
-        flows = [forward[k] for k in range(start, end)]
-    else:
-        flows = [backward[k - 1] for k in range(start, end, -1)]
-    return concatenate_up_flows(flows)
+    out: dict[int, np.ndarray] = {}
+    later = sorted(e for e in set(ends) if e > start)
+    earlier = sorted((e for e in set(ends) if e < start), reverse=True)
+    for targets, sign in ((later, 1), (earlier, -1)):
+        total, k = None, start
+        for end in targets:
+            while k != end:
+                step = np.asarray(forward[k] if sign > 0 else backward[k - 1])
+                total = step.copy() if total is None else _concat(total, step)
+                k += sign
+            out[end] = total
+    return out
 
 
 def _pair_job(job: tuple) -> dict:
@@ -91,16 +100,23 @@ def _pair_job(job: tuple) -> dict:
     info: dict = {"source": a, "target": b}
     if strategy == "direct":
         forward, backward = estimate(image_a, image_b), estimate(image_b, image_a)
-    elif strategy == "concat":
-        if frame_a == frame_b:
-            forward = backward = np.zeros((*image_a.shape[:2], 2), np.float32)
-        else:
-            forward, backward = _chain(frame_a, frame_b), _chain(frame_b, frame_a)
-        info["chain_length"] = abs(frame_b - frame_a)
+    elif strategy == "bridge":
+        rest_a, rest_b = (nearest_rest(f, _STATE["rest"]) for f in (frame_a, frame_b))
+        forward = _bridge(frame_a, rest_a, rest_b, frame_b)
+        backward = _bridge(frame_b, rest_b, rest_a, frame_a)
+        info.update(
+            rest_a=rest_a, rest_b=rest_b, chain_length=abs(frame_a - rest_a) + abs(frame_b - rest_b)
+        )
     else:
         frames = _WindowFrames()
-        forward, fwd = mixed_flow(image_a, frames, frame_b, estimate, window=window, mask=mask)
-        backward, bwd = mixed_flow(image_b, frames, frame_a, estimate, window=window, mask=mask)
+        forward, fwd = mixed_flow(
+            image_a, frames, frame_b, estimate, window=window, mask=mask,
+            chains=_chains_to(frame_b, window),
+        )  # fmt: skip
+        backward, bwd = mixed_flow(
+            image_b, frames, frame_a, estimate, window=window, mask=mask,
+            chains=_chains_to(frame_a, window),
+        )  # fmt: skip
         info.update(
             forward_intermediate=fwd.index,
             forward_chain=frame_b - fwd.index,
@@ -111,6 +127,33 @@ def _pair_job(job: tuple) -> dict:
         )
     info["forward"], info["backward"] = forward, backward
     return info
+
+
+def _steps(start: int, end: int) -> list[np.ndarray]:
+    """The consecutive flows of the recording from frame ``start`` to frame ``end``."""
+    forward, backward = _STATE["consecutive"]
+    if end >= start:
+        return [forward[k] for k in range(start, end)]
+    return [backward[k - 1] for k in range(start, end, -1)]
+
+
+def _bridge(start: int, rest_start: int, rest_end: int, end: int) -> np.ndarray:
+    """``C_{start,end}`` through the rest frames (:mod:`miketalk.flow.bridge`)."""
+    flows = _steps(start, rest_start)
+    if rest_start != rest_end:
+        flows.append(_STATE["estimate"](_frame(rest_start), _frame(rest_end)))
+    flows += _steps(rest_end, end)
+    if not flows:  # the same frame
+        return np.zeros((*_frame(start).shape[:2], 2), np.float32)
+    return concatenate_up_flows(flows)
+
+
+def _chains_to(end: int, window: int) -> list[np.ndarray]:
+    """:func:`window_chains` to frame ``end``, computed once per worker and end frame."""
+    cache = _STATE.setdefault("chains", {})
+    if end not in cache:
+        cache[end] = window_chains(_WindowFrames(), end, _STATE["estimate"], window=window)
+    return cache[end]
 
 
 class _WindowFrames(Sequence):
@@ -124,10 +167,16 @@ class _WindowFrames(Sequence):
 
 
 def _init_worker(
-    estimator: str, settings: dict, frames_dir: str, n_frames: int, consecutive: str | None
+    estimator: str,
+    settings: dict,
+    frames_dir: str,
+    n_frames: int,
+    consecutive: str | None,
+    rest: np.ndarray | None,
 ) -> None:
     _init(estimator, settings, frames_dir)
     _STATE["n_frames"] = n_frames
+    _STATE["rest"] = rest
     if consecutive is not None:
         h, w = _frame(0).shape[:2]
         shape = (max(n_frames - 1, 1), h, w, 2)
@@ -150,6 +199,7 @@ def build_flow_database(
     strategy: str,
     window: int = 12,
     mask: np.ndarray | None = None,
+    rest_viseme: str = "#",
     workers: int = 1,
 ) -> pd.DataFrame:
     """Compute and write the flow database of ``visemes`` by ``strategy``.
@@ -163,14 +213,17 @@ def build_flow_database(
     images_dir : path
         Where the viseme images are.
     frames_dir : path
-        The recording's frames (``concat`` and ``mixed``).
+        The recording's frames (``concat``, ``mixed`` and ``bridge``).
     estimator, settings : str, dict
         Registry name and settings of the flow estimator.
-    strategy : {"direct", "concat", "mixed"}
+    strategy : {"direct", "concat", "mixed", "bridge"}
     window : int
         Frames before the end viseme's frame searched by ``mixed``.
     mask : (H, W) bool, optional
         Region for the mixed strategy's residual (the mouth); all pixels if None.
+    rest_viseme : str
+        The viseme of the rest pose (silence), whose look-alike frames ``bridge``
+        passes through.
     workers : int
         Worker processes.
 
@@ -195,10 +248,20 @@ def build_flow_database(
         (strategy, a, b, images[a], images[b], frame_of[a], frame_of[b], window, mask)
         for a, b in combinations(names, 2)
     ]
-    rows = []
+    rest, steps = None, []
+    if strategy == "concat":
+        steps = list(range(n_frames - 1))
+    elif strategy == "bridge":
+        if rest_viseme not in frame_of:
+            raise MiketalkError(f"the bridge strategy needs the rest viseme {rest_viseme!r}")
+        recording = [read_image(p) for p in sorted(Path(frames_dir).glob("*.png"))]
+        rest = rest_frames(recording, frame_of[rest_viseme])
+        spans = [sorted((f, nearest_rest(f, rest))) for f in frame_of.values()]
+        steps = sorted({k for lo, hi in spans for k in range(lo, hi)})
+        log.info("bridge: %d rest frames, %d consecutive flows", len(rest), len(steps))
     with tempfile.TemporaryDirectory(dir=out.parent, prefix=".consecutive-") as tmp:
         consecutive = None
-        if strategy == "concat":
+        if steps:
             consecutive = str(Path(tmp) / "flows")
             h, w = next(iter(images.values())).shape[:2]
             for d in ("forward", "backward"):
@@ -206,22 +269,49 @@ def build_flow_database(
                     f"{consecutive}.{d}.npy", mode="w+", dtype=np.float32,
                     shape=(max(n_frames - 1, 1), h, w, 2),
                 )  # fmt: skip
-        with ProcessPoolExecutor(
-            max_workers=workers,
-            initializer=_init_worker,
-            initargs=(estimator, settings, str(frames_dir), n_frames, consecutive),
-        ) as pool:
-            if consecutive is not None:
-                step = 25
-                chunks = [(lo, min(lo + step, n_frames - 1)) for lo in range(0, n_frames - 1, step)]
+        # OpenCV's worker threads must not exist across the fork: a child inherits
+        # their pool without the threads, and hangs on its first cv2.setNumThreads
+        threads = cv2.getNumThreads()
+        cv2.setNumThreads(1)
+        try:
+            with ProcessPoolExecutor(
+                max_workers=workers,
+                initializer=_init_worker,
+                initargs=(estimator, settings, str(frames_dir), n_frames, consecutive, rest),
+            ) as pool:
+                chunks = [steps[i : i + 25] for i in range(0, len(steps), 25)]
                 list(pool.map(_consecutive_job, chunks))
-            rows = _write_pairs(pool, jobs, out, estimator, settings, strategy)
+                if strategy == "concat":
+                    infos = _concat_infos(pool, jobs)
+                else:
+                    infos = pool.map(_pair_job, jobs, chunksize=1)
+                rows = _write_pairs(infos, out, estimator, settings, strategy)
+        finally:
+            cv2.setNumThreads(threads)
     return pd.DataFrame(rows)
 
 
-def _write_pairs(pool, jobs, out, estimator, settings, strategy) -> list[dict]:
+def _concat_infos(pool: ProcessPoolExecutor, jobs: list[tuple]) -> list[dict]:
+    """The ``concat`` strategy's pair infos: one fold from each viseme frame to all others."""
+    frames = sorted({job[5] for job in jobs} | {job[6] for job in jobs})
+    starts = [(f, [g for g in frames if g != f]) for f in frames]
+    chains = dict(zip(frames, pool.map(_chains_from, starts), strict=True))
+    infos = []
+    for _, a, b, image_a, _, frame_a, frame_b, *_ in jobs:
+        if frame_a == frame_b:
+            forward = backward = np.zeros((*image_a.shape[:2], 2), np.float32)
+        else:
+            forward, backward = chains[frame_a][frame_b], chains[frame_b][frame_a]
+        infos.append(
+            {"source": a, "target": b, "chain_length": abs(frame_b - frame_a),
+             "forward": forward, "backward": backward}
+        )  # fmt: skip
+    return infos
+
+
+def _write_pairs(infos, out, estimator, settings, strategy) -> list[dict]:
     rows = []
-    for info in pool.map(_pair_job, jobs, chunksize=1):
+    for info in infos:
         a, b = info.pop("source"), info.pop("target")
         write_flow_pair(
             pair_path(out, a, b),

@@ -9,7 +9,7 @@ FLOWS = f"results/flows/{FACE}"
 MODEL = f"results/model/{FACE}"
 METRICS = "results/metrics"
 FIGURES = "results/figures"
-STRATEGIES = ["direct", "concat", "mixed"]
+STRATEGIES = ["direct", "concat", "mixed", "bridge"]
 
 
 def sweep_methods():

@@ -15,7 +15,7 @@ rule flows:
     benchmark:
         f"results/benchmarks/flows/{FACE}/{{method}}/{{strategy}}.tsv"
     wildcard_constraints:
-        strategy="direct|concat|mixed",
+        strategy="direct|concat|mixed|bridge",
     conda:
         "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]

@@ -26,6 +26,10 @@ from miketalk.atomic import atomic_path, write_text_atomic
 from miketalk.flow import ESTIMATORS, endpoint_error, motorcycle_table, sinusoidal_pair
 
 SIZE = 256
+# what `make run` leaves (the default config): the viseme images, the recording, true flows
+VISEMES = pathlib.Path("results/visemes/synthetic")
+FRAMES = pathlib.Path("results/corpus/synthetic/frames")
+TRUTH = pathlib.Path("results/truth/synthetic")
 _BUDGET_SECONDS = 2.0  # per estimator on the 256² pair, beyond the minimum of runs
 _MIN_RUNS, _MAX_RUNS = 3, 21
 
@@ -91,8 +95,60 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
         figures[f"{row.estimator}_motorcycle_epe"] = float(row.mean_epe)
         figures[f"{row.estimator}_motorcycle_seconds"] = float(row.seconds)
     _print_table(figures, table)
+    if (VISEMES / "visemes.tsv").exists() and (TRUTH / "flows").is_dir():
+        figures |= viseme_pairs(out_dir)
     write_text_atomic(out_dir / "flow.json", json.dumps(figures, indent=2, sort_keys=True) + "\n")
     return figures
+
+
+def viseme_pairs(out_dir: pathlib.Path) -> dict[str, float]:
+    """Every estimator applied directly to the 240 viseme pairs of ``make run``'s face.
+
+    Beside them, every method x strategy of the run's ``flow_epe.csv`` (the
+    model's flows among them). Writes the mean
+    endpoint error per estimator x strategy x region to ``viseme_pairs_epe.csv``
+    and returns ``viseme_pairs_<estimator>_<strategy>_<region>_epe`` figures.
+    """
+    import tempfile
+
+    import pandas as pd
+
+    from miketalk.evaluation import flow_epe_table
+    from miketalk.viseme_flows import build_flow_database
+
+    visemes = pd.read_csv(VISEMES / "visemes.tsv", sep="\t", keep_default_na=False)
+    tables = []
+    run_table = pathlib.Path("results/metrics/flow_epe.csv")
+    if run_table.exists():
+        tables.append(pd.read_csv(run_table))
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in ESTIMATORS:
+            flows = pathlib.Path(tmp) / name
+            build_flow_database(
+                flows, visemes=visemes, images_dir=VISEMES / "images", frames_dir=FRAMES,
+                estimator=name, settings={}, strategy="direct", workers=2,
+            )  # fmt: skip
+            table = flow_epe_table(
+                flows, TRUTH / "flows", TRUTH / "mouth_mask.png", method=f"{name} (defaults)",
+                estimator=name, settings={}, strategy="direct",
+            )  # fmt: skip
+            tables.append(table)
+    epe = pd.concat(tables)
+    summary = (
+        epe.groupby(["method", "strategy", "region"])[["mean_epe", "pct_over_1px", "pct_over_3px"]]
+        .mean()
+        .reset_index()
+    )
+    with atomic_path(out_dir / "viseme_pairs_epe.csv") as tmp_csv:
+        summary.to_csv(tmp_csv, index=False, float_format="%.4f")
+    wide = summary.pivot_table(index=["method", "strategy"], columns="region", values="mean_epe")
+    print("\nviseme pairs (240 ordered): mean endpoint error (px), valid and mouth regions")
+    print(wide.round(3).sort_values("mouth").to_string())
+    return {
+        f"viseme_pairs_{m}_{s}_{r}_epe".replace(" (defaults)", "_defaults"): float(v)
+        for (m, s, r), v in summary.set_index(["method", "strategy", "region"])["mean_epe"].items()
+        if m.endswith("(defaults)") or m == "bergen"  # our estimator, every strategy
+    }
 
 
 def _print_table(figures: dict[str, float], table: object) -> None:

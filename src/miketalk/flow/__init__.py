@@ -42,7 +42,7 @@ from miketalk.flow.evaluate import (
 )
 from miketalk.flow.exr import FlowPair, read_flow_pair, write_flow_pair
 from miketalk.flow.flo import read_flo, write_flo
-from miketalk.flow.mixed import MixedFlowInfo, mixed_flow
+from miketalk.flow.mixed import MixedFlowInfo, mixed_flow, window_chains
 from miketalk.flow.opencv import deepflow_flow, dis_flow, farneback_flow, tvl1_flow
 from miketalk.flow.registry import ESTIMATORS, Estimator, get_estimator
 from miketalk.flow.warp import backward_warp
@@ -76,6 +76,7 @@ __all__ = [
     "sinusoidal_pair",
     "slug",
     "tvl1_flow",
+    "window_chains",
     "write_flo",
     "write_flow_pair",
 ]

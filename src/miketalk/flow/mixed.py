@@ -81,6 +81,7 @@ def mixed_flow(
     window: int = 8,
     penalty: float = 0.0005,
     mask: np.ndarray | None = None,
+    chains: Sequence[np.ndarray] | None = None,
 ) -> tuple[np.ndarray, MixedFlowInfo]:
     """Flow from a start viseme to ``frames[end_index]`` by the mixed strategy (section 5.2).
 
@@ -103,6 +104,10 @@ def mixed_flow(
         (0-1 scale) per frame.
     mask : ndarray of bool, shape (H, W), optional
         Region where the residual is measured (the mouth); everywhere by default.
+    chains : sequence of ndarray, optional
+        :func:`window_chains` of the same ``frames``, ``end_index``, ``estimator``
+        and ``window``, when several start visemes share one end viseme (they
+        are computed here otherwise).
 
     Returns
     -------
@@ -145,18 +150,20 @@ def mixed_flow(
                 f"got {mask.dtype} {mask.shape}"
             )
 
-    window_frames = [frames[j] for j in candidates]
-    if len(window_frames) > 1:
-        to_end = concatenate_down_flows(consecutive_flows(window_frames, estimator))
-    else:
-        to_end = []
+    if chains is None:
+        chains = window_chains(frames, end_index, estimator, window=window)
+    elif len(chains) != len(candidates) - 1:
+        raise MiketalkError(
+            f"chains must hold {len(candidates) - 1} flows (window_chains of the same "
+            f"end_index and window), got {len(chains)}"
+        )
     start_grey = to_grey_float32(start)
     end_grey = to_grey_float32(np.asarray(frames[end_index]))
 
     flows, residuals, scores = [], [], []
     for k, j in enumerate(candidates):
         direct = estimator(start, frames[j])
-        flow = direct if j == end_index else _concat(direct, to_end[k])
+        flow = direct if j == end_index else _concat(direct, chains[k])
         residual = float(np.abs(start_grey - _remap(end_grey, flow))[mask].mean())
         flows.append(flow)
         residuals.append(residual)
@@ -171,3 +178,21 @@ def mixed_flow(
         scores=tuple(scores),
     )
     return flows[best], info
+
+
+def window_chains(
+    frames: Sequence[np.ndarray], end_index: int, estimator: FlowEstimator, *, window: int
+) -> list[np.ndarray]:
+    """Concatenated flows ``C_{j, end}`` from each window frame ``j < end`` to the end frame.
+
+    CONCATENATION-DOWN (Fig. 10) over the consecutive flows of frames
+    ``end - window .. end``: item ``k`` is the flow from frame
+    ``max(0, end - window) + k`` to ``frames[end_index]``. Empty for a window of
+    one frame. They depend only on the end frame, so every start viseme of one
+    end viseme can share them (:func:`mixed_flow`'s ``chains``).
+    """
+    first = max(0, int(end_index) - int(window))
+    window_frames = [frames[j] for j in range(first, int(end_index) + 1)]
+    if len(window_frames) < 2:
+        return []
+    return concatenate_down_flows(consecutive_flows(window_frames, estimator))

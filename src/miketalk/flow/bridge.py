@@ -1,0 +1,92 @@
+"""The bridge strategy: flow between far-apart visemes through the recording's rest frames.
+
+The paper's mixed strategy (section 5.2) looks for an intermediate frame that
+"is simultaneously similar in shape to the chosen starting viseme, and also
+close in distance to the chosen ending viseme", searching only a few frames
+before the end viseme. In a corpus of words spoken one at a time, such a
+frame is almost never there: the end viseme's word starts from the rest pose,
+and nothing near it looks like, say, a wide-open \\aa\\. What the corpus does
+offer is the rest pose itself, held in every pause. Two rest frames look
+alike wherever they are in the recording, so a direct flow between them is
+short and reliable. The bridge is
+
+    C_{A,B} = concat( C_{a, r_a}, C_{r_a, r_b}, C_{r_b, b} )
+
+with ``a`` and ``b`` the frames of visemes A and B, ``r_a`` and ``r_b`` the
+rest frames nearest to them in time, ``C_{a, r_a}`` and ``C_{r_b, b}``
+concatenated consecutive flows of the recording (a dozen small motions each,
+where a gradient-based estimator is at its best) and ``C_{r_a, r_b}`` one
+direct flow between two rest frames.
+
+Rest frames are found from the recording alone: the frames whose mean
+absolute grey-level difference to the silence viseme's frame, over the part of
+the picture that moves most in the recording (the mouth and jaw), is within
+``tolerance`` of the spread between the 10th percentile of those differences
+(the noise floor: a corpus rests in its pauses for a good part of the time)
+and their median (a typical speaking frame).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from miketalk.errors import MiketalkError
+
+
+def motion_region(grey: np.ndarray, *, fraction: float = 0.3) -> np.ndarray:
+    """The pixels that vary most over a recording: ``(H, W)`` bool.
+
+    ``grey`` is ``(N, H, W)`` float32. The per-pixel standard deviation over
+    time, smoothed, above ``fraction`` of its maximum.
+    """
+    spread = cv2.GaussianBlur(grey.std(axis=0), (0, 0), 2.0)
+    return spread > fraction * spread.max()
+
+
+def rest_frames(
+    frames: Sequence[np.ndarray], silence_frame: int, *, tolerance: float = 0.1
+) -> np.ndarray:
+    """Indices of the frames that show the rest pose (the silence viseme), ascending.
+
+    Parameters
+    ----------
+    frames : sequence of ndarray, shape (H, W) or (H, W, 3), uint8
+        The whole recording.
+    silence_frame : int
+        The silence viseme's frame.
+    tolerance : float
+        How far above the noise floor a rest frame may be, as a fraction of
+        the spread between the floor and a typical frame (see the module
+        docstring).
+
+    Returns
+    -------
+    ndarray of int
+        Always holds ``silence_frame``.
+    """
+    if not 0 <= silence_frame < len(frames):
+        raise MiketalkError(
+            f"silence_frame {silence_frame} is outside the recording (0..{len(frames) - 1})"
+        )
+    if not tolerance >= 0:
+        raise MiketalkError(f"tolerance must be >= 0, got {tolerance!r}")
+    grey = np.stack([_grey_half(f) for f in frames])
+    region = motion_region(grey)
+    distance = np.abs(grey[:, region] - grey[silence_frame, region]).mean(axis=1)
+    floor, typical = np.percentile(distance, [10, 50])
+    rest = np.flatnonzero(distance <= floor + tolerance * (typical - floor))
+    return np.union1d(rest, [silence_frame]).astype(int)
+
+
+def nearest_rest(frame: int, rest: np.ndarray) -> int:
+    """The rest frame nearest to ``frame`` in time (the earlier one on a tie)."""
+    return int(rest[np.argmin(np.abs(rest - frame))])
+
+
+def _grey_half(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
+    return cv2.resize(grey, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA).astype(np.float32)
