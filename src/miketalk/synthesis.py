@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -74,7 +75,12 @@ def say(
         raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
     backend = backend or get_backend("festival")
     table = table or default_table()
-    utterance = backend.synthesize(text)
+    warm = threading.Thread(target=_warm_up, args=(model,), name="miketalk-warm-up", daemon=True)
+    warm.start()  # while Festival speaks; joined before the model is used again
+    try:
+        utterance = backend.synthesize(text)
+    finally:
+        warm.join()
     utterance, timeline = synchronize(
         utterance,
         table,
@@ -99,6 +105,14 @@ def say(
         output.unlink(missing_ok=True)
         raise
     return utterance, timeline
+
+
+def _warm_up(model: Model) -> None:
+    """:meth:`Model.warm_up`, quietly: a broken model is reported where it is used."""
+    try:
+        model.warm_up()
+    except Exception:  # the same call fails again, with its message, in say()
+        pass
 
 
 def _progress(frames: Iterator[np.ndarray], total: int) -> Iterator[np.ndarray]:

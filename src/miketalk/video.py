@@ -69,7 +69,7 @@ def write_mp4(
     rate: int | None = None,
     *,
     crf: int = 18,
-    preset: str = "medium",
+    preset: str = "veryfast",
 ) -> None:
     """Write frames and mono audio to an H.264 (yuv420p) + AAC mp4, atomically and reproducibly.
 

@@ -64,12 +64,14 @@ def sync_tables():
 
 
 def sync_sweep_tables():
-    s = config["sweeps"]
-    return [
-        f"{METRICS}/sync_sweep/{FACE}/px{px}_fps{fps}.csv"
-        for px in s["max_px_per_frame"]
-        for fps in s["fps"]
-    ]
+    """One setting at a time: each max_px_per_frame at lipsync.fps, each fps at the default px."""
+    s, lipsync = config["sweeps"], config["lipsync"]
+    points = [(px, lipsync["fps"]) for px in s["max_px_per_frame"]]
+    if lipsync["max_px_per_frame"] is not None:  # null: no oversampling to sweep fps at
+        points += [(lipsync["max_px_per_frame"], fps) for fps in s["fps"]]
+    return sorted(
+        {f"{METRICS}/sync_sweep/{FACE}/px{px}_fps{fps}.csv" for px, fps in points}
+    )
 
 
 def all_outputs():

@@ -1,0 +1,50 @@
+"""Image and sync measures against reference implementations and known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from skimage.metrics import structural_similarity
+
+from miketalk.errors import MiketalkError
+from miketalk.metrics import lag_frames, mouth_opening, psnr, ssim
+
+
+@pytest.mark.parametrize("shape", [(256, 256, 3), (97, 140, 3), (64, 64)])
+def test_ssim_is_scikit_images(shape):
+    rng = np.random.default_rng(1)
+    a = rng.integers(0, 256, shape, dtype=np.uint8)
+    b = np.clip(a + rng.integers(-40, 40, shape), 0, 255).astype(np.uint8)
+    channel_axis = -1 if len(shape) == 3 else None
+    expected = structural_similarity(a, b, channel_axis=channel_axis, data_range=255)
+    assert ssim(a, b) == pytest.approx(expected, abs=1e-12)
+    assert ssim(a, a) == pytest.approx(1.0, abs=1e-12)
+    mask = np.zeros(shape[:2], bool)
+    mask[10:50, 20:60] = True
+    crop = (slice(10, 50), slice(20, 60))
+    expected = structural_similarity(a[crop], b[crop], channel_axis=channel_axis, data_range=255)
+    assert ssim(a, b, mask) == pytest.approx(expected, abs=1e-12)
+
+
+def test_measure_errors():
+    a = np.zeros((8, 8), np.uint8)
+    with pytest.raises(MiketalkError, match="shapes differ"):
+        ssim(a, np.zeros((8, 9), np.uint8))
+    with pytest.raises(MiketalkError, match="at least 7x7"):
+        ssim(a[:5], a[:5])
+    with pytest.raises(MiketalkError, match="empty"):
+        ssim(a, a, np.zeros((8, 8), bool))
+    assert psnr(a, a) == float("inf")
+    assert psnr(a, a + 255) == pytest.approx(0.0)
+
+
+def test_lag_and_opening():
+    t = np.arange(60)
+    reference = np.sin(t / 5.0)
+    assert lag_frames(np.sin((t - 3) / 5.0), reference) == 3
+    assert lag_frames(reference, reference) == 0
+    frames = np.zeros((3, 4, 4, 3), np.uint8)
+    frames[1, :2] = 255
+    frames[2] = 255
+    region = np.ones((4, 4), bool)
+    assert mouth_opening(frames, region).tolist() == [1.0, 0.5, 0.0]
