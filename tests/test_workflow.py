@@ -106,6 +106,26 @@ def test_rerun_has_nothing_to_do(run: Path) -> None:
     assert time.monotonic() - start < 30
 
 
+def test_pyramid_depth_change_reruns_only_what_depends_on_it(run: Path, tmp_path: Path) -> None:
+    """A dry run after changing flow.methods.bergen.settings.levels lists the jobs to redo."""
+    import yaml
+
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["flow"]["methods"]["bergen"]["settings"]["levels"] += 1
+    changed = tmp_path / "levels.yaml"
+    changed.write_text(yaml.safe_dump(config, sort_keys=False))  # as a person edits it
+    proc = snakemake(run, "--configfile", str(changed), "--dry-run")
+    out = proc.stdout + proc.stderr
+    table = out.split("Job stats:")[1].split("\n\n")[0]
+    rules = {line.split()[0] for line in table.splitlines()[3:] if len(line.split()) == 2}
+    assert {"flows", "model", "utterance", "morph_fidelity", "sync"} <= rules
+    # upstream of the flows, the truth and the depth sweep's own methods stay as they are
+    assert not rules & {"corpus", "visemes", "true_flows", "motorcycle"}
+    flows = re.findall(r"wildcards: method=([\w-]+), strategy=(\w+)", out)
+    assert {method for method, _ in flows} == {"bergen"}  # not the sweep's bergen-L<n>
+    assert {strategy for _, strategy in flows} == {"direct", "concat", "mixed", "bridge"}
+
+
 def test_stages_rebuild_byte_identical(run: Path) -> None:
     results = run / "results"
     visemes = sorted((results / "visemes/synthetic").rglob("*.*"))
@@ -193,23 +213,3 @@ def test_report_renders_in_headless_chromium(run: Path) -> None:
     # a rendered page, not a blank one: many distinct colours and real contrast
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 50
     assert image.std() > 20
-
-
-def test_pyramid_depth_change_reruns_only_what_depends_on_it(run: Path, tmp_path: Path) -> None:
-    """A dry run after changing flow.methods.bergen.settings.levels lists the jobs to redo."""
-    import yaml
-
-    config = yaml.safe_load((run / "config.yaml").read_text())
-    config["flow"]["methods"]["bergen"]["settings"]["levels"] += 1
-    changed = tmp_path / "levels.yaml"
-    changed.write_text(yaml.safe_dump(config))
-    proc = snakemake(run, "--configfile", str(changed), "--dry-run")
-    out = proc.stdout + proc.stderr
-    table = out.split("Job stats:")[1].split("\n\n")[0]
-    rules = {line.split()[0] for line in table.splitlines()[3:] if len(line.split()) == 2}
-    assert {"flows", "model", "utterance", "morph_fidelity", "sync"} <= rules
-    # upstream of the flows, the truth and the depth sweep's own methods stay as they are
-    assert not rules & {"corpus", "visemes", "true_flows", "motorcycle"}
-    flows = re.findall(r"wildcards: method=([\w-]+), strategy=(\w+)", out)
-    assert {method for method, _ in flows} == {"bergen"}  # not the sweep's bergen-L<n>
-    assert {strategy for _, strategy in flows} == {"direct", "concat", "mixed", "bridge"}

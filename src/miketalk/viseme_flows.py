@@ -7,9 +7,11 @@
 ``mixed``   the paper's mix: a direct flow from the start viseme to a frame that
             looks like it and lies shortly before the end viseme's frame, then
             concatenated flow from there (:func:`miketalk.flow.mixed_flow`).
-``bridge``  ours: concatenated flow from the first viseme's frame to the nearest
-            rest frame, one direct flow to the rest frame nearest the second
-            viseme, concatenated flow from there (:mod:`miketalk.flow.bridge`).
+``bridge``  ours: the mixed flow, or, where it explains the end image better (a
+            smaller residual, the mixed strategy's own criterion), the bridge:
+            concatenated flow from the first viseme's frame to the nearest rest
+            frame, one direct flow to the rest frame nearest the second viseme,
+            concatenated flow from there (:mod:`miketalk.flow.bridge`).
 
 Each unordered pair is one OpenEXR file (forward and backward layers). Pairs are
 independent jobs, spread over worker processes; results do not depend on the
@@ -34,6 +36,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import get_estimator, mixed_flow, pair_path, window_chains, write_flow_pair
 from miketalk.flow.bridge import nearest_rest, rest_frames
 from miketalk.flow.concat import _concat, concatenate_up_flows
+from miketalk.flow.mixed import warp_residual
 from miketalk.images import read_image
 
 log = logging.getLogger(__name__)
@@ -100,31 +103,41 @@ def _pair_job(job: tuple) -> dict:
     info: dict = {"source": a, "target": b}
     if strategy == "direct":
         forward, backward = estimate(image_a, image_b), estimate(image_b, image_a)
-    elif strategy == "bridge":
+        info["forward"], info["backward"] = forward, backward
+        return info
+    frames = _WindowFrames()
+    forward, fwd = mixed_flow(
+        image_a, frames, frame_b, estimate, window=window, mask=mask,
+        chains=_chains_to(frame_b, window),
+    )  # fmt: skip
+    backward, bwd = mixed_flow(
+        image_b, frames, frame_a, estimate, window=window, mask=mask,
+        chains=_chains_to(frame_a, window),
+    )  # fmt: skip
+    info.update(
+        forward_intermediate=fwd.index,
+        forward_chain=frame_b - fwd.index,
+        forward_residual=fwd.residuals[fwd.candidates.index(fwd.index)],
+        backward_intermediate=bwd.index,
+        backward_chain=frame_a - bwd.index,
+        backward_residual=bwd.residuals[bwd.candidates.index(bwd.index)],
+    )
+    if strategy == "bridge":
         rest_a, rest_b = (nearest_rest(f, _STATE["rest"]) for f in (frame_a, frame_b))
-        forward = _bridge(frame_a, rest_a, rest_b, frame_b)
-        backward = _bridge(frame_b, rest_b, rest_a, frame_a)
-        info.update(
-            rest_a=rest_a, rest_b=rest_b, chain_length=abs(frame_a - rest_a) + abs(frame_b - rest_b)
-        )
-    else:
-        frames = _WindowFrames()
-        forward, fwd = mixed_flow(
-            image_a, frames, frame_b, estimate, window=window, mask=mask,
-            chains=_chains_to(frame_b, window),
-        )  # fmt: skip
-        backward, bwd = mixed_flow(
-            image_b, frames, frame_a, estimate, window=window, mask=mask,
-            chains=_chains_to(frame_a, window),
-        )  # fmt: skip
-        info.update(
-            forward_intermediate=fwd.index,
-            forward_chain=frame_b - fwd.index,
-            forward_residual=fwd.residuals[fwd.candidates.index(fwd.index)],
-            backward_intermediate=bwd.index,
-            backward_chain=frame_a - bwd.index,
-            backward_residual=bwd.residuals[bwd.candidates.index(bwd.index)],
-        )
+        info.update(rest_a=rest_a, rest_b=rest_b)
+        for direction, start, image_s, image_e, path in (
+            ("forward", frame_a, image_a, image_b, (rest_a, rest_b, frame_b)),
+            ("backward", frame_b, image_b, image_a, (rest_b, rest_a, frame_a)),
+        ):
+            # the bridge replaces the mixed flow where it explains the end image better
+            flow = _bridge(start, *path)
+            residual = warp_residual(image_s, image_e, flow, mask)
+            use = residual < info[f"{direction}_residual"]
+            info[f"{direction}_bridged"] = use
+            if use:
+                info[f"{direction}_residual"] = residual
+                info[f"{direction}_chain"] = abs(start - path[0]) + abs(path[2] - path[1])
+                forward, backward = (flow, backward) if direction == "forward" else (forward, flow)
     info["forward"], info["backward"] = forward, backward
     return info
 

@@ -164,7 +164,7 @@ def mixed_flow(
     for k, j in enumerate(candidates):
         direct = estimator(start, frames[j])
         flow = direct if j == end_index else _concat(direct, chains[k])
-        residual = float(np.abs(start_grey - _remap(end_grey, flow))[mask].mean())
+        residual = _residual(start_grey, end_grey, flow, mask)
         flows.append(flow)
         residuals.append(residual)
         scores.append(residual + penalty * (end_index - j))
@@ -196,3 +196,24 @@ def window_chains(
     if len(window_frames) < 2:
         return []
     return concatenate_down_flows(consecutive_flows(window_frames, estimator))
+
+
+def warp_residual(
+    start_image: np.ndarray, end_image: np.ndarray, flow: np.ndarray, mask: np.ndarray | None
+) -> float:
+    """Mean absolute grey-level residual (0-1 scale) of ``start`` against ``end`` warped back.
+
+    ``mean_{p in mask} |S(p) - E(p + flow(p))|``: how well ``flow`` carries the
+    end image onto the start image, the criterion :func:`mixed_flow` chooses by.
+    """
+    start, end = (
+        to_grey_float32(check_image(start_image, "start_image")),
+        to_grey_float32(check_image(end_image, "end_image")),
+    )
+    if mask is None:
+        mask = np.ones(start.shape, bool)
+    return _residual(start, end, flow, mask)
+
+
+def _residual(start: np.ndarray, end: np.ndarray, flow: np.ndarray, mask: np.ndarray) -> float:
+    return float(np.abs(start - _remap(end, flow))[mask].mean())
