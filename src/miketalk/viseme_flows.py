@@ -33,7 +33,14 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.flow import get_estimator, mixed_flow, pair_path, window_chains, write_flow_pair
+from miketalk.flow import (
+    FlowDatabase,
+    get_estimator,
+    mixed_flow,
+    pair_path,
+    window_chains,
+    write_flow_pair,
+)
 from miketalk.flow.bridge import nearest_rest, rest_frames
 from miketalk.flow.concat import _concat, concatenate_up_flows
 from miketalk.flow.mixed import warp_residual
@@ -103,25 +110,15 @@ def _pair_job(job: tuple) -> dict:
     info: dict = {"source": a, "target": b}
     if strategy == "direct":
         forward, backward = estimate(image_a, image_b), estimate(image_b, image_a)
-        info["forward"], info["backward"] = forward, backward
-        return info
-    frames = _WindowFrames()
-    forward, fwd = mixed_flow(
-        image_a, frames, frame_b, estimate, window=window, mask=mask,
-        chains=_chains_to(frame_b, window),
-    )  # fmt: skip
-    backward, bwd = mixed_flow(
-        image_b, frames, frame_a, estimate, window=window, mask=mask,
-        chains=_chains_to(frame_a, window),
-    )  # fmt: skip
-    info.update(
-        forward_intermediate=fwd.index,
-        forward_chain=frame_b - fwd.index,
-        forward_residual=fwd.residuals[fwd.candidates.index(fwd.index)],
-        backward_intermediate=bwd.index,
-        backward_chain=frame_a - bwd.index,
-        backward_residual=bwd.residuals[bwd.candidates.index(bwd.index)],
-    )
+    elif strategy == "bridge" and _STATE["mixed"] is not None:
+        # the mixed database of the same method, made by its own job
+        forward, backward = _STATE["mixed"].flow(a, b), _STATE["mixed"].flow(b, a)
+        info.update(
+            forward_residual=warp_residual(image_a, image_b, forward, mask),
+            backward_residual=warp_residual(image_b, image_a, backward, mask),
+        )
+    else:
+        forward, backward = _mixed_pair(info, image_a, image_b, frame_a, frame_b, window, mask)
     if strategy == "bridge":
         rest_a, rest_b = (nearest_rest(f, _STATE["rest"]) for f in (frame_a, frame_b))
         info.update(rest_a=rest_a, rest_b=rest_b)
@@ -140,6 +137,28 @@ def _pair_job(job: tuple) -> dict:
                 forward, backward = (flow, backward) if direction == "forward" else (forward, flow)
     info["forward"], info["backward"] = forward, backward
     return info
+
+
+def _mixed_pair(info, image_a, image_b, frame_a, frame_b, window, mask):
+    """The mixed strategy's flows both ways; what it chose goes into ``info``."""
+    estimate, frames = _STATE["estimate"], _WindowFrames()
+    forward, fwd = mixed_flow(
+        image_a, frames, frame_b, estimate, window=window, mask=mask,
+        chains=_chains_to(frame_b, window),
+    )  # fmt: skip
+    backward, bwd = mixed_flow(
+        image_b, frames, frame_a, estimate, window=window, mask=mask,
+        chains=_chains_to(frame_a, window),
+    )  # fmt: skip
+    info.update(
+        forward_intermediate=fwd.index,
+        forward_chain=frame_b - fwd.index,
+        forward_residual=fwd.residuals[fwd.candidates.index(fwd.index)],
+        backward_intermediate=bwd.index,
+        backward_chain=frame_a - bwd.index,
+        backward_residual=bwd.residuals[bwd.candidates.index(bwd.index)],
+    )
+    return forward, backward
 
 
 def _steps(start: int, end: int) -> list[np.ndarray]:
@@ -186,10 +205,12 @@ def _init_worker(
     n_frames: int,
     consecutive: str | None,
     rest: np.ndarray | None,
+    mixed: str | None,
 ) -> None:
     _init(estimator, settings, frames_dir)
     _STATE["n_frames"] = n_frames
     _STATE["rest"] = rest
+    _STATE["mixed"] = FlowDatabase(mixed) if mixed is not None else None
     if consecutive is not None:
         h, w = _frame(0).shape[:2]
         shape = (max(n_frames - 1, 1), h, w, 2)
@@ -213,6 +234,7 @@ def build_flow_database(
     window: int = 12,
     mask: np.ndarray | None = None,
     rest_viseme: str = "#",
+    mixed: str | os.PathLike[str] | None = None,
     workers: int = 1,
 ) -> pd.DataFrame:
     """Compute and write the flow database of ``visemes`` by ``strategy``.
@@ -237,6 +259,9 @@ def build_flow_database(
     rest_viseme : str
         The viseme of the rest pose (silence), whose look-alike frames ``bridge``
         passes through.
+    mixed : path, optional
+        For ``bridge``: the ``mixed`` database of the same estimator, settings
+        and window (read instead of computed again).
     workers : int
         Worker processes.
 
@@ -250,6 +275,7 @@ def build_flow_database(
         raise MiketalkError(f"unknown flow strategy {strategy!r}; use one of {STRATEGIES}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    mixed = None if mixed is None else str(mixed)
     names = list(visemes["viseme"])
     frame_of = dict(zip(visemes["viseme"], visemes["frame"].astype(int), strict=True))
     images = {
@@ -290,7 +316,7 @@ def build_flow_database(
             with ProcessPoolExecutor(
                 max_workers=workers,
                 initializer=_init_worker,
-                initargs=(estimator, settings, str(frames_dir), n_frames, consecutive, rest),
+                initargs=(estimator, settings, str(frames_dir), n_frames, consecutive, rest, mixed),
             ) as pool:
                 chunks = [steps[i : i + 25] for i in range(0, len(steps), 25)]
                 list(pool.map(_consecutive_job, chunks))

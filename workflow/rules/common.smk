@@ -42,6 +42,13 @@ def method_spec(wildcards):
     return method_json(wildcards.method)
 
 
+def mixed_flows(wildcards):
+    """The bridge strategy refines the mixed database of the same method."""
+    if wildcards.strategy != "bridge":
+        return {}
+    return {"mixed": f"{FLOWS}/{wildcards.method}/mixed"}
+
+
 def epe_tables():
     """Per-method, per-strategy EPE tables (configured methods: all strategies)."""
     if not SYNTHETIC:

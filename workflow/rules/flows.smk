@@ -4,6 +4,7 @@
 
 rule flows:
     input:
+        unpack(mixed_flows),
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
         frames=rules.corpus.output.frames,

@@ -23,6 +23,7 @@ def main() -> None:
         settings=spec["settings"],
         strategy=snakemake.wildcards.strategy,
         window=snakemake.params.window,
+        mixed=snakemake.input.get("mixed"),
         workers=snakemake.threads,
     )
     write_text_atomic(snakemake.output.choices, choices.to_csv(sep="\t", index=False))
