@@ -76,8 +76,17 @@ def sync_sweep_tables():
     points = [(px, lipsync["fps"]) for px in s["max_px_per_frame"]]
     if lipsync["max_px_per_frame"] is not None:  # null: no oversampling to sweep fps at
         points += [(lipsync["max_px_per_frame"], fps) for fps in s["fps"]]
+    default = (lipsync["max_px_per_frame"], lipsync["fps"])
+    # the default point is the sync rule's own table of the sweep sentence
     return sorted(
-        {f"{METRICS}/sync_sweep/{FACE}/px{px}_fps{fps}.csv" for px, fps in points}
+        {
+            (
+                f"{METRICS}/sync/{FACE}/{s['sentence']}.csv"
+                if (px, fps) == default
+                else f"{METRICS}/sync_sweep/{FACE}/px{px}_fps{fps}.csv"
+            )
+            for px, fps in points
+        }
     )
 
 

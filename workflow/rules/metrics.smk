@@ -61,6 +61,7 @@ rule sync_sweep_point:
     conda:
         "../envs/miketalk.yaml"
     params:
+        name=config["sweeps"]["sentence"],
         text=config["sentences"][config["sweeps"]["sentence"]],
         morph=config["morph"],
         grouping=config["visemes"]["grouping"],

@@ -12,7 +12,7 @@ def main() -> None:
 
     wildcards = snakemake.wildcards
     if "px" in wildcards.keys():
-        name = "sweep"
+        name = snakemake.params.name
         fps, max_px = float(wildcards.fps), float(wildcards.px)
     else:
         name = wildcards.sentence
