@@ -34,6 +34,7 @@ import pandas as pd
 from miketalk.align import locate_words, map_times
 from miketalk.audio import read_wav
 from miketalk.errors import MiketalkError
+from miketalk.flow.bridge import motion_region
 from miketalk.images import read_image
 from miketalk.speech.festival import FestivalBackend
 from miketalk.visemes import VisemeTable
@@ -93,8 +94,7 @@ def motion_energy(video: CorpusVideo, *, scale: int = 2) -> tuple[np.ndarray, np
     if len(grey) < 3:
         raise MiketalkError(f"{video.directory} has {len(grey)} frames; a recording needs more")
     stack = np.stack(grey).astype(np.float32)
-    spread = cv2.GaussianBlur(stack.std(axis=0), (0, 0), 2.0)
-    region = spread > 0.3 * spread.max()
+    region = motion_region(stack)
     diff = np.abs(stack[2:] - stack[:-2])[:, region].mean(axis=1)
     energy = np.concatenate([[diff[0]], diff, [diff[-1]]]).astype(np.float64)
     return energy, region
