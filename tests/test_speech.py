@@ -88,17 +88,22 @@ INJECTION = '") (system "touch /tmp/x") ("'
 
 
 def test_scheme_injection_is_spoken_not_run(festival: FestivalBackend, tmp_path: Path) -> None:
-    target = Path("/tmp/x")
-    target.unlink(missing_ok=True)
+    def state(path: Path) -> int | None:  # None: absent; else its mtime (touch changes it)
+        return path.stat().st_mtime_ns if path.exists() else None
+
+    target = Path("/tmp/x")  # the string names it; it may exist for other reasons
+    before = state(target)
+    mine = tmp_path / "injected"  # a target that certainly does not exist yet
     utt = festival.synthesize(INJECTION)
+    festival.synthesize(INJECTION.replace("/tmp/x", str(mine)))
     names = [p.name for p in utt.phones]
-    assert not target.exists()
+    assert state(target) == before and not mine.exists()
     # "system" and "touch" are spoken as words
     assert names[1:7] == ["s", "ih", "s", "t", "ax", "m"]
     assert "ch" in names
     # the same through a file given to the CLI
     text_file = tmp_path / "inject.txt"
-    text_file.write_text(INJECTION + "\n" + '(system "touch /tmp/x")')
+    text_file.write_text(INJECTION + "\n" + f'(system "touch {mine}")')
     out = subprocess.run(
         [sys.executable, "-m", "miketalk.cli", "phones", "-f", str(text_file), "--json"],
         capture_output=True,
@@ -106,7 +111,7 @@ def test_scheme_injection_is_spoken_not_run(festival: FestivalBackend, tmp_path:
         check=True,
     )
     assert json.loads(out.stdout)["phones"]
-    assert not target.exists()
+    assert state(target) == before and not mine.exists()
 
 
 @pytest.mark.parametrize("text", ["", "   \n\t ", "?!...", '"("', "—…"])
