@@ -73,6 +73,22 @@ def test_model_loads_and_morphs(model_dir: Path) -> None:
     assert middle.shape == (48, 48, 3) and middle.dtype == np.uint8
 
 
+def test_model_applies_morph_options_and_renders_what_it_prefetches(model_dir: Path) -> None:
+    from miketalk.morph import Morpher
+
+    plain = Model(model_dir, morph_options={"median": False})
+    flows = plain.flows
+    expected = Morpher(
+        plain.image("p"), plain.image("aa"), flows.flow("p", "aa"), flows.flow("aa", "p"),
+        median=False,
+    ).frame(0.4)  # fmt: skip
+    assert np.array_equal(plain.frame("p", "aa", 0.4), expected)
+    assert not np.array_equal(Model(model_dir).frame("p", "aa", 0.4), expected)
+    ahead = Model(model_dir)
+    ahead.prefetch([("f", "aa"), ("aa", "f")])
+    assert np.array_equal(ahead.frame("f", "aa", 0.3), Model(model_dir).frame("f", "aa", 0.3))
+
+
 def test_model_errors(model_dir: Path, tmp_path: Path) -> None:
     with pytest.raises(MiketalkError, match="no model"):
         Model(tmp_path / "nothing")

@@ -49,6 +49,24 @@ def test_same_input_gives_identical_bytes(tmp_path):
     assert (tmp_path / "a.mp4").read_bytes() == (tmp_path / "b.mp4").read_bytes()
 
 
+def test_known_frame_count_writes_in_one_pass(tmp_path):
+    frames, audio = _frames(15), _tone(0.45)
+    path = tmp_path / "one.mp4"
+    write_mp4(path, iter(list(frames)), 30, audio, RATE, n_frames=15)
+    video, sound = probe_durations(path)
+    assert video == pytest.approx(0.5, abs=1e-6) and abs(sound - video) < 1 / 30
+    write_mp4(tmp_path / "two.mp4", iter(list(frames)), 30, audio, RATE, n_frames=15)
+    assert path.read_bytes() == (tmp_path / "two.mp4").read_bytes()
+
+
+@pytest.mark.parametrize("count", [14, 16])
+def test_wrong_frame_count_is_an_error_and_leaves_nothing(tmp_path, count):
+    path = tmp_path / "bad.mp4"
+    with pytest.raises(MiketalkError, match="15 frames were given, not n_frames="):
+        write_mp4(path, _frames(15), 30, _tone(0.5), RATE, n_frames=count)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_grey_odd_sized_frames_without_audio(tmp_path):
     frames = _frames(5, h=33, w=45)[..., 0]
     write_mp4(tmp_path / "grey.mp4", frames, 10)

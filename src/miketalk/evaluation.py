@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.flow import FlowDatabase, endpoint_error
+from miketalk.flow import FlowDatabase, endpoint_error_map, summarize_endpoint_error
 
 
 def read_mask(path: str | os.PathLike[str]) -> np.ndarray:
@@ -33,13 +33,13 @@ def read_mask(path: str | os.PathLike[str]) -> np.ndarray:
 
 def visemes_of_database(directory: str | os.PathLike[str]) -> list[str]:
     """The viseme names recorded in a flow database's file headers."""
-    from miketalk.flow import read_flow_pair
+    from miketalk.flow import read_flow_header
 
     names: dict[str, None] = {}
     for path in sorted(Path(directory).glob("*.exr")):
-        pair = read_flow_pair(path)
-        names[pair.source] = None
-        names[pair.target] = None
+        header = read_flow_header(path)  # the pixels are not needed
+        names[header["source"]] = None
+        names[header["target"]] = None
     if not names:
         raise MiketalkError(f"flow database {directory} has no pair files")
     return list(names)
@@ -71,6 +71,7 @@ def flow_epe_table(
         flow, true, valid = estimated.flow(a, b), truth.flow(a, b), truth.valid(a, b)
         if valid is None:
             raise MiketalkError(f"true flow file for {a!r}, {b!r} has no validity mask")
+        error = endpoint_error_map(flow, true)
         for region, mask in (("valid", valid), ("mouth", valid & mouth)):
             rows.append(
                 {
@@ -82,7 +83,7 @@ def flow_epe_table(
                     "source": a,
                     "target": b,
                     "region": region,
-                    **endpoint_error(flow, true, mask),
+                    **summarize_endpoint_error(error, mask),
                 }
             )
     return pd.DataFrame(rows)

@@ -86,16 +86,16 @@ def lipsync_diagram(
     model_dir: Path_, word: str, out: Path_, *, fps: float, max_px: float | None
 ) -> None:
     """The paper's Figure 8 for one word: diphones, viseme transitions, frames and alphas."""
-    from miketalk.lipsync import synchronize
+    from miketalk.lipsync import speak_in_sync
     from miketalk.speech import FestivalBackend
     from miketalk.synthesis import open_model
     from miketalk.visemes import default_table
 
     festival = FestivalBackend()
     model = open_model(model_dir)
-    utterance, timeline = synchronize(
-        festival.synthesize(word), default_table(), fps=fps,
-        displacement=model.displacement, max_px_per_frame=max_px, backend=festival,
+    utterance, timeline = speak_in_sync(
+        word, festival, default_table(), fps=fps,
+        displacement=model.displacement, max_px_per_frame=max_px,
     )  # fmt: skip
     fig, ax = plt.subplots(figsize=(11, 3.4))
     phones = utterance.phones

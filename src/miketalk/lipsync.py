@@ -240,14 +240,53 @@ def synchronize(
         The (possibly re-synthesized) utterance and its timeline; the video has
         ``round(duration * fps)`` frames, ending with the audio within a frame.
     """
-    if max_px_per_frame is not None:
-        old = np.array(utterance.durations())
-        new = oversampled_durations(utterance.phones, table, fps, displacement, max_px_per_frame)
-        if not np.allclose(new, old, rtol=0, atol=1e-6):
-            if backend is None:
-                raise MiketalkError("oversampling lengthens phones but no speech back-end given")
-            utterance = backend.resynthesize(utterance, new)
+    retime = _retimer(table, fps, displacement, max_px_per_frame)
+    durations = retime(utterance.phones)
+    if durations is not None:
+        if backend is None:
+            raise MiketalkError("oversampling lengthens phones but no speech back-end given")
+        utterance = backend.resynthesize(utterance, durations)
     return utterance, plan(utterance.phones, table, fps, utterance.duration)
+
+
+def speak_in_sync(
+    text: str,
+    backend: SpeechBackend,
+    table: VisemeTable,
+    *,
+    fps: float,
+    displacement: Displacement,
+    max_px_per_frame: float | None,
+) -> tuple[Utterance, Timeline]:
+    """Speak ``text`` and plan its video, oversampling where transitions move too fast.
+
+    The same result as ``synchronize(backend.synthesize(text), ...)``, but the
+    lengthened durations are dictated to the engine before it makes the wave
+    (:meth:`SpeechBackend.synthesize_retimed`): one run of the engine, not two.
+
+    Returns
+    -------
+    (Utterance, Timeline)
+        The utterance as spoken and the timeline of its frames.
+    """
+    retime = _retimer(table, fps, displacement, max_px_per_frame)
+    utterance = backend.synthesize_retimed(text, retime)
+    return utterance, plan(utterance.phones, table, fps, utterance.duration)
+
+
+def _retimer(
+    table: VisemeTable, fps: float, displacement: Displacement, max_px_per_frame: float | None
+) -> Callable[[Sequence[Phone]], np.ndarray | None]:
+    """phones -> oversampled durations, or None where oversampling changes nothing."""
+
+    def retime(phones: Sequence[Phone]) -> np.ndarray | None:
+        if max_px_per_frame is None:
+            return None
+        old = np.array([p.duration for p in phones])
+        new = oversampled_durations(phones, table, fps, displacement, max_px_per_frame)
+        return None if np.allclose(new, old, rtol=0, atol=1e-6) else new
+
+    return retime
 
 
 def frame_count(duration: float, fps: float) -> int:

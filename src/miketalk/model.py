@@ -18,9 +18,11 @@ import json
 import os
 import shutil
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from itertools import combinations
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,8 +31,10 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.images import read_image
 from miketalk.lipsync import Timeline
-from miketalk.morph import Morpher
 from miketalk.visemes import viseme_slug
+
+if TYPE_CHECKING:  # imported when first needed: numba takes ~0.6 s to import
+    from miketalk.morph import Morpher
 
 FORMAT = "miketalk-model/1"
 
@@ -92,6 +96,10 @@ class Model:
         }
         self._morphers: OrderedDict[tuple[str, str], Morpher] = OrderedDict()
         self._cache_size = cache_size
+        # every flow file is read by this one thread (FlowDatabase is not
+        # thread-safe), ahead of the render when prefetch() is told what comes
+        self._reader = ThreadPoolExecutor(1, thread_name_prefix="miketalk-flows")
+        self._reads: dict[tuple[str, str], Future] = {}
 
     def image(self, viseme: str) -> np.ndarray:
         """The viseme's image, (H, W, 3) uint8."""
@@ -110,13 +118,35 @@ class Model:
         if key in self._morphers:
             self._morphers.move_to_end(key)
             return self._morphers[key]
-        morpher = Morpher(
-            self.image(a), self.image(b), self.flows.flow(a, b), self.flows.flow(b, a)
-        )
+        from miketalk.morph import Morpher
+
+        forward, backward = self._read(a, b).result()
+        self._reads.pop(key, None)
+        morpher = Morpher(self.image(a), self.image(b), forward, backward, **self.morph_options)
         self._morphers[key] = morpher
         if len(self._morphers) > self._cache_size:
             self._morphers.popitem(last=False)
         return morpher
+
+    def prefetch(self, transitions: Iterable[tuple[str, str]]) -> None:
+        """Start reading the flows of ``transitions`` (in order) in the background.
+
+        :meth:`morpher` then finds them read (or being read) instead of reading
+        them itself; rendering a timeline overlaps with reading its flows.
+        """
+        for a, b in transitions:
+            if a != b and (a, b) not in self._morphers:
+                self._read(a, b)
+
+    def _read(self, a: str, b: str) -> Future:
+        key = (a, b)
+        if key not in self._reads:
+            self._check(a)
+            self._check(b)
+            self._reads[key] = self._reader.submit(
+                lambda: (self.flows.flow(a, b), self.flows.flow(b, a))
+            )
+        return self._reads[key]
 
     def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
         """The morph from viseme a to b at ``alpha``."""
@@ -135,9 +165,18 @@ class Model:
         if len(self.visemes) > 1:
             self.morpher(self.visemes[0], self.visemes[1]).frame(0.5)
 
-    def render(self, timeline: Timeline) -> Iterator[np.ndarray]:
-        """The frames of a timeline, in order."""
+    def render(self, timeline: Timeline, *, lookahead: int = 8) -> Iterator[np.ndarray]:
+        """The frames of a timeline, in order.
+
+        The flows of the next ``lookahead`` transitions are read in a thread
+        while the current one is drawn.
+        """
+        pairs = [(t.source, t.target) for t in timeline.transitions]
+        ahead = 0
         for sample in timeline.frames:
+            if sample.transition >= ahead - lookahead // 2:
+                ahead = min(len(pairs), sample.transition + lookahead)
+                self.prefetch(pairs[sample.transition : ahead])
             t = timeline.transitions[sample.transition]
             yield self.frame(t.source, t.target, sample.alpha)
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from miketalk.atomic import write_text_atomic
 from miketalk.errors import MiketalkError
-from miketalk.lipsync import Timeline, largest_step, synchronize
+from miketalk.lipsync import Timeline, largest_step, speak_in_sync
 from miketalk.model import Model
 from miketalk.speech.backend import SpeechBackend, get_backend
 from miketalk.speech.types import Utterance
@@ -78,23 +78,22 @@ def say(
     warm = threading.Thread(target=_warm_up, args=(model,), name="miketalk-warm-up", daemon=True)
     warm.start()  # while Festival speaks; joined before the model is used again
     try:
-        utterance = backend.synthesize(text)
+        utterance, timeline = speak_in_sync(
+            text,
+            backend,
+            table,
+            fps=fps,
+            displacement=model.displacement,
+            max_px_per_frame=max_px_per_frame,
+        )
     finally:
         warm.join()
-    utterance, timeline = synchronize(
-        utterance,
-        table,
-        fps=fps,
-        displacement=model.displacement,
-        max_px_per_frame=max_px_per_frame,
-        backend=backend,
-    )
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
     frames = model.render(timeline)
     if progress:
         frames = _progress(frames, len(timeline.frames))
-    write_mp4(output, frames, fps, utterance.samples, utterance.rate)
+    write_mp4(output, frames, fps, utterance.samples, utterance.rate, n_frames=len(timeline.frames))
     doc = timeline.to_dict()
     doc["text"] = utterance.text
     doc["largest_step_px"] = largest_step(timeline, model.displacement)

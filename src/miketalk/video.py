@@ -70,6 +70,7 @@ def write_mp4(
     *,
     crf: int = 18,
     preset: str = "veryfast",
+    n_frames: int | None = None,
 ) -> None:
     """Write frames and mono audio to an H.264 (yuv420p) + AAC mp4, atomically and reproducibly.
 
@@ -93,6 +94,11 @@ def write_mp4(
         x264 constant rate factor, 0 (lossless) to 51; 18 is visually lossless.
     preset : str, keyword-only
         x264 preset (speed/size trade-off; does not affect determinism).
+    n_frames : int, keyword-only, optional
+        How many frames ``frames`` holds, when the caller knows it before they
+        are made. The audio is then fitted in advance and encoded by the same
+        ffmpeg run as the video (one pass instead of encode-then-mux); a
+        different number of frames is an error.
 
     Raises
     ------
@@ -108,22 +114,54 @@ def write_mp4(
         if rate is None:
             raise MiketalkError("rate (the audio sample rate in Hz) is required with audio")
         rate = check_rate(rate)
+    if n_frames is not None and (
+        isinstance(n_frames, bool) or not isinstance(n_frames, numbers.Integral) or n_frames < 1
+    ):
+        raise MiketalkError(f"n_frames must be a positive integer, got {n_frames!r}")
     exe = ffmpeg_exe()
     with tempfile.TemporaryDirectory(prefix="miketalk-mp4-") as tmp:
         work = Path(tmp)
-        video, n_frames = _encode_video(exe, work, _iter_frames(frames), fps_q, int(crf), preset)
+        if n_frames is not None:
+            audio_args: tuple[list[str], list[str]] = ([], [])
+            if audio is not None and rate is not None:
+                audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q, index=1)
+            with atomic_path(path, suffix=".mp4") as out:
+                count = _encode_video(
+                    exe, _iter_frames(frames), fps_q, int(crf), preset, out, work / "video.log",
+                    *audio_args,
+                )  # fmt: skip
+                if count != n_frames:
+                    raise MiketalkError(f"{count} frames were given, not n_frames={n_frames}")
+            return
+        video = work / "video.mp4"
+        n_frames = _encode_video(
+            exe, _iter_frames(frames), fps_q, int(crf), preset, video, work / "video.log", [], []
+        )
         inputs = ["-i", str(video)]
         maps = ["-map", "0:v:0", "-c:v", "copy"]
         if audio is not None and rate is not None:
-            n_samples = round(Fraction(n_frames) * rate / fps_q)
-            wav = work / "audio.wav"
-            write_wav(wav, _fit(audio, n_samples), rate)
-            inputs += ["-i", str(wav)]
-            maps += ["-map", "1:a:0", "-c:a", "aac", "-b:a", _AUDIO_BITRATE]
-            maps += ["-flags:a", "+bitexact"]
+            audio_inputs, audio_options = _audio_input(work, audio, rate, n_frames, fps_q, index=1)
+            inputs += audio_inputs
+            maps += audio_options
         with atomic_path(path, suffix=".mp4") as out:
             args = [*inputs, *maps, *_BITEXACT, "-movflags", "+faststart", "-f", "mp4", str(out)]
             _run(exe, args, work / "mux.log", what=f"muxing {Path(path).name}")
+
+
+def _audio_input(
+    work: Path, audio: np.ndarray, rate: int, n_frames: int, fps: Fraction, *, index: int
+) -> tuple[list[str], list[str]]:
+    """ffmpeg arguments adding ``audio``, fitted to ``n_frames / fps``, as input ``index``.
+
+    Returns the input (``-i``) and the output stream options, to be placed
+    after the inputs and after the video stream's options.
+    """
+    n_samples = round(Fraction(n_frames) * rate / fps)
+    wav = work / "audio.wav"
+    write_wav(wav, _fit(audio, n_samples), rate)
+    return ["-i", str(wav)], [
+        "-map", f"{index}:a:0", "-c:a", "aac", "-b:a", _AUDIO_BITRATE, "-flags:a", "+bitexact",
+    ]  # fmt: skip
 
 
 def probe_durations(path: str | os.PathLike[str]) -> tuple[float, float]:
@@ -225,20 +263,32 @@ def _fit(audio: np.ndarray, n_samples: int) -> np.ndarray:
 
 
 def _encode_video(
-    exe: str, work: Path, frames: Iterator[np.ndarray], fps: Fraction, crf: int, preset: str
-) -> tuple[Path, int]:
-    """Pass 1: pipe the frames to ffmpeg, H.264 into ``work/video.mp4``; returns (path, count)."""
+    exe: str,
+    frames: Iterator[np.ndarray],
+    fps: Fraction,
+    crf: int,
+    preset: str,
+    out: Path,
+    log: Path,
+    inputs: list[str],
+    streams: list[str],
+) -> int:
+    """Pipe the frames to ffmpeg, H.264 into the mp4 ``out``; returns the frame count.
+
+    ``inputs`` and ``streams`` add further inputs (the audio) and their output
+    stream options, which come after the video's.
+    """
     first = next(frames, None)
     if first is None:
         raise MiketalkError("frames is empty; a video needs at least one frame")
     height, width = first.shape[:2]
     pix_fmt = "rgb24" if first.ndim == 3 else "gray"
-    video, log = work / "video.mp4", work / "video.log"
     args = [
         "-f", "rawvideo", "-pix_fmt", pix_fmt, "-s", f"{width}x{height}",
-        "-framerate", f"{fps.numerator}/{fps.denominator}", "-i", "pipe:0",
-        "-c:v", "libx264", "-preset", preset, "-crf", str(crf), "-pix_fmt", "yuv420p",
-        "-threads", "1", "-flags:v", "+bitexact", *_BITEXACT, "-f", "mp4", str(video),
+        "-framerate", f"{fps.numerator}/{fps.denominator}", "-i", "pipe:0", *inputs,
+        "-map", "0:v:0", "-c:v", "libx264", "-preset", preset, "-crf", str(crf),
+        "-pix_fmt", "yuv420p", "-threads", "1", "-flags:v", "+bitexact", *streams, *_BITEXACT,
+        "-movflags", "+faststart", "-f", "mp4", str(out),
     ]  # fmt: skip
     count = 0
     with log.open("wb") as err:
@@ -265,7 +315,7 @@ def _encode_video(
                 proc.wait()
     if code != 0:
         raise MiketalkError(f"ffmpeg failed encoding the video:\n{_tail(log.read_text())}")
-    return video, count
+    return count
 
 
 def _chain(first: np.ndarray, rest: Iterator[np.ndarray]) -> Iterator[np.ndarray]:

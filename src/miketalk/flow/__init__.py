@@ -36,11 +36,13 @@ from miketalk.flow.concat import (
 from miketalk.flow.database import FlowDatabase, pair_filename, pair_path, slug
 from miketalk.flow.evaluate import (
     endpoint_error,
+    endpoint_error_map,
     motorcycle_pair,
     motorcycle_table,
     sinusoidal_pair,
+    summarize_endpoint_error,
 )
-from miketalk.flow.exr import FlowPair, read_flow_pair, write_flow_pair
+from miketalk.flow.exr import FlowPair, read_flow_header, read_flow_pair, write_flow_pair
 from miketalk.flow.flo import read_flo, write_flo
 from miketalk.flow.mixed import MixedFlowInfo, mixed_flow, window_chains
 from miketalk.flow.opencv import deepflow_flow, dis_flow, farneback_flow, tvl1_flow
@@ -64,6 +66,7 @@ __all__ = [
     "deepflow_flow",
     "dis_flow",
     "endpoint_error",
+    "endpoint_error_map",
     "farneback_flow",
     "get_estimator",
     "mixed_flow",
@@ -72,9 +75,11 @@ __all__ = [
     "pair_filename",
     "pair_path",
     "read_flo",
+    "read_flow_header",
     "read_flow_pair",
     "sinusoidal_pair",
     "slug",
+    "summarize_endpoint_error",
     "tvl1_flow",
     "window_chains",
     "write_flo",

@@ -49,26 +49,56 @@ def endpoint_error(
     >>> endpoint_error(f, g)["mean_epe"]
     1.25
     """
+    return summarize_endpoint_error(endpoint_error_map(flow, true_flow), mask)
+
+
+def endpoint_error_map(flow: np.ndarray, true_flow: np.ndarray) -> np.ndarray:
+    """Per-pixel endpoint error ``|flow - true_flow|`` in pixels, float64, shape (H, W).
+
+    Non-finite where either flow is; score it with :func:`summarize_endpoint_error`
+    (several regions of one pair need only one map).
+
+    Raises
+    ------
+    MiketalkError
+        For mismatched shapes.
+    """
     flow = np.asarray(flow)
     true_flow = np.asarray(true_flow)
     if flow.ndim != 3 or flow.shape[2] != 2:
         raise MiketalkError(f"flow must be (H, W, 2), got shape {flow.shape}")
     if true_flow.shape != flow.shape:
         raise MiketalkError(f"true_flow has shape {true_flow.shape}, flow has {flow.shape}")
+    with np.errstate(invalid="ignore"):
+        diff = flow.astype(np.float64) - true_flow.astype(np.float64)
+        return np.hypot(diff[..., 0], diff[..., 1])
+
+
+def summarize_endpoint_error(error: np.ndarray, mask: np.ndarray | None = None) -> dict[str, float]:
+    """Mean and tail fractions of an :func:`endpoint_error_map` over ``mask``.
+
+    ``mask`` defaults to the finite pixels of ``error``. Returns the dict of
+    :func:`endpoint_error`.
+
+    Raises
+    ------
+    MiketalkError
+        For a mask of the wrong shape or type, an empty mask, or non-finite
+        errors inside it.
+    """
     if mask is None:
-        mask = np.isfinite(true_flow).all(axis=2)
+        mask = np.isfinite(error)
     else:
         mask = np.asarray(mask)
-        if mask.shape != flow.shape[:2] or mask.dtype != bool:
+        if mask.shape != error.shape or mask.dtype != bool:
             raise MiketalkError(
-                f"mask must be a boolean {flow.shape[:2]} array, got {mask.dtype} {mask.shape}"
+                f"mask must be a boolean {error.shape} array, got {mask.dtype} {mask.shape}"
             )
     if not mask.any():
         raise MiketalkError("mask selects no pixels; nothing to score")
-    diff = flow[mask].astype(np.float64) - true_flow[mask].astype(np.float64)
-    if not np.isfinite(diff).all():
+    epe = error[mask]
+    if not np.isfinite(epe).all():
         raise MiketalkError("flow or true_flow holds NaN/inf inside the mask")
-    epe = np.hypot(diff[:, 0], diff[:, 1])
     return {
         "mean_epe": float(epe.mean()),
         "pct_over_1px": float(100.0 * (epe > 1.0).mean()),

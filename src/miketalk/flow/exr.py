@@ -165,6 +165,49 @@ def write_flow_pair(
     return path
 
 
+def read_flow_header(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The miketalk attributes of a flow file without reading its pixels.
+
+    Returns
+    -------
+    dict
+        ``source``, ``target``, ``estimator`` (str) and ``settings`` (dict).
+
+    Raises
+    ------
+    MiketalkError
+        As :func:`read_flow_pair`, for a missing or unreadable file or a missing
+        attribute.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MiketalkError(f"flow file {path} does not exist; compute the flow database first")
+    try:
+        header = OpenEXR.File(str(path), header_only=True).header()
+    except Exception as err:
+        raise MiketalkError(f"flow file {path} is not a readable OpenEXR file: {err}") from err
+    attrs, settings = _attributes(path, header)
+    return {**attrs, "settings": settings}
+
+
+def _attributes(path: Path, header: dict) -> tuple[dict[str, str], dict]:
+    """The checked ``miketalk.*`` header attributes and the decoded settings."""
+    attrs = {}
+    for key in _ATTRIBUTES:
+        value = header.get(f"miketalk.{key}")
+        if not isinstance(value, str):
+            raise MiketalkError(
+                f"flow file {path} lacks the header attribute miketalk.{key}; "
+                "it was not written by miketalk.flow.write_flow_pair"
+            )
+        attrs[key] = value
+    try:
+        settings = json.loads(attrs["settings"])
+    except json.JSONDecodeError as err:
+        raise MiketalkError(f"flow file {path}: miketalk.settings is not JSON: {err}") from err
+    return attrs, settings
+
+
 def read_flow_pair(path: str | os.PathLike[str]) -> FlowPair:
     """Read a file written by :func:`write_flow_pair`, checking it.
 
@@ -183,19 +226,7 @@ def read_flow_pair(path: str | os.PathLike[str]) -> FlowPair:
         channels = {name: ch.pixels for name, ch in exr.channels().items()}
     except Exception as err:  # OpenEXR raises RuntimeError and others for bad files
         raise MiketalkError(f"flow file {path} is not a readable OpenEXR file: {err}") from err
-    attrs = {}
-    for key in _ATTRIBUTES:
-        value = header.get(f"miketalk.{key}")
-        if not isinstance(value, str):
-            raise MiketalkError(
-                f"flow file {path} lacks the header attribute miketalk.{key}; "
-                "it was not written by miketalk.flow.write_flow_pair"
-            )
-        attrs[key] = value
-    try:
-        settings = json.loads(attrs["settings"])
-    except json.JSONDecodeError as err:
-        raise MiketalkError(f"flow file {path}: miketalk.settings is not JSON: {err}") from err
+    attrs, settings = _attributes(path, header)
     flows = {}
     for layer in LAYERS:
         parts = []

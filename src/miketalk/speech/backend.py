@@ -3,10 +3,16 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+
+import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech.types import Utterance
+from miketalk.speech.types import Phone, Utterance
+
+#: Given an utterance's predicted phones, the phone durations (s) to speak them
+#: with instead, or None to keep them.
+Retime = Callable[[tuple[Phone, ...]], "Sequence[float] | np.ndarray | None"]
 
 
 class SpeechBackend(ABC):
@@ -34,6 +40,21 @@ class SpeechBackend(ABC):
         ends at the last phone's end, so that video timed from the durations
         stays in sync with the sound (paper §7).
         """
+
+    def synthesize_retimed(self, text: str, retime: Retime) -> Utterance:
+        """Speak ``text`` with the phone durations ``retime`` dictates.
+
+        ``retime`` gets the phones the engine predicts and returns new
+        durations (or None to keep them). This default speaks twice
+        (:meth:`synthesize`, then :meth:`resynthesize` if durations changed);
+        an engine that can stop between predicting durations and making the
+        wave overrides it to speak once.
+        """
+        utterance = self.synthesize(text)
+        durations = retime(utterance.phones)
+        if durations is None:
+            return utterance
+        return self.resynthesize(utterance, durations)
 
 
 _BACKENDS: dict[str, type[SpeechBackend]] = {}

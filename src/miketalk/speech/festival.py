@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import os
 import re
+import select
 import shutil
 import subprocess
 import tempfile
+import time
 import wave
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 from importlib import resources
@@ -23,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech.backend import SpeechBackend, register
+from miketalk.speech.backend import Retime, SpeechBackend, register
 from miketalk.speech.text import normalize_text, split_chunks
 from miketalk.speech.types import Phone, Utterance
 
@@ -142,13 +145,7 @@ class FestivalBackend(SpeechBackend):
             Wrong number of durations, a non-positive or non-finite duration, or
             Festival producing other phones than ``utterance`` has.
         """
-        durations = np.asarray(durations, dtype=np.float64)
-        if durations.shape != (len(utterance.phones),):
-            raise MiketalkError(
-                f"{durations.size} durations given for {len(utterance.phones)} phones"
-            )
-        if not np.all(np.isfinite(durations)) or np.any(durations <= 0):
-            raise MiketalkError("every phone duration must be a positive number of seconds")
+        durations = _check_durations(durations, len(utterance.phones))
         texts = split_chunks(utterance.text, max_words=self.max_words)
         sizes = [n for _, n in utterance.chunks] if utterance.chunks else [len(durations)]
         if len(sizes) != len(texts):
@@ -161,7 +158,30 @@ class FestivalBackend(SpeechBackend):
             raise MiketalkError("Festival produced different phones on re-synthesis")
         return _join(utterance.text, chunks)
 
-    def _run(self, texts: list[str], ends: list[tuple[float, ...]] | None) -> list[_Chunk]:
+    def synthesize_retimed(self, text: str, retime: Retime) -> Utterance:
+        """Speak ``text`` with durations ``retime`` may change, in one Festival run.
+
+        Festival predicts the phones and their durations, stops, and hands them
+        (as an audio-less :class:`Utterance`) to ``retime``; whatever durations
+        it returns are dictated before the wave is made. Equal to
+        :meth:`synthesize` then :meth:`resynthesize`, without starting Festival
+        and analysing the text twice.
+
+        Raises
+        ------
+        MiketalkError
+            As :meth:`synthesize` and :meth:`resynthesize`.
+        """
+        clean = normalize_text(text)
+        texts = split_chunks(clean, max_words=self.max_words)
+        with self._workspace(texts) as (tmp, env, command):
+            env["MIKETALK_PLAN"] = "1"
+            chunks = self._run_planned(texts, tmp, env, command, retime, clean)
+        return _join(clean, chunks)
+
+    @contextmanager
+    def _workspace(self, texts: list[str]) -> Iterator[tuple[Path, dict[str, str], list[str]]]:
+        """A scratch directory, the environment carrying ``texts``, and the command line."""
         festival = self._path()
         scheme = resources.files("miketalk.speech").joinpath("scheme/synthesize.scm")
         with (
@@ -177,13 +197,17 @@ class FestivalBackend(SpeechBackend):
             }
             for i, chunk_text in enumerate(texts):
                 env[f"MIKETALK_TEXT_{i}"] = chunk_text
-                if ends is not None:
-                    path = Path(tmp) / f"{i}.ends"
-                    path.write_text("(" + " ".join(f"{e:.6f}" for e in ends[i]) + ")\n")
+            yield Path(tmp), env, [festival, "-b", str(scheme_path)]
+
+    def _run(self, texts: list[str], ends: list[tuple[float, ...]] | None) -> list[_Chunk]:
+        with self._workspace(texts) as (tmp, env, command):
+            if ends is not None:
+                for i, chunk_ends in enumerate(ends):
+                    path = _write_ends(tmp, i, chunk_ends)
                     env[f"MIKETALK_ENDS_{i}"] = str(path)
             try:
                 proc = subprocess.run(
-                    [festival, "-b", str(scheme_path)],
+                    command,
                     env=env,
                     cwd=tmp,
                     capture_output=True,
@@ -193,36 +217,146 @@ class FestivalBackend(SpeechBackend):
                 )
             except subprocess.TimeoutExpired:
                 raise MiketalkError(f"Festival took longer than {self.timeout:.0f} s") from None
-            errors = proc.stderr.strip()
-            if proc.returncode != 0 or "SIOD ERROR" in errors or "SIOD ERROR" in proc.stdout:
-                if "voice_kal_diphone" in errors and "unbound" in errors:
-                    raise MiketalkError(f"Festival's kal voice is missing; {_INSTALL_HINT}")
-                tail = "\n".join((errors or proc.stdout).splitlines()[-5:])
-                raise MiketalkError(f"Festival failed (exit {proc.returncode}):\n{tail}")
-            return [_read_chunk(Path(tmp), i, t) for i, t in enumerate(texts)]
+            _check_exit(proc.returncode, proc.stderr + proc.stdout)
+            return [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
+
+    def _run_planned(
+        self,
+        texts: list[str],
+        tmp: Path,
+        env: dict[str, str],
+        command: list[str],
+        retime: Retime,
+        clean: str,
+    ) -> list[_Chunk]:
+        deadline = time.monotonic() + self.timeout
+        with (tmp / "stdout").open("w") as stdout:
+            proc = subprocess.Popen(
+                command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
+                stderr=subprocess.PIPE,
+            )  # fmt: skip
+            try:
+                errors = _read_until(proc, _PLANNED, deadline, self.timeout)
+                if _PLANNED not in errors:
+                    proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
+                    _check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text())
+                planned = [_read_plan(tmp, i, t) for i, t in enumerate(texts)]
+                durations = retime(_join(clean, planned).phones)
+                if durations is not None:
+                    for i, chunk_ends in enumerate(_chunk_ends(durations, planned)):
+                        _write_ends(tmp, i, chunk_ends)
+                proc.stdin.write(b"go\n")
+                proc.stdin.close()
+                rest = proc.stderr.read()
+                proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
+            except subprocess.TimeoutExpired:
+                raise MiketalkError(f"Festival took longer than {self.timeout:.0f} s") from None
+            finally:
+                if proc.poll() is None:
+                    proc.kill()
+                    proc.wait()
+                for pipe in (proc.stdin, proc.stderr):
+                    if pipe is not None and not pipe.closed:
+                        pipe.close()
+        _check_exit(proc.returncode, errors + rest.decode(errors="replace"))
+        chunks = [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
+        if [c.names for c in chunks] != [c.names for c in planned]:
+            raise MiketalkError("Festival produced different phones on re-synthesis")
+        return chunks
 
 
-def _read_chunk(directory: Path, index: int, text: str) -> _Chunk:
-    wav_path, phones_path = directory / f"{index}.wav", directory / f"{index}.phones"
-    if not wav_path.exists() or not phones_path.exists():
+_PLANNED = "miketalk: planned"
+
+#: voice_kal_diphone's sample rate: places chunk boundaries of the predicted phones
+#: exactly where the spoken chunks' wavs will put them.
+_VOICE_RATE = 16000
+
+
+def _read_until(proc: subprocess.Popen, marker: str, deadline: float, timeout: float) -> str:
+    """Festival's stderr up to the line ``marker`` (or to its end, if it stopped first)."""
+    fd = proc.stderr.fileno()
+    text = b""
+    while marker.encode() not in text:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise MiketalkError(f"Festival took longer than {timeout:.0f} s")
+        ready, _, _ = select.select([fd], [], [], left)
+        if ready:
+            block = os.read(fd, 65536)
+            if not block:
+                break  # Festival exited before planning
+            text += block
+    return text.decode(errors="replace")
+
+
+def _check_exit(returncode: int, messages: str) -> None:
+    """A clear error when Festival failed (status, or an SIOD error on any stream)."""
+    errors = messages.strip()
+    if returncode != 0 or "SIOD ERROR" in errors:
+        if "voice_kal_diphone" in errors and "unbound" in errors:
+            raise MiketalkError(f"Festival's kal voice is missing; {_INSTALL_HINT}")
+        tail = "\n".join(errors.splitlines()[-5:])
+        raise MiketalkError(f"Festival failed (exit {returncode}):\n{tail}")
+
+
+def _write_ends(directory: Path, index: int, ends: Sequence[float]) -> Path:
+    """Chunk ``index``'s dictated Segment ends as one Scheme list of numbers."""
+    path = directory / f"{index}.ends"
+    path.write_text("(" + " ".join(f"{e:.6f}" for e in ends) + ")\n")
+    return path
+
+
+def _chunk_ends(durations: Sequence[float], chunks: list[_Chunk]) -> list[tuple[float, ...]]:
+    """Split whole-utterance phone durations into each chunk's cumulative ends."""
+    durations = _check_durations(durations, sum(len(c.names) for c in chunks))
+    bounds = np.cumsum([0, *(len(c.names) for c in chunks)])
+    return [tuple(np.cumsum(durations[a:b]).tolist()) for a, b in pairwise(bounds)]
+
+
+def _check_durations(durations: Sequence[float], n: int) -> np.ndarray:
+    durations = np.asarray(durations, dtype=np.float64)
+    if durations.shape != (n,):
+        raise MiketalkError(f"{durations.size} durations given for {n} phones")
+    if not np.all(np.isfinite(durations)) or np.any(durations <= 0):
+        raise MiketalkError("every phone duration must be a positive number of seconds")
+    return durations
+
+
+def _read_plan(directory: Path, index: int, text: str) -> _Chunk:
+    """Chunk ``index``'s predicted phones, with silent samples as long as the phones."""
+    names, ends = _read_phones(directory / f"{index}.plan", text)
+    n = round(ends[-1] * _VOICE_RATE)
+    return _Chunk(text, np.zeros(n, np.int16), _VOICE_RATE, names, ends)
+
+
+def _read_phones(path: Path, text: str) -> tuple[tuple[str, ...], tuple[float, ...]]:
+    if not path.exists():
         raise MiketalkError(f"Festival wrote no output for {text!r}")
-    with wave.open(str(wav_path), "rb") as w:
-        if w.getsampwidth() != 2 or w.getnchannels() != 1:
-            raise MiketalkError("Festival's wav is not 16-bit mono")
-        rate = w.getframerate()
-        samples = np.frombuffer(w.readframes(w.getnframes()), dtype="<i2").astype(np.int16)
     names, ends = [], []
-    for line in phones_path.read_text().splitlines():
+    for line in path.read_text().splitlines():
         name, end = line.split()
         names.append(name)
         ends.append(float(end))
     if not names:
         raise MiketalkError(f"Festival returned no phones for {text!r}")
+    return tuple(names), tuple(ends)
+
+
+def _read_chunk(directory: Path, index: int, text: str) -> _Chunk:
+    wav_path = directory / f"{index}.wav"
+    if not wav_path.exists():
+        raise MiketalkError(f"Festival wrote no output for {text!r}")
+    names, ends = _read_phones(directory / f"{index}.phones", text)
+    with wave.open(str(wav_path), "rb") as w:
+        if w.getsampwidth() != 2 or w.getnchannels() != 1:
+            raise MiketalkError("Festival's wav is not 16-bit mono")
+        rate = w.getframerate()
+        samples = np.frombuffer(w.readframes(w.getnframes()), dtype="<i2").astype(np.int16)
     # The kal voice runs ~25 ms past the last phone: cut the wav at its end (or
     # pad with silence) so that audio and phones end on the same sample.
     n = round(ends[-1] * rate)
     samples = samples[:n] if len(samples) >= n else np.pad(samples, (0, n - len(samples)))
-    return _Chunk(text, samples, rate, tuple(names), tuple(ends))
+    return _Chunk(text, samples, rate, names, ends)
 
 
 def _join(text: str, chunks: list[_Chunk]) -> Utterance:

@@ -12,6 +12,13 @@
 ;;;                      dictated Segment end times in seconds. When given, the
 ;;;                      text modules run up to Duration, the ends are set, and
 ;;;                      only then Int_Targets and Wave_Synth (re-synthesis).
+;;;   MIKETALK_PLAN      optional: when set, every chunk is first run up to
+;;;                      Duration and its predicted phones written as I.plan; then
+;;;                      "miketalk: planned" is printed on stderr and one datum is
+;;;                      read from stdin (the caller writes `go` once it has put
+;;;                      any I.ends files it wants in MIKETALK_OUT); each chunk
+;;;                      then gets those ends (if its I.ends exists) and is spoken.
+;;;                      One Festival run instead of a synthesis and a re-synthesis.
 
 (define (miketalk-env name)
   (let ((v (getenv name)))
@@ -51,17 +58,64 @@
         (out (miketalk-env "MIKETALK_OUT")))
     (if ends-file
         (begin
-          (Initialize utt) (Text utt) (Token_POS utt) (Token utt) (POS utt) (Phrasify utt)
-          (Word utt) (Pauses utt) (Intonation utt) (PostLex utt) (Duration utt)
+          (set! utt (miketalk-text-to-duration utt))
           (miketalk-set-ends utt (miketalk-read-ends ends-file))
-          (Int_Targets utt) (Wave_Synth utt))
-        (utt.synth utt))
+          (set! utt (miketalk-wave utt)))
+        (set! utt (utt.synth utt)))
     (utt.save.wave utt (format nil "%s/%d.wav" out i) 'riff)
     (miketalk-write-phones utt (format nil "%s/%d.phones" out i))))
+
+;;; utt.synth split in two at Duration, hooks included: the kal voice's
+;;; after_synth_hooks rescale the wave by 2.6, and a re-synthesis without them
+;;; would come out that much quieter than the first synthesis.
+(define (miketalk-text-to-duration utt)
+  (set! utt (apply_hooks before_synth_hooks utt))
+  (Initialize utt) (Text utt) (Token_POS utt) (Token utt) (POS utt) (Phrasify utt)
+  (Word utt) (Pauses utt) (Intonation utt) (PostLex utt) (Duration utt)
+  utt)
+
+(define (miketalk-wave utt)
+  (Int_Targets utt) (Wave_Synth utt)
+  (apply_hooks after_synth_hooks utt))
+
+(define (miketalk-plan-chunk i)
+  (let ((utt (miketalk-text-to-duration
+              (eval (list 'Utterance 'Text (miketalk-env (format nil "MIKETALK_TEXT_%d" i)))))))
+    (miketalk-write-phones utt (format nil "%s/%d.plan" (miketalk-env "MIKETALK_OUT") i))
+    utt))
+
+(define (miketalk-speak-planned utts i)
+  (if utts
+      (let ((utt (car utts))
+            (out (miketalk-env "MIKETALK_OUT")))
+        (let ((ends-file (format nil "%s/%d.ends" out i)))
+          (if (probe_file ends-file)
+              (miketalk-set-ends utt (miketalk-read-ends ends-file))))
+        (set! utt (miketalk-wave utt))
+        (utt.save.wave utt (format nil "%s/%d.wav" out i) 'riff)
+        (miketalk-write-phones utt (format nil "%s/%d.phones" out i))
+        (miketalk-speak-planned (cdr utts) (+ i 1)))))
+
+(define (miketalk-plan-all i n)
+  (if (< i n)
+      (cons (miketalk-plan-chunk i) (miketalk-plan-all (+ i 1) n))
+      nil))
+
+(define (miketalk-planned n)
+  (let ((utts (miketalk-plan-all 0 n)) (fd nil) (go nil))
+    (format stderr "miketalk: planned\n")
+    (set! fd (fopen "/dev/stdin" "r"))
+    (set! go (readfp fd))
+    (fclose fd)
+    (if (not (equal? go 'go))
+        (begin (format stderr "miketalk: not told to go\n") (exit 5)))
+    (miketalk-speak-planned utts 0)))
 
 (define (miketalk-chunks i n)
   (if (< i n)
       (begin (miketalk-chunk i) (miketalk-chunks (+ i 1) n))))
 
 (miketalk-voice)
-(miketalk-chunks 0 (parse-number (miketalk-env "MIKETALK_CHUNKS")))
+(if (miketalk-env "MIKETALK_PLAN")
+    (miketalk-planned (parse-number (miketalk-env "MIKETALK_CHUNKS")))
+    (miketalk-chunks 0 (parse-number (miketalk-env "MIKETALK_CHUNKS"))))
