@@ -27,8 +27,11 @@ from __future__ import annotations
 import csv
 import io
 import json
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from queue import Full, Queue
 
 import numpy as np
 
@@ -161,15 +164,7 @@ def record_corpus(
 
     frames_dir = out / "frames"
     frames_dir.mkdir(parents=True, exist_ok=True)
-    renderer = FaceRenderer(face, size=size)
-    frames = []
-    try:
-        for k in range(n_frames):
-            image = renderer.render(params[k])
-            frames.append(image)
-            write_png(frames_dir / f"{k:06d}.png", image)
-    finally:
-        renderer.close()
+    _render_frames(face, size, params, frames_dir, out / "corpus.mp4", fps, samples, rate)
 
     key_t = np.array([p.time for p in poses])
     which = np.clip(np.searchsorted(key_t, times, side="right") - 1, 0, len(poses) - 1)
@@ -207,8 +202,62 @@ def record_corpus(
         json.dumps({"fps": fps, "size": size, "rate": rate, "words": predicted}, indent=1),
     )
     write_wav(out / "audio.wav", samples, rate)
-    write_mp4(out / "corpus.mp4", frames, fps, samples, rate)
     return out
+
+
+def _render_frames(
+    face: Face,
+    size: int,
+    params: np.ndarray,
+    frames_dir: Path,
+    video: Path,
+    fps: float,
+    samples: np.ndarray,
+    rate: int,
+) -> None:
+    """Render every frame to ``frames_dir`` as PNG and to ``video`` as mp4.
+
+    The renderer holds this thread; the PNG writes (OpenCV releases the GIL)
+    and the mp4 (fed through a queue to ffmpeg) run in two more threads, so
+    they overlap with rendering instead of following it.
+    """
+    queue: Queue[np.ndarray | None] = Queue(maxsize=64)
+
+    def stream() -> Iterator[np.ndarray]:
+        while (frame := queue.get()) is not None:
+            yield frame
+
+    with ThreadPoolExecutor(2, thread_name_prefix="corpus-out") as pool:
+        encoded = pool.submit(
+            write_mp4, video, stream(), fps, samples, rate, n_frames=len(params)
+        )  # fmt: skip
+
+        def feed(item: np.ndarray | None) -> bool:
+            """Queue ``item`` for ffmpeg; False once the encoder has stopped (failed)."""
+            while not encoded.done():
+                try:
+                    queue.put(item, timeout=0.2)
+                    return True
+                except Full:
+                    pass
+            return False
+
+        writes = []
+        renderer = FaceRenderer(face, size=size)
+        try:
+            for k, p in enumerate(params):
+                image = renderer.render(p)
+                writes.append(pool.submit(write_png, frames_dir / f"{k:06d}.png", image))
+                if not feed(image):
+                    break
+                if len(writes) > 64:  # keep at most this many frames waiting
+                    writes.pop(0).result()
+        finally:
+            renderer.close()
+            feed(None)
+        for write in writes:
+            write.result()
+        encoded.result()
 
 
 def _silence_truth(poses: list[Pose], words: list[str]) -> list[tuple[Pose, tuple[float, float]]]:

@@ -125,6 +125,7 @@ def morph_fidelity_table(
     }
     size = next(iter(images.values())).shape[0]
     renderer = FaceRenderer(Face(), size=size)
+    references: dict[bytes, np.ndarray] = {}  # (a, b, alpha) and (b, a, 1 - alpha) are one pose
     rows = []
     try:
         for a, b in permutations(list(images), 2):
@@ -137,13 +138,16 @@ def morph_fidelity_table(
                 ),
             }
             for alpha in alphas:
-                reference = renderer.render((1 - alpha) * params[a] + alpha * params[b])
+                pose = (1 - alpha) * params[a] + alpha * params[b]
+                key = pose.tobytes()
+                if key not in references:
+                    references[key] = renderer.render(pose)
+                reference = references[key]
                 candidates = {"cross_dissolve": (cross_dissolve(images[a], images[b], alpha), 0, 0)}
                 for name, morpher in morphers.items():
-                    stages = morpher.stages(alpha)
-                    holes = int(stages.hole.sum())
-                    left = int((stages.hole & np.all(stages.final == HOLE_VALUE, axis=-1)).sum())
-                    candidates[name] = (morpher.frame(alpha), holes, left)
+                    frame, hole = morpher.frame_and_holes(alpha)
+                    left = int(np.all(frame[hole] == HOLE_VALUE, axis=-1).sum())
+                    candidates[name] = (frame, int(hole.sum()), left)
                 for name, (image, holes, left) in candidates.items():
                     for region, mask in (("mouth", mouth), ("full", None)):
                         rows.append(

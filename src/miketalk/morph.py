@@ -537,6 +537,14 @@ class Morpher:
         out = _median3(out) if self.median else out.copy()
         return out.reshape(self.shape)
 
+    def frame_and_holes(self, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`frame` and the (H, W) bool mask of the pixels neither warp reached.
+
+        One render gives both (the metrics count holes before filling).
+        """
+        frame = self.frame(alpha)
+        return frame, self._hole.copy()
+
     def frames(self, alphas: Iterable[float]) -> Iterator[np.ndarray]:
         """Yield :meth:`frame` for each alpha in turn."""
         for alpha in alphas:

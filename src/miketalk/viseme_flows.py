@@ -136,7 +136,7 @@ def _pair_job(job: tuple) -> dict:
                 info[f"{direction}_chain"] = abs(start - path[0]) + abs(path[2] - path[1])
                 forward, backward = (flow, backward) if direction == "forward" else (forward, flow)
     info["forward"], info["backward"] = forward, backward
-    return info
+    return _write_pair(info, *_STATE["write"])  # in the worker: writes run in parallel too
 
 
 def _mixed_pair(info, image_a, image_b, frame_a, frame_b, window, mask):
@@ -206,8 +206,10 @@ def _init_worker(
     consecutive: str | None,
     rest: np.ndarray | None,
     mixed: str | None,
+    write: tuple,
 ) -> None:
     _init(estimator, settings, frames_dir)
+    _STATE["write"] = write
     _STATE["n_frames"] = n_frames
     _STATE["rest"] = rest
     _STATE["mixed"] = FlowDatabase(mixed) if mixed is not None else None
@@ -316,15 +318,18 @@ def build_flow_database(
             with ProcessPoolExecutor(
                 max_workers=workers,
                 initializer=_init_worker,
-                initargs=(estimator, settings, str(frames_dir), n_frames, consecutive, rest, mixed),
-            ) as pool:
+                initargs=(
+                    estimator, settings, str(frames_dir), n_frames, consecutive, rest, mixed,
+                    (out, estimator, settings, strategy),
+                ),
+            ) as pool:  # fmt: skip
                 chunks = [steps[i : i + 25] for i in range(0, len(steps), 25)]
                 list(pool.map(_consecutive_job, chunks))
                 if strategy == "concat":
                     infos = _concat_infos(pool, jobs)
+                    rows = [_write_pair(i, out, estimator, settings, strategy) for i in infos]
                 else:
-                    infos = pool.map(_pair_job, jobs, chunksize=1)
-                rows = _write_pairs(infos, out, estimator, settings, strategy)
+                    rows = list(pool.map(_pair_job, jobs, chunksize=1))
         finally:
             cv2.setNumThreads(threads)
     return pd.DataFrame(rows)
@@ -348,19 +353,17 @@ def _concat_infos(pool: ProcessPoolExecutor, jobs: list[tuple]) -> list[dict]:
     return infos
 
 
-def _write_pairs(infos, out, estimator, settings, strategy) -> list[dict]:
-    rows = []
-    for info in infos:
-        a, b = info.pop("source"), info.pop("target")
-        write_flow_pair(
-            pair_path(out, a, b),
-            info.pop("forward"),
-            info.pop("backward"),
-            source=a,
-            target=b,
-            estimator=estimator,
-            settings={**settings, "strategy": strategy},
-        )
-        rows.append({"source": a, "target": b, **info})
-        log.info("flows %s <-> %s written", a, b)
-    return rows
+def _write_pair(info: dict, out: Path, estimator: str, settings: dict, strategy: str) -> dict:
+    """Write one pair's file; return its row (what the strategy chose, without the flows)."""
+    a, b = info.pop("source"), info.pop("target")
+    write_flow_pair(
+        pair_path(out, a, b),
+        info.pop("forward"),
+        info.pop("backward"),
+        source=a,
+        target=b,
+        estimator=estimator,
+        settings={**settings, "strategy": strategy},
+    )
+    log.info("flows %s <-> %s written", a, b)
+    return {"source": a, "target": b, **info}

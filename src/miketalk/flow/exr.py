@@ -1,7 +1,7 @@
 """One flow-database file: both flows of a viseme pair in a 32-bit float OpenEXR.
 
-Layout (a single-part scanline EXR, lossless ZIP compression)
--------------------------------------------------------------
+Layout (a single-part scanline EXR, uncompressed)
+-------------------------------------------------
 Channels
     ``forward.u``, ``forward.v``: FLOAT, the flow from ``source`` to ``target``
     (the paper's C_0, Eq. 1): ``u`` = dx (columns), ``v`` = dy (rows), so
@@ -15,6 +15,11 @@ Header attributes (strings)
     ``miketalk.settings``: the estimator's settings as a JSON object.
     ``miketalk.convention``: the sentence above, for readers without this code.
     ``miketalk.format``: ``miketalk-flow-pair 1``.
+
+No compression: lossless ZIP saved 2% on estimated flows (full-precision floats
+are noise to it) and made each 256^2 file 3.5 times slower to write (22 ms vs
+6 ms) and twice as slow to read; ZSTD saved 20% at the same cost as ZIP.
+Any reader handles either.
 """
 
 from __future__ import annotations
@@ -147,7 +152,7 @@ def write_flow_pair(
                 )
             channels[f"{layer}.valid"] = mask.astype(np.uint32)
     header = {
-        "compression": OpenEXR.ZIP_COMPRESSION,
+        "compression": OpenEXR.NO_COMPRESSION,
         "type": OpenEXR.scanlineimage,
         "miketalk.format": FORMAT,
         "miketalk.convention": CONVENTION,
