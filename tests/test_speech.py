@@ -7,6 +7,7 @@ import os
 import stat
 import subprocess
 import sys
+import time
 from itertools import pairwise
 from pathlib import Path
 
@@ -223,6 +224,30 @@ def test_festival_crash_is_a_clear_error(tmp_path: Path) -> None:
     fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
     with pytest.raises(MiketalkError, match="Festival failed"):
         FestivalBackend(executable=str(fake)).synthesize("hello")
+
+
+def test_festival_crash_or_hang_in_a_retimed_run_is_a_clear_error(tmp_path: Path) -> None:
+    def retime(phones: tuple) -> None:
+        return None
+
+    crash = tmp_path / "crash" / "festival"
+    crash.parent.mkdir()
+    crash.write_text("#!/bin/sh\necho 'Segmentation fault' >&2\nexit 139\n")
+    crash.chmod(crash.stat().st_mode | stat.S_IEXEC)
+    with pytest.raises(MiketalkError, match="Festival failed"):
+        FestivalBackend(executable=str(crash)).synthesize_retimed("hello", retime)
+    # plans, is told to go, and then never finishes
+    hang = tmp_path / "hang" / "festival"
+    hang.parent.mkdir()
+    hang.write_text(
+        "#!/bin/sh\necho 'pau 0.2' > \"$MIKETALK_OUT/0.plan\"\n"
+        "echo 'miketalk: planned' >&2\nexec sleep 60\n"
+    )
+    hang.chmod(hang.stat().st_mode | stat.S_IEXEC)
+    start = time.monotonic()
+    with pytest.raises(MiketalkError, match="took longer than 2 s"):
+        FestivalBackend(executable=str(hang), timeout=2.0).synthesize_retimed("hello", retime)
+    assert time.monotonic() - start < 10
 
 
 def test_version(festival: FestivalBackend) -> None:

@@ -58,6 +58,8 @@ rule flow_epe:
         f"{METRICS}/epe/{FACE}/{{method}}/{{strategy}}.csv",
     log:
         f"results/logs/flow_epe/{FACE}/{{method}}/{{strategy}}.log",
+    benchmark:
+        f"results/benchmarks/flow_epe/{FACE}/{{method}}/{{strategy}}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:

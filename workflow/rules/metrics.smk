@@ -38,6 +38,8 @@ rule sync:
         f"{METRICS}/sync/{FACE}/{{sentence}}.csv",
     log:
         f"results/logs/sync/{FACE}/{{sentence}}.log",
+    benchmark:
+        f"results/benchmarks/sync/{FACE}/{{sentence}}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -58,6 +60,8 @@ rule sync_sweep_point:
         f"{METRICS}/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.csv",
     log:
         f"results/logs/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.log",
+    benchmark:
+        f"results/benchmarks/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:

@@ -247,7 +247,7 @@ class FestivalBackend(SpeechBackend):
                         _write_ends(tmp, i, chunk_ends)
                 proc.stdin.write(b"go\n")
                 proc.stdin.close()
-                rest = proc.stderr.read()
+                rest = _read_until(proc, None, deadline, self.timeout)
                 proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
             except subprocess.TimeoutExpired:
                 raise MiketalkError(f"Festival took longer than {self.timeout:.0f} s") from None
@@ -258,7 +258,7 @@ class FestivalBackend(SpeechBackend):
                 for pipe in (proc.stdin, proc.stderr):
                     if pipe is not None and not pipe.closed:
                         pipe.close()
-        _check_exit(proc.returncode, errors + rest.decode(errors="replace"))
+        _check_exit(proc.returncode, errors + rest)
         chunks = [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
         if [c.names for c in chunks] != [c.names for c in planned]:
             raise MiketalkError("Festival produced different phones on re-synthesis")
@@ -272,11 +272,15 @@ _PLANNED = "miketalk: planned"
 _VOICE_RATE = 16000
 
 
-def _read_until(proc: subprocess.Popen, marker: str, deadline: float, timeout: float) -> str:
-    """Festival's stderr up to the line ``marker`` (or to its end, if it stopped first)."""
+def _read_until(proc: subprocess.Popen, marker: str | None, deadline: float, timeout: float) -> str:
+    """Festival's stderr up to the line ``marker`` (None: to its end), within ``deadline``.
+
+    Stops early at the end of the stream (Festival exited). Raises MiketalkError
+    when the deadline passes first.
+    """
     fd = proc.stderr.fileno()
     text = b""
-    while marker.encode() not in text:
+    while marker is None or marker.encode() not in text:
         left = deadline - time.monotonic()
         if left <= 0:
             raise MiketalkError(f"Festival took longer than {timeout:.0f} s")
@@ -284,7 +288,7 @@ def _read_until(proc: subprocess.Popen, marker: str, deadline: float, timeout: f
         if ready:
             block = os.read(fd, 65536)
             if not block:
-                break  # Festival exited before planning
+                break  # end of the stream: Festival exited
             text += block
     return text.decode(errors="replace")
 
