@@ -74,6 +74,9 @@ def cmd_phones(args: argparse.Namespace) -> int:
 
 def cmd_say(args: argparse.Namespace) -> int:
     """Speak a text as an mp4."""
+    from miketalk import warmup
+
+    warmup.start()  # the morph's kernels load while the rest starts up and Festival speaks
     from miketalk.synthesis import open_model, say
 
     text = _read_text(args)

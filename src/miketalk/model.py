@@ -156,15 +156,6 @@ class Model:
             return self.image(b)
         return self.morpher(a, b).frame(alpha)
 
-    def warm_up(self) -> None:
-        """Load the morph's compiled kernels now (numba's on-disk cache: about a second).
-
-        ``say`` does it in a thread while Festival speaks, so that the first frame
-        does not wait for it.
-        """
-        if len(self.visemes) > 1:
-            self.morpher(self.visemes[0], self.visemes[1]).frame(0.5)
-
     def render(self, timeline: Timeline, *, lookahead: int = 8) -> Iterator[np.ndarray]:
         """The frames of a timeline, in order.
 

@@ -5,13 +5,13 @@ from __future__ import annotations
 import json
 import os
 import sys
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
+from miketalk import warmup
 from miketalk.atomic import write_text_atomic
 from miketalk.errors import MiketalkError
 from miketalk.lipsync import Timeline, largest_step, speak_in_sync
@@ -75,8 +75,7 @@ def say(
         raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
     backend = backend or get_backend("festival")
     table = table or default_table()
-    warm = threading.Thread(target=_warm_up, args=(model,), name="miketalk-warm-up", daemon=True)
-    warm.start()  # while Festival speaks; joined before the model is used again
+    warmup.start()  # while Festival speaks (the CLI started it even earlier)
     try:
         utterance, timeline = speak_in_sync(
             text,
@@ -87,7 +86,7 @@ def say(
             max_px_per_frame=max_px_per_frame,
         )
     finally:
-        warm.join()
+        warmup.wait()
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
     frames = model.render(timeline)
@@ -104,14 +103,6 @@ def say(
         output.unlink(missing_ok=True)
         raise
     return utterance, timeline
-
-
-def _warm_up(model: Model) -> None:
-    """:meth:`Model.warm_up`, quietly: a broken model is reported where it is used."""
-    try:
-        model.warm_up()
-    except Exception:  # the same call fails again, with its message, in say()
-        pass
 
 
 def _progress(frames: Iterator[np.ndarray], total: int) -> Iterator[np.ndarray]:
