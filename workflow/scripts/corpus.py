@@ -37,7 +37,10 @@ def main() -> None:
     else:
         if not corpus["video"]:
             raise MiketalkError("corpus.source is video but corpus.video is not set")
-        ingest_video(corpus["video"], out, words=words, backend=festival)
+        ingest_video(
+            corpus["video"], out, words=words, backend=festival,
+            crop=corpus["video_crop"], width=corpus["video_width"],
+        )  # fmt: skip
 
 
 run_stage(snakemake, main)
