@@ -236,6 +236,16 @@ def test_festival_crash_or_hang_in_a_retimed_run_is_a_clear_error(tmp_path: Path
     crash.chmod(crash.stat().st_mode | stat.S_IEXEC)
     with pytest.raises(MiketalkError, match="Festival failed"):
         FestivalBackend(executable=str(crash)).synthesize_retimed("hello", retime)
+    # plans, then dies before it is told to go
+    dies = tmp_path / "dies" / "festival"
+    dies.parent.mkdir()
+    dies.write_text(
+        "#!/bin/sh\necho 'pau 0.2' > \"$MIKETALK_OUT/0.plan\"\n"
+        "echo 'miketalk: planned' >&2\nexec 0<&-\necho 'SIOD ERROR: oops' >&2\nexit 1\n"
+    )
+    dies.chmod(dies.stat().st_mode | stat.S_IEXEC)
+    with pytest.raises(MiketalkError, match="Festival failed"):
+        FestivalBackend(executable=str(dies)).synthesize_retimed("hello", retime)
     # plans, is told to go, and then never finishes
     hang = tmp_path / "hang" / "festival"
     hang.parent.mkdir()

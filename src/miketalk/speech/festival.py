@@ -245,8 +245,11 @@ class FestivalBackend(SpeechBackend):
                 if durations is not None:
                     for i, chunk_ends in enumerate(_chunk_ends(durations, planned)):
                         _write_ends(tmp, i, chunk_ends)
-                proc.stdin.write(b"go\n")
-                proc.stdin.close()
+                try:
+                    proc.stdin.write(b"go\n")
+                    proc.stdin.close()
+                except BrokenPipeError:  # Festival died after planning: its exit says why
+                    pass
                 rest = _read_until(proc, None, deadline, self.timeout)
                 proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
             except subprocess.TimeoutExpired:
@@ -258,7 +261,7 @@ class FestivalBackend(SpeechBackend):
                 for pipe in (proc.stdin, proc.stderr):
                     if pipe is not None and not pipe.closed:
                         pipe.close()
-        _check_exit(proc.returncode, errors + rest)
+        _check_exit(proc.returncode, errors + rest + (tmp / "stdout").read_text(errors="replace"))
         chunks = [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
         if [c.names for c in chunks] != [c.names for c in planned]:
             raise MiketalkError("Festival produced different phones on re-synthesis")
