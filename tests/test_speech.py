@@ -218,45 +218,43 @@ def test_festival_missing_from_path(monkeypatch: pytest.MonkeyPatch, tmp_path: P
         FestivalBackend().synthesize("hello")
 
 
-def test_festival_crash_is_a_clear_error(tmp_path: Path) -> None:
-    fake = tmp_path / "festival"
-    fake.write_text("#!/bin/sh\necho 'Segmentation fault' >&2\nexit 139\n")
+def _fake_festival(directory: Path, script: str) -> str:
+    """An executable ``festival`` in ``directory`` running the shell ``script``."""
+    directory.mkdir(parents=True, exist_ok=True)
+    fake = directory / "festival"
+    fake.write_text("#!/bin/sh\n" + script)
     fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
-    with pytest.raises(MiketalkError, match="Festival failed"):
-        FestivalBackend(executable=str(fake)).synthesize("hello")
+    return str(fake)
 
 
-def test_festival_crash_or_hang_in_a_retimed_run_is_a_clear_error(tmp_path: Path) -> None:
-    def retime(phones: tuple) -> None:
-        return None
+_CRASH = "echo 'Segmentation fault' >&2\nexit 139\n"
+_PLAN = "echo 'pau 0.2' > \"$MIKETALK_OUT/0.plan\"\necho 'miketalk: planned' >&2\n"
 
-    crash = tmp_path / "crash" / "festival"
-    crash.parent.mkdir()
-    crash.write_text("#!/bin/sh\necho 'Segmentation fault' >&2\nexit 139\n")
-    crash.chmod(crash.stat().st_mode | stat.S_IEXEC)
+
+def test_festival_crash_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(MiketalkError, match="Festival failed"):
-        FestivalBackend(executable=str(crash)).synthesize_retimed("hello", retime)
-    # plans, then dies before it is told to go
-    dies = tmp_path / "dies" / "festival"
-    dies.parent.mkdir()
-    dies.write_text(
-        "#!/bin/sh\necho 'pau 0.2' > \"$MIKETALK_OUT/0.plan\"\n"
-        "echo 'miketalk: planned' >&2\nexec 0<&-\necho 'SIOD ERROR: oops' >&2\nexit 1\n"
-    )
-    dies.chmod(dies.stat().st_mode | stat.S_IEXEC)
+        FestivalBackend(executable=_fake_festival(tmp_path, _CRASH)).synthesize("hello")
+
+
+@pytest.mark.parametrize(
+    "script",
+    [_CRASH, _PLAN + "exec 0<&-\necho 'SIOD ERROR: oops' >&2\nexit 1\n"],
+    ids=["crashes", "dies-after-planning"],
+)
+def test_festival_failing_in_a_retimed_run_is_a_clear_error(tmp_path: Path, script: str) -> None:
+    backend = FestivalBackend(executable=_fake_festival(tmp_path, script))
     with pytest.raises(MiketalkError, match="Festival failed"):
-        FestivalBackend(executable=str(dies)).synthesize_retimed("hello", retime)
+        backend.synthesize_retimed("hello", lambda phones: None)
+
+
+def test_festival_hanging_in_a_retimed_run_is_stopped(tmp_path: Path) -> None:
     # plans, is told to go, and then never finishes
-    hang = tmp_path / "hang" / "festival"
-    hang.parent.mkdir()
-    hang.write_text(
-        "#!/bin/sh\necho 'pau 0.2' > \"$MIKETALK_OUT/0.plan\"\n"
-        "echo 'miketalk: planned' >&2\nexec sleep 60\n"
+    backend = FestivalBackend(
+        executable=_fake_festival(tmp_path, _PLAN + "exec sleep 60\n"), timeout=2.0
     )
-    hang.chmod(hang.stat().st_mode | stat.S_IEXEC)
     start = time.monotonic()
     with pytest.raises(MiketalkError, match="took longer than 2 s"):
-        FestivalBackend(executable=str(hang), timeout=2.0).synthesize_retimed("hello", retime)
+        backend.synthesize_retimed("hello", lambda phones: None)
     assert time.monotonic() - start < 10
 
 

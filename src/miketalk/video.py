@@ -124,7 +124,7 @@ def write_mp4(
         if n_frames is not None:
             audio_args: tuple[list[str], list[str]] = ([], [])
             if audio is not None and rate is not None:
-                audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q, index=1)
+                audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q)
             with atomic_path(path, suffix=".mp4") as out:
                 count = _encode_video(
                     exe, _iter_frames(frames), fps_q, int(crf), preset, out, work / "video.log",
@@ -140,7 +140,7 @@ def write_mp4(
         inputs = ["-i", str(video)]
         maps = ["-map", "0:v:0", "-c:v", "copy"]
         if audio is not None and rate is not None:
-            audio_inputs, audio_options = _audio_input(work, audio, rate, n_frames, fps_q, index=1)
+            audio_inputs, audio_options = _audio_input(work, audio, rate, n_frames, fps_q)
             inputs += audio_inputs
             maps += audio_options
         with atomic_path(path, suffix=".mp4") as out:
@@ -149,9 +149,9 @@ def write_mp4(
 
 
 def _audio_input(
-    work: Path, audio: np.ndarray, rate: int, n_frames: int, fps: Fraction, *, index: int
+    work: Path, audio: np.ndarray, rate: int, n_frames: int, fps: Fraction
 ) -> tuple[list[str], list[str]]:
-    """ffmpeg arguments adding ``audio``, fitted to ``n_frames / fps``, as input ``index``.
+    """ffmpeg arguments adding ``audio``, fitted to ``n_frames / fps``, as the second input.
 
     Returns the input (``-i``) and the output stream options, to be placed
     after the inputs and after the video stream's options.
@@ -160,7 +160,7 @@ def _audio_input(
     wav = work / "audio.wav"
     write_wav(wav, _fit(audio, n_samples), rate)
     return ["-i", str(wav)], [
-        "-map", f"{index}:a:0", "-c:a", "aac", "-b:a", _AUDIO_BITRATE, "-flags:a", "+bitexact",
+        "-map", "1:a:0", "-c:a", "aac", "-b:a", _AUDIO_BITRATE, "-flags:a", "+bitexact",
     ]  # fmt: skip
 
 

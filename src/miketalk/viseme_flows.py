@@ -35,6 +35,8 @@ import pandas as pd
 from miketalk.errors import MiketalkError
 from miketalk.flow import (
     FlowDatabase,
+    concat_flows,
+    concatenate_up_flows,
     get_estimator,
     mixed_flow,
     pair_path,
@@ -42,7 +44,6 @@ from miketalk.flow import (
     write_flow_pair,
 )
 from miketalk.flow.bridge import nearest_rest, rest_frames
-from miketalk.flow.concat import _concat, concatenate_up_flows
 from miketalk.flow.mixed import warp_residual
 from miketalk.images import read_image
 
@@ -98,7 +99,7 @@ def _chains_from(job: tuple[int, list[int]]) -> dict[int, np.ndarray]:
         for end in targets:
             while k != end:
                 step = np.asarray(forward[k] if sign > 0 else backward[k - 1])
-                total = step.copy() if total is None else _concat(total, step)
+                total = step.copy() if total is None else concat_flows(total, step)
                 k += sign
             out[end] = total
     return out

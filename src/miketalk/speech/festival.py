@@ -145,17 +145,12 @@ class FestivalBackend(SpeechBackend):
             Wrong number of durations, a non-positive or non-finite duration, or
             Festival producing other phones than ``utterance`` has.
         """
-        durations = _check_durations(durations, len(utterance.phones))
         texts = split_chunks(utterance.text, max_words=self.max_words)
-        sizes = [n for _, n in utterance.chunks] if utterance.chunks else [len(durations)]
+        sizes = [n for _, n in utterance.chunks] if utterance.chunks else [len(utterance.phones)]
         if len(sizes) != len(texts):
             raise MiketalkError("the utterance's chunks do not match its text; synthesize it again")
-        bounds = np.cumsum([0, *sizes])
-        ends = [tuple(np.cumsum(durations[a:b]).tolist()) for a, b in pairwise(bounds)]
-        chunks = self._run(texts, ends)
-        got = [name for c in chunks for name in c.names]
-        if got != [p.name for p in utterance.phones]:
-            raise MiketalkError("Festival produced different phones on re-synthesis")
+        chunks = self._run(texts, _chunk_ends(durations, sizes))
+        _check_same_phones(chunks, [p.name for p in utterance.phones])
         return _join(utterance.text, chunks)
 
     def synthesize_retimed(self, text: str, retime: Retime) -> Utterance:
@@ -243,7 +238,8 @@ class FestivalBackend(SpeechBackend):
                 planned = [_read_plan(tmp, i, t) for i, t in enumerate(texts)]
                 durations = retime(_join(clean, planned).phones)
                 if durations is not None:
-                    for i, chunk_ends in enumerate(_chunk_ends(durations, planned)):
+                    sizes = [len(c.names) for c in planned]
+                    for i, chunk_ends in enumerate(_chunk_ends(durations, sizes)):
                         _write_ends(tmp, i, chunk_ends)
                 try:
                     proc.stdin.write(b"go\n")
@@ -263,8 +259,7 @@ class FestivalBackend(SpeechBackend):
                         pipe.close()
         _check_exit(proc.returncode, errors + rest + (tmp / "stdout").read_text(errors="replace"))
         chunks = [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
-        if [c.names for c in chunks] != [c.names for c in planned]:
-            raise MiketalkError("Festival produced different phones on re-synthesis")
+        _check_same_phones(chunks, [name for c in planned for name in c.names])
         return chunks
 
 
@@ -313,11 +308,20 @@ def _write_ends(directory: Path, index: int, ends: Sequence[float]) -> Path:
     return path
 
 
-def _chunk_ends(durations: Sequence[float], chunks: list[_Chunk]) -> list[tuple[float, ...]]:
-    """Split whole-utterance phone durations into each chunk's cumulative ends."""
-    durations = _check_durations(durations, sum(len(c.names) for c in chunks))
-    bounds = np.cumsum([0, *(len(c.names) for c in chunks)])
+def _chunk_ends(durations: Sequence[float], sizes: Sequence[int]) -> list[tuple[float, ...]]:
+    """Split checked whole-utterance phone durations into each chunk's cumulative ends.
+
+    ``sizes`` holds each chunk's number of phones.
+    """
+    durations = _check_durations(durations, sum(sizes))
+    bounds = np.cumsum([0, *sizes])
     return [tuple(np.cumsum(durations[a:b]).tolist()) for a, b in pairwise(bounds)]
+
+
+def _check_same_phones(chunks: list[_Chunk], names: list[str]) -> None:
+    """A re-synthesis must speak the phones the durations were dictated for."""
+    if [name for c in chunks for name in c.names] != names:
+        raise MiketalkError("Festival produced different phones on re-synthesis")
 
 
 def _check_durations(durations: Sequence[float], n: int) -> np.ndarray:

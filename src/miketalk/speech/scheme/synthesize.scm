@@ -52,18 +52,27 @@
      (utt.relation.items utt 'Segment))
     (fclose fd)))
 
+(define (miketalk-text-utt i)
+  "Chunk I's text as a Text utterance (the text is a string datum, never code)."
+  (eval (list 'Utterance 'Text (miketalk-env (format nil "MIKETALK_TEXT_%d" i)))))
+
+(define (miketalk-out-path i suffix)
+  (format nil "%s/%d.%s" (miketalk-env "MIKETALK_OUT") i suffix))
+
+(define (miketalk-save utt i)
+  (utt.save.wave utt (miketalk-out-path i "wav") 'riff)
+  (miketalk-write-phones utt (miketalk-out-path i "phones")))
+
 (define (miketalk-chunk i)
-  (let ((utt (eval (list 'Utterance 'Text (miketalk-env (format nil "MIKETALK_TEXT_%d" i)))))
-        (ends-file (miketalk-env (format nil "MIKETALK_ENDS_%d" i)))
-        (out (miketalk-env "MIKETALK_OUT")))
+  (let ((utt (miketalk-text-utt i))
+        (ends-file (miketalk-env (format nil "MIKETALK_ENDS_%d" i))))
     (if ends-file
         (begin
           (set! utt (miketalk-text-to-duration utt))
           (miketalk-set-ends utt (miketalk-read-ends ends-file))
           (set! utt (miketalk-wave utt)))
         (set! utt (utt.synth utt)))
-    (utt.save.wave utt (format nil "%s/%d.wav" out i) 'riff)
-    (miketalk-write-phones utt (format nil "%s/%d.phones" out i))))
+    (miketalk-save utt i)))
 
 ;;; utt.synth split in two at Duration, hooks included: the kal voice's
 ;;; after_synth_hooks rescale the wave by 2.6, and a re-synthesis without them
@@ -79,21 +88,17 @@
   (apply_hooks after_synth_hooks utt))
 
 (define (miketalk-plan-chunk i)
-  (let ((utt (miketalk-text-to-duration
-              (eval (list 'Utterance 'Text (miketalk-env (format nil "MIKETALK_TEXT_%d" i)))))))
-    (miketalk-write-phones utt (format nil "%s/%d.plan" (miketalk-env "MIKETALK_OUT") i))
+  (let ((utt (miketalk-text-to-duration (miketalk-text-utt i))))
+    (miketalk-write-phones utt (miketalk-out-path i "plan"))
     utt))
 
 (define (miketalk-speak-planned utts i)
   (if utts
       (let ((utt (car utts))
-            (out (miketalk-env "MIKETALK_OUT")))
-        (let ((ends-file (format nil "%s/%d.ends" out i)))
-          (if (probe_file ends-file)
-              (miketalk-set-ends utt (miketalk-read-ends ends-file))))
-        (set! utt (miketalk-wave utt))
-        (utt.save.wave utt (format nil "%s/%d.wav" out i) 'riff)
-        (miketalk-write-phones utt (format nil "%s/%d.phones" out i))
+            (ends-file (miketalk-out-path i "ends")))
+        (if (probe_file ends-file)
+            (miketalk-set-ends utt (miketalk-read-ends ends-file)))
+        (miketalk-save (miketalk-wave utt) i)
         (miketalk-speak-planned (cdr utts) (+ i 1)))))
 
 (define (miketalk-plan-all i n)
