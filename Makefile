@@ -7,7 +7,7 @@ SHELL := /bin/bash
 PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
-APT_PACKAGES := festival festvox-kallpc16k libegl1 libgl1-mesa-dri chromium
+APT_PACKAGES := festival festvox-kallpc16k libegl1 libgl1-mesa-dri chromium gcc python3-dev
 STAMP := $(VENV)/.installed
 CORES ?= all
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
@@ -30,7 +30,7 @@ apt:
 	  fi; \
 	fi
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml setup.py src/miketalk/_morph_kernels.c
 	@command -v $(PYTHON) >/dev/null || { echo "$(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip

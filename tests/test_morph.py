@@ -225,6 +225,49 @@ def test_deterministic_and_equal_to_the_numpy_reference():
             )
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_random_scenes_equal_the_numpy_reference(seed):
+    # odd sizes, grey and RGB, small to huge motions (pixels leaving the frame,
+    # many collisions and holes): the C kernel and numpy agree bit for bit
+    rng = np.random.default_rng(seed)
+    h, w = (int(v) for v in rng.integers(5, 48, 2))
+    shape = (h, w) if seed % 2 else (h, w, 3)
+    image0 = rng.integers(0, 256, shape, dtype=np.uint8)
+    image1 = rng.integers(0, 256, shape, dtype=np.uint8)
+    scale = (0.5, 3.0, 20.0)[seed % 3]
+    flow01 = (rng.standard_normal((h, w, 2)) * scale).astype(np.float32)
+    flow10 = np.round(rng.standard_normal((h, w, 2)) * scale).astype(np.float32)
+    for collision in ("motion", "scan"):
+        morpher = Morpher(image0, image1, flow01, flow10, collision=collision)
+        for alpha in (0.0, 0.25, 1 / 3, 0.5, 0.77, 1.0):
+            np.testing.assert_array_equal(
+                morpher.frame(alpha),
+                numpy_morph(image0, image1, flow01, flow10, alpha, collision=collision),
+            )
+
+
+def test_kernels_reject_buffers_of_the_wrong_layout():
+    # the C functions check sizes themselves, so a wrong call cannot read out of bounds
+    from miketalk import _morph_kernels as kernels
+
+    flow = np.zeros((4, 5, 2), np.float32)
+    priority = np.zeros((4, 5), np.float32)
+    index, depth = np.zeros((4, 5), np.int32), np.zeros((4, 5), np.float32)
+    kernels.splat(flow, priority, 0.5, index, depth)
+    with pytest.raises(ValueError, match="priority"):
+        kernels.splat(flow, priority[:3], 0.5, index, depth)
+    with pytest.raises(ValueError, match="index"):
+        kernels.splat(flow, priority, 0.5, index.astype(np.int64), depth)
+    with pytest.raises((ValueError, BufferError)):
+        kernels.splat(flow[:, ::2], priority[:, ::2], 0.5, index[:, ::2], depth[:, ::2])
+    readonly = index.copy()
+    readonly.flags.writeable = False
+    with pytest.raises((ValueError, BufferError)):
+        kernels.splat(flow, priority, 0.5, readonly, depth)
+    with pytest.raises(ValueError, match="hole"):
+        kernels.fill_holes(np.zeros((4, 5, 3), np.uint8), np.zeros((5, 4), bool))
+
+
 def test_morpher_matches_morph_and_frames(pair):
     morpher = Morpher(*pair)
     alphas = [0.0, 0.3, 0.6, 1.0]

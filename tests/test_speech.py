@@ -258,6 +258,47 @@ def test_festival_hanging_in_a_retimed_run_is_stopped(tmp_path: Path) -> None:
     assert time.monotonic() - start < 10
 
 
+def test_started_festival_runs_while_the_caller_works_and_is_cleaned_up(
+    festival: FestivalBackend, hello: Utterance
+) -> None:
+    with festival.start("Hello world") as speech:
+        proc, tmp = speech._proc, speech._tmp
+        assert proc is not None and proc.poll() is None  # Festival started at once
+        assert speech.finish(lambda phones: None).phones == hello.phones
+        assert not tmp.exists()  # finish removed the scratch directory
+        with pytest.raises(MiketalkError, match="already finished"):
+            speech.finish(lambda phones: None)
+
+
+def test_closing_a_started_festival_stops_it(tmp_path: Path) -> None:
+    backend = FestivalBackend(executable=_fake_festival(tmp_path, _PLAN + "exec sleep 60\n"))
+    start = time.monotonic()
+    with backend.start("hello") as speech:
+        proc, tmp = speech._proc, speech._tmp
+    assert proc.poll() is not None and not tmp.exists()
+    assert time.monotonic() - start < 10
+
+
+def test_start_rejects_empty_text_before_running_festival(tmp_path: Path) -> None:
+    marker = tmp_path / "ran"
+    backend = FestivalBackend(executable=_fake_festival(tmp_path, f"touch {marker}\n"))
+    with pytest.raises(MiketalkError, match="nothing to speak"):
+        backend.start("  ?! ")
+    assert not marker.exists()
+
+
+def test_heap_is_passed_to_festival_and_checked(tmp_path: Path) -> None:
+    args = tmp_path / "args"
+    script = f'echo "$@" > {args}\n' + _PLAN + "exit 1\n"
+    backend = FestivalBackend(executable=_fake_festival(tmp_path, script), heap=2_000_000)
+    with pytest.raises(MiketalkError):
+        backend.synthesize_retimed("hello", lambda phones: None)
+    assert args.read_text().split()[:2] == ["--heap", "2000000"]
+    for bad in (0, 99_999, 1.5e6, True):
+        with pytest.raises(MiketalkError, match="heap"):
+            FestivalBackend(heap=bad)
+
+
 def test_version(festival: FestivalBackend) -> None:
     assert festival.version()[0].isdigit()
 

@@ -74,22 +74,23 @@ def cmd_phones(args: argparse.Namespace) -> int:
 
 def cmd_say(args: argparse.Namespace) -> int:
     """Speak a text as an mp4."""
-    from miketalk import warmup
-
-    warmup.start()  # the morph's kernels load while the rest starts up and Festival speaks
-    from miketalk.synthesis import open_model, say
+    from miketalk.speech import get_backend
 
     text = _read_text(args)
-    model = open_model(args.model)
-    long_text = len(text.split()) > 40
-    utterance, timeline = say(
-        text,
-        args.output,
-        model=model,
-        fps=args.fps,
-        max_px_per_frame=None if args.no_oversampling else args.max_px_per_frame,
-        progress=args.progress or (long_text and sys.stderr.isatty()),
-    )
+    # Festival starts first and analyses the text while the rest loads
+    with get_backend("festival").start(text) as speech:
+        from miketalk.synthesis import open_model, say
+
+        model = open_model(args.model)
+        long_text = len(text.split()) > 40
+        utterance, timeline = say(
+            speech,
+            args.output,
+            model=model,
+            fps=args.fps,
+            max_px_per_frame=None if args.no_oversampling else args.max_px_per_frame,
+            progress=args.progress or (long_text and sys.stderr.isatty()),
+        )
     print(
         f"{args.output}: {len(timeline.frames)} frames at {args.fps:g} fps, "
         f"{utterance.duration:.2f} s of audio"

@@ -93,10 +93,11 @@ def lipsync_diagram(
 
     festival = FestivalBackend()
     model = open_model(model_dir)
-    utterance, timeline = speak_in_sync(
-        word, festival, default_table(), fps=fps,
-        displacement=model.displacement, max_px_per_frame=max_px,
-    )  # fmt: skip
+    with festival.start(word) as speech:
+        utterance, timeline = speak_in_sync(
+            speech, default_table(), fps=fps,
+            displacement=model.displacement, max_px_per_frame=max_px,
+        )  # fmt: skip
     fig, ax = plt.subplots(figsize=(11, 3.4))
     phones = utterance.phones
     for p in phones:

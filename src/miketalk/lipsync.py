@@ -24,7 +24,7 @@ from itertools import pairwise
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech.backend import SpeechBackend
+from miketalk.speech.backend import PendingSpeech, SpeechBackend
 from miketalk.speech.types import Phone, Utterance
 from miketalk.visemes import VisemeTable
 
@@ -250,19 +250,19 @@ def synchronize(
 
 
 def speak_in_sync(
-    text: str,
-    backend: SpeechBackend,
+    speech: PendingSpeech,
     table: VisemeTable,
     *,
     fps: float,
     displacement: Displacement,
     max_px_per_frame: float | None,
 ) -> tuple[Utterance, Timeline]:
-    """Speak ``text`` and plan its video, oversampling where transitions move too fast.
+    """Finish a started synthesis and plan its video, oversampling where transitions move too fast.
 
-    The same result as ``synchronize(backend.synthesize(text), ...)``, but the
-    lengthened durations are dictated to the engine before it makes the wave
-    (:meth:`SpeechBackend.synthesize_retimed`): one run of the engine, not two.
+    ``speech`` is ``backend.start(text)``. The same result as
+    ``synchronize(backend.synthesize(text), ...)``, but the lengthened
+    durations are dictated to the engine before it makes the wave
+    (:meth:`PendingSpeech.finish`): one run of the engine, not two.
 
     Returns
     -------
@@ -270,7 +270,7 @@ def speak_in_sync(
         The utterance as spoken and the timeline of its frames.
     """
     retime = _retimer(table, fps, displacement, max_px_per_frame)
-    utterance = backend.synthesize_retimed(text, retime)
+    utterance = speech.finish(retime)
     return utterance, plan(utterance.phones, table, fps, utterance.duration)
 
 

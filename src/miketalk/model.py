@@ -22,7 +22,6 @@ from collections.abc import Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from itertools import combinations
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,10 +30,8 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.images import read_image
 from miketalk.lipsync import Timeline
+from miketalk.morph import Morpher
 from miketalk.visemes import viseme_slug
-
-if TYPE_CHECKING:  # imported when first needed: numba takes ~0.6 s to import
-    from miketalk.morph import Morpher
 
 FORMAT = "miketalk-model/1"
 
@@ -118,8 +115,6 @@ class Model:
         if key in self._morphers:
             self._morphers.move_to_end(key)
             return self._morphers[key]
-        from miketalk.morph import Morpher
-
         forward, backward = self._read(a, b).result()
         self._reads.pop(key, None)
         morpher = Morpher(self.image(a), self.image(b), forward, backward, **self.morph_options)

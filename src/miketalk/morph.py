@@ -30,10 +30,14 @@ rule (last in scan order always wins). Both rules are deterministic.
 
 Speed
 -----
-Both splats, the blend and the hole filling of one frame run in a single numba
-kernel (``cache=True``, so the compiled code is stored next to this file and
-reused by later processes); the median is ``cv2.medianBlur``. :class:`Morpher`
-checks and prepares one pair once and renders any number of frames from it.
+Both splats, the blend and the hole filling of one frame run in one C function
+(``miketalk/_morph_kernels.c``, built by ``pip install``; it releases the GIL);
+the median is ``cv2.medianBlur``. A C extension rather than numba because a
+process pays nothing to load it, where numba took about a second to start:
+that second was most of ``miketalk say``'s start-up. The C code computes in
+double precision in a fixed order with FMA contraction off, so the frames are
+the same bytes on every machine. :class:`Morpher` checks and prepares one pair
+once and renders any number of frames from it.
 
 Switching stages off
 --------------------
@@ -53,8 +57,10 @@ from typing import Literal
 
 import cv2
 import numpy as np
-from numba import njit
 
+from miketalk._morph_kernels import fill_holes as _fill_holes
+from miketalk._morph_kernels import render as _render
+from miketalk._morph_kernels import splat as _splat
 from miketalk.errors import MiketalkError
 
 __all__ = [
@@ -73,208 +79,6 @@ Collision = Literal["motion", "scan"]
 
 #: The reserved colour holes hold before filling (paper §5.4: "a special reserved color").
 HOLE_VALUE = 0
-
-_NO_SOURCE = -1  # index-buffer value of a hole
-
-
-# ---------------------------------------------------------------------------
-# numba kernels (no checks: callers pass C-contiguous arrays of the right types)
-# ---------------------------------------------------------------------------
-
-
-@njit(cache=True, nogil=True)
-def _splat(
-    flow: np.ndarray, priority: np.ndarray, scale: float, index: np.ndarray, depth: np.ndarray
-) -> None:
-    """Forward-splat source indices along ``scale * flow`` into ``index`` (-1 = hole).
-
-    ``index[q]`` receives the row-major source index ``y * W + x`` of the pixel
-    that lands on ``q``; on a collision the larger ``priority`` wins, ties going
-    to the later pixel in scan order. ``depth`` is the winning priority so far.
-    """
-    h, w = index.shape
-    for y in range(h):
-        for x in range(w):
-            index[y, x] = _NO_SOURCE
-            depth[y, x] = -1.0
-    for y in range(h):
-        for x in range(w):
-            fx = np.floor(x + scale * flow[y, x, 0] + 0.5)
-            fy = np.floor(y + scale * flow[y, x, 1] + 0.5)
-            if fx < 0.0 or fx >= w or fy < 0.0 or fy >= h:
-                continue
-            qx = int(fx)
-            qy = int(fy)
-            p = priority[y, x]
-            if p >= depth[qy, qx]:
-                depth[qy, qx] = p
-                index[qy, qx] = y * w + x
-
-
-@njit(cache=True, nogil=True)
-def _blend_row(
-    pixels0: np.ndarray,
-    pixels1: np.ndarray,
-    index0: np.ndarray,
-    index1: np.ndarray,
-    alpha: float,
-    hole_aware: bool,
-    out: np.ndarray,
-    hole: np.ndarray,
-    y: int,
-) -> None:
-    """Blend row ``y`` of two splatted warps into ``out`` (H, W, C); mark holes in ``hole``.
-
-    ``pixels0``/``pixels1`` are the source images flattened to ``(H*W, C)``.
-    Values are rounded half up.
-    """
-    w, nc = out.shape[1], out.shape[2]
-    a0 = 1.0 - alpha
-    for x in range(w):
-        i0 = index0[y, x]
-        i1 = index1[y, x]
-        hole[y, x] = i0 < 0 and i1 < 0
-        if i0 >= 0 and i1 >= 0:
-            for c in range(nc):
-                out[y, x, c] = np.uint8(a0 * pixels0[i0, c] + alpha * pixels1[i1, c] + 0.5)
-        elif i0 >= 0:
-            for c in range(nc):
-                if hole_aware:
-                    out[y, x, c] = pixels0[i0, c]
-                else:
-                    out[y, x, c] = np.uint8(a0 * pixels0[i0, c] + 0.5)
-        elif i1 >= 0:
-            for c in range(nc):
-                if hole_aware:
-                    out[y, x, c] = pixels1[i1, c]
-                else:
-                    out[y, x, c] = np.uint8(alpha * pixels1[i1, c] + 0.5)
-        else:
-            for c in range(nc):
-                out[y, x, c] = HOLE_VALUE
-
-
-@njit(cache=True, nogil=True)
-def _lerp_run(out: np.ndarray, y: int, start: int, stop: int, left: int, right: int) -> None:
-    """Fill ``out[y, start:stop]`` between ``out[y, left]`` and ``out[y, right]``.
-
-    ``left == -1`` or ``right == -1`` means that end is the row's edge: the other
-    endpoint's value is extended. Both ``-1`` is not allowed.
-    """
-    nc = out.shape[2]
-    if left < 0:
-        left = right
-    if right < 0:
-        right = left
-    span = right - left
-    for x in range(start, stop):
-        t = (x - left) / span if span != 0 else 0.0
-        for c in range(nc):
-            lo = float(out[y, left, c])
-            out[y, x, c] = np.uint8(lo + t * (float(out[y, right, c]) - lo) + 0.5)
-
-
-@njit(cache=True, nogil=True)
-def _lerp_rows(out: np.ndarray, start: int, stop: int, above: int, below: int) -> None:
-    """Fill whole rows ``start:stop`` between rows ``above`` and ``below`` (-1 = image edge)."""
-    w, nc = out.shape[1], out.shape[2]
-    if above < 0:
-        above = below
-    if below < 0:
-        below = above
-    span = below - above
-    for y in range(start, stop):
-        t = (y - above) / span if span != 0 else 0.0
-        for x in range(w):
-            for c in range(nc):
-                lo = float(out[above, x, c])
-                out[y, x, c] = np.uint8(lo + t * (float(out[below, x, c]) - lo) + 0.5)
-
-
-@njit(cache=True, nogil=True)
-def _fill_row(out: np.ndarray, hole: np.ndarray, y: int) -> bool:
-    """Fill the holes of row ``y`` in place; returns True if the row had no non-hole pixel."""
-    w = hole.shape[1]
-    last = -1  # last non-hole column seen
-    x = 0
-    while x < w:
-        if not hole[y, x]:
-            last = x
-            x += 1
-            continue
-        start = x
-        while x < w and hole[y, x]:
-            x += 1
-        if last < 0 and x == w:
-            return True
-        _lerp_run(out, y, start, x, last, x if x < w else -1)
-    return False
-
-
-@njit(cache=True, nogil=True)
-def _fill_empty_rows(out: np.ndarray, empty_row: np.ndarray) -> bool:
-    """Fill rows with no data in the column direction; returns False if every row is empty."""
-    h = empty_row.shape[0]
-    last = -1  # last non-empty row seen
-    y = 0
-    while y < h:
-        if not empty_row[y]:
-            last = y
-            y += 1
-            continue
-        start = y
-        while y < h and empty_row[y]:
-            y += 1
-        if last < 0 and y == h:
-            return False
-        _lerp_rows(out, start, y, last, y if y < h else -1)
-    return True
-
-
-@njit(cache=True, nogil=True)
-def _fill_holes(out: np.ndarray, hole: np.ndarray) -> bool:
-    """Scanline hole filling in place; returns False if there was no non-hole pixel at all."""
-    h = hole.shape[0]
-    empty_row = np.zeros(h, dtype=np.bool_)
-    for y in range(h):
-        empty_row[y] = _fill_row(out, hole, y)
-    return _fill_empty_rows(out, empty_row)
-
-
-@njit(cache=True, nogil=True)
-def _render(
-    pixels0: np.ndarray,
-    pixels1: np.ndarray,
-    flow0: np.ndarray,
-    flow1: np.ndarray,
-    priority0: np.ndarray,
-    priority1: np.ndarray,
-    alpha: float,
-    hole_aware: bool,
-    fill: bool,
-    index0: np.ndarray,
-    index1: np.ndarray,
-    depth0: np.ndarray,
-    depth1: np.ndarray,
-    out: np.ndarray,
-    hole: np.ndarray,
-) -> bool:
-    """One morph frame before the median: both splats, then blend and fill row by row.
-
-    Returns False when the fill found no pixel to fill from (every pixel of both
-    images left the frame); ``out`` is then meaningless.
-    """
-    _splat(flow0, priority0, alpha, index0, depth0)
-    _splat(flow1, priority1, 1.0 - alpha, index1, depth1)
-    h = out.shape[0]
-    empty_row = np.zeros(h, dtype=np.bool_)
-    for y in range(h):
-        _blend_row(pixels0, pixels1, index0, index1, alpha, hole_aware, out, hole, y)
-        if fill:
-            empty_row[y] = _fill_row(out, hole, y)
-    if fill:
-        return _fill_empty_rows(out, empty_row)
-    return True
 
 
 # ---------------------------------------------------------------------------
@@ -313,7 +117,7 @@ def _check_flow(flow: object, name: str, size: tuple[int, int]) -> np.ndarray:
         )
     if not (np.issubdtype(flow.dtype, np.floating) or np.issubdtype(flow.dtype, np.integer)):
         raise MiketalkError(f"{name} must be a float flow field, got dtype {flow.dtype}")
-    flow = _writable_contiguous(flow, np.float32)
+    flow = _contiguous(flow, np.float32)
     if not np.isfinite(flow).all():
         raise MiketalkError(f"{name} holds NaN or inf values")
     return flow
@@ -335,29 +139,31 @@ def _check_collision(collision: object) -> str:
     return str(collision)
 
 
-def _writable_contiguous(array: np.ndarray, dtype: type) -> np.ndarray:
-    """C-contiguous, writable ``dtype`` array, copying only when needed.
-
-    Writable matters: numba compiles a separate specialisation for read-only arrays.
-    """
-    array = np.ascontiguousarray(array, dtype=dtype)
-    if not array.flags.writeable:
-        array = array.copy()
-    return array
+def _contiguous(array: np.ndarray, dtype: type) -> np.ndarray:
+    """C-contiguous ``dtype`` array (the kernels' layout), copying only when needed."""
+    return np.ascontiguousarray(array, dtype=dtype)
 
 
 def _as_hwc(image: np.ndarray) -> np.ndarray:
-    """(H, W) or (H, W, C) uint8 -> C-contiguous writable (H, W, C)."""
+    """(H, W) or (H, W, C) uint8 -> C-contiguous (H, W, C)."""
     if image.ndim == 2:
         image = image[:, :, None]
-    return _writable_contiguous(image, np.uint8)
+    return _contiguous(image, np.uint8)
 
 
 def _priority(flow: np.ndarray, collision: str) -> np.ndarray:
-    """Collision priority of each source pixel: squared motion length, or 0 for scan order."""
+    """Collision priority of each source pixel: squared motion length, or 0 for scan order.
+
+    ``dx * dx + dy * dy`` in float32, by elementwise operations that round the
+    same on every CPU (``np.einsum`` may fuse them into FMA instructions where
+    the CPU has them, and is slower).
+    """
     if collision == "scan":
         return np.zeros(flow.shape[:2], dtype=np.float32)
-    return np.ascontiguousarray(np.einsum("ijk,ijk->ij", flow, flow, dtype=np.float32))
+    dx, dy = flow[..., 0], flow[..., 1]
+    priority = dx * dx
+    priority += dy * dy
+    return priority
 
 
 def _median3(image: np.ndarray) -> np.ndarray:
@@ -743,7 +549,7 @@ def fill_holes_scanline(image: np.ndarray, hole: np.ndarray) -> np.ndarray:
     if hole.shape != image.shape[:2]:
         raise MiketalkError(f"hole has shape {hole.shape} but image is {image.shape[:2]}")
     out = _as_hwc(image).copy()
-    if not _fill_holes(out, _writable_contiguous(hole, np.bool_)):
+    if not _fill_holes(out, _contiguous(hole, np.bool_)):
         return image.copy()
     return out.reshape(image.shape)
 

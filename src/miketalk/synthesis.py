@@ -11,12 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk import warmup
 from miketalk.atomic import write_text_atomic
 from miketalk.errors import MiketalkError
 from miketalk.lipsync import Timeline, largest_step, speak_in_sync
 from miketalk.model import Model
-from miketalk.speech.backend import SpeechBackend, get_backend
+from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Utterance
 from miketalk.video import write_mp4
 from miketalk.visemes import VisemeTable, default_table
@@ -49,7 +48,7 @@ def open_model(directory: str | os.PathLike[str] | None, **options: object) -> M
 
 
 def say(
-    text: str,
+    text: str | PendingSpeech,
     output: str | os.PathLike[str],
     *,
     model: Model,
@@ -64,29 +63,48 @@ def say(
     The video is written atomically: on any failure no mp4 (and no timeline)
     is left at ``output``.
 
+    Parameters
+    ----------
+    text : str or PendingSpeech
+        The text, or its synthesis already started with ``backend.start(text)``
+        (the engine then analyses the text while the caller loads the model;
+        ``say`` finishes or closes it).
+    output : path-like
+        The ``.mp4`` to write.
+    model : Model
+        The visemes and their flows.
+    fps : float
+        Frame rate.
+    max_px_per_frame : float or None
+        Oversampling limit (None: no oversampling).
+    backend : SpeechBackend, optional
+        The engine for a ``str`` text (default Festival).
+    table : VisemeTable, optional
+        Phone-to-viseme table (default: the paper's).
+    progress : bool
+        Draw a progress bar on stderr.
+
     Returns
     -------
     (Utterance, Timeline)
         The audio actually used (re-synthesized if oversampling lengthened
         phones) and the timeline of the frames.
     """
-    output = Path(output)
-    if output.suffix.lower() != ".mp4":
-        raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
-    backend = backend or get_backend("festival")
-    table = table or default_table()
-    warmup.start()  # while Festival speaks (the CLI started it even earlier)
-    try:
+    if isinstance(text, PendingSpeech):
+        speech = text
+    else:
+        speech = (backend or get_backend("festival")).start(text)
+    with speech:
+        output = Path(output)
+        if output.suffix.lower() != ".mp4":
+            raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
         utterance, timeline = speak_in_sync(
-            text,
-            backend,
-            table,
+            speech,
+            table or default_table(),
             fps=fps,
             displacement=model.displacement,
             max_px_per_frame=max_px_per_frame,
         )
-    finally:
-        warmup.wait()
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
     frames = model.render(timeline)

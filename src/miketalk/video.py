@@ -23,6 +23,7 @@ import math
 import numbers
 import os
 import subprocess
+import sys
 import tempfile
 from collections.abc import Iterable, Iterator
 from fractions import Fraction
@@ -34,12 +35,21 @@ from miketalk.atomic import atomic_path
 from miketalk.audio import check_rate, check_samples, write_wav
 from miketalk.errors import MiketalkError
 
+if sys.platform == "linux":
+    import fcntl
+else:  # pragma: no cover - the pipe keeps its default size
+    fcntl = None
+
 __all__ = ["ffmpeg_exe", "probe_durations", "write_mp4"]
 
 _BITEXACT = ["-fflags", "+bitexact", "-map_metadata", "-1"]
 _AUDIO_BITRATE = "96k"
+# ffmpeg's AAC encoder with its "fast" coder: on 14.5 s of Festival's 16 kHz speech
+# 0.07 s of CPU instead of 0.20 s with the default "twoloop", at 40.0 dB SNR after
+# decoding instead of 44.7 dB (both far above what the ear notices at 96 kbit/s)
 _MAX_CRF = 51
 _STDERR_TAIL = 15  # lines of ffmpeg's log quoted in errors
+_PIPE_BYTES = 8 << 20  # wanted size of the pipe to ffmpeg
 
 
 def ffmpeg_exe() -> str:
@@ -160,7 +170,8 @@ def _audio_input(
     wav = work / "audio.wav"
     write_wav(wav, _fit(audio, n_samples), rate)
     return ["-i", str(wav)], [
-        "-map", "1:a:0", "-c:a", "aac", "-b:a", _AUDIO_BITRATE, "-flags:a", "+bitexact",
+        "-map", "1:a:0", "-c:a", "aac", "-aac_coder", "fast", "-b:a", _AUDIO_BITRATE,
+        "-flags:a", "+bitexact",
     ]  # fmt: skip
 
 
@@ -302,6 +313,7 @@ def _encode_video(
             stdin = proc.stdin
             if stdin is None:  # pragma: no cover - Popen(stdin=PIPE) always sets it
                 raise RuntimeError("no pipe to ffmpeg")
+            _widen_pipe(stdin.fileno())
             for frame in _chain(first, frames):
                 stdin.write(frame.data)
                 count += 1
@@ -316,6 +328,25 @@ def _encode_video(
     if code != 0:
         raise MiketalkError(f"ffmpeg failed encoding the video:\n{_tail(log.read_text())}")
     return count
+
+
+def _widen_pipe(fd: int) -> None:
+    """Let the pipe to ffmpeg hold several frames (Linux; elsewhere a no-op).
+
+    The default 64 KiB holds less than one 256x256 RGB frame, so rendering and
+    encoding would wait on each other frame by frame; a pipe of up to
+    ``/proc/sys/fs/pipe-max-size`` (1 MiB by default) lets them run side by side
+    on two cores.
+    """
+    setsize = getattr(fcntl, "F_SETPIPE_SZ", None) if fcntl is not None else None
+    if setsize is None:
+        return
+    for size in (_PIPE_BYTES, 1 << 20):
+        try:
+            fcntl.fcntl(fd, setsize, size)
+            return
+        except OSError:  # above the system's limit: try the default limit
+            continue
 
 
 def _chain(first: np.ndarray, rest: Iterator[np.ndarray]) -> Iterator[np.ndarray]:

@@ -2,11 +2,11 @@
 
 ``run(out_dir)`` times :class:`miketalk.morph.Morpher` frames (both forward
 warps, hole-aware blend, scanline hole filling, 3x3 median) at 256x256 and
-512x512 RGB, with the process pinned to one CPU and OpenCV and numba limited to
-one thread. In the same run it times ``cv2.remap`` (bilinear, one backward warp
-of the same image: the speed ceiling) and :func:`numpy_morph`, a vectorised
-numpy version of the same algorithm (the floor). numba compile time is excluded
-(warm-up frames first). Run it with ``python -m miketalk.bench.morph --out DIR``.
+512x512 RGB, with the process pinned to one CPU and OpenCV limited to one
+thread. In the same run it times ``cv2.remap`` (bilinear, one backward warp of
+the same image: the speed ceiling) and :func:`numpy_morph`, a vectorised numpy
+version of the same algorithm (the floor). Run it with
+``python -m miketalk.bench.morph --out DIR``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import cv2
-import numba
 import numpy as np
 
 from miketalk.atomic import write_text_atomic
@@ -37,7 +36,7 @@ _REPEATS = 3  # best of
 
 
 def _numpy_splat(flow: np.ndarray, scale: float, collision: str = "motion") -> np.ndarray:
-    """Source index per destination pixel (-1 = hole), same rule as the numba kernel."""
+    """Source index per destination pixel (-1 = hole), same rule as the C kernel."""
     h, w = flow.shape[:2]
     ys, xs = np.mgrid[0:h, 0:w]
     qx = np.floor(xs + scale * flow[..., 0].astype(np.float64) + 0.5).ravel()
@@ -45,8 +44,9 @@ def _numpy_splat(flow: np.ndarray, scale: float, collision: str = "motion") -> n
     inside = (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
     src = np.flatnonzero(inside)
     dest = (qy[inside] * w + qx[inside]).astype(np.int64)
-    if collision == "motion":
-        priority = np.einsum("ijk,ijk->ij", flow, flow, dtype=np.float32).ravel()[src]
+    if collision == "motion":  # dx * dx + dy * dy in float32, as miketalk.morph computes it
+        dx, dy = flow[..., 0], flow[..., 1]
+        priority = (dx * dx + dy * dy).ravel()[src]
     else:
         priority = np.zeros(src.size, np.float32)
     order = np.lexsort((src, priority, dest))  # winner = last of each destination group
@@ -84,7 +84,7 @@ def numpy_morph(
     *,
     collision: str = "motion",
 ) -> np.ndarray:
-    """The full morph in vectorised numpy (no numba): the reference and the speed floor.
+    """The full morph in vectorised numpy (no compiled kernel): the reference and the speed floor.
 
     Same algorithm, rounding and collision rule as :func:`miketalk.morph.morph`
     with every stage on, so the two agree bit for bit. No input checks.
@@ -139,7 +139,7 @@ def scene(size: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 def _fps(render: Callable[[float], object], frames: int = 32) -> float:
     """Best-of frames per second of ``render(alpha)`` over an alpha sweep."""
     alphas = np.linspace(0.0, 1.0, frames)
-    render(0.5)  # warm (numba compile / cache load)
+    render(0.5)  # warm (caches)
     best = 0.0
     for _ in range(_REPEATS):
         count, start = 0, time.perf_counter()
@@ -153,20 +153,18 @@ def _fps(render: Callable[[float], object], frames: int = 32) -> float:
 
 @contextmanager
 def one_core() -> Iterator[None]:
-    """Pin the process to one CPU and OpenCV/numba to one thread; restore afterwards."""
+    """Pin the process to one CPU and OpenCV to one thread; restore afterwards."""
     affinity = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
-    cv_threads, nb_threads = cv2.getNumThreads(), numba.get_num_threads()
+    cv_threads = cv2.getNumThreads()
     try:
         if affinity:
             os.sched_setaffinity(0, {min(affinity)})
         cv2.setNumThreads(1)
-        numba.set_num_threads(1)
         yield
     finally:
         if affinity:
             os.sched_setaffinity(0, affinity)
         cv2.setNumThreads(cv_threads)
-        numba.set_num_threads(nb_threads)
 
 
 def run(out_dir: pathlib.Path) -> dict[str, float]:

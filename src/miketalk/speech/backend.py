@@ -4,15 +4,48 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
 from miketalk.speech.types import Phone, Utterance
 
+if TYPE_CHECKING:  # numpy loads later: `miketalk say` starts Festival first
+    import numpy as np
+
 #: Given an utterance's predicted phones, the phone durations (s) to speak them
 #: with instead, or None to keep them.
 Retime = Callable[[tuple[Phone, ...]], "Sequence[float] | np.ndarray | None"]
+
+
+class PendingSpeech:
+    """A synthesis started by :meth:`SpeechBackend.start`, waiting for its durations.
+
+    :meth:`finish` it once, or :meth:`close` it to abandon it (as a context
+    manager it is closed on leaving, whatever happened). This base class starts
+    nothing: :meth:`finish` calls :meth:`SpeechBackend.synthesize_retimed`. An
+    engine that can predict the phones while its caller does other work (load
+    a model) overrides both.
+    """
+
+    def __init__(self, backend: SpeechBackend, text: str) -> None:
+        self.backend = backend
+        self.text = text
+
+    def finish(self, retime: Retime) -> Utterance:
+        """The utterance, spoken with the phone durations ``retime`` dictates.
+
+        See :meth:`SpeechBackend.synthesize_retimed`.
+        """
+        return self.backend.synthesize_retimed(self.text, retime)
+
+    def close(self) -> None:
+        """Stop the engine if it still runs and remove its files (idempotent)."""
+
+    def __enter__(self) -> PendingSpeech:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 class SpeechBackend(ABC):
@@ -40,6 +73,21 @@ class SpeechBackend(ABC):
         ends at the last phone's end, so that video timed from the durations
         stays in sync with the sound (paper §7).
         """
+
+    def start(self, text: str) -> PendingSpeech:
+        """Start speaking ``text``; :meth:`PendingSpeech.finish` dictates the durations later.
+
+        ``with backend.start(text) as speech: ...; speech.finish(retime)`` is
+        :meth:`synthesize_retimed`, with the caller's work between the two
+        calls overlapping the engine's text analysis where the engine can.
+
+        Raises
+        ------
+        MiketalkError
+            Nothing speakable in ``text`` (the engine may also report it later,
+            from :meth:`PendingSpeech.finish`).
+        """
+        return PendingSpeech(self, text)
 
     def synthesize_retimed(self, text: str, retime: Retime) -> Utterance:
         """Speak ``text`` with the phone durations ``retime`` dictates.

@@ -3,6 +3,10 @@
 The Scheme program is package data (``scheme/synthesize.scm``); text and
 settings reach it through environment variables only, so user text is never
 parsed as Scheme (Festival's Scheme can run shell commands).
+
+numpy is imported inside the functions that build arrays, not at the top: so
+``miketalk say`` can start Festival (:meth:`FestivalBackend.start`) before
+numpy has loaded, and the two overlap.
 """
 
 from __future__ import annotations
@@ -16,19 +20,21 @@ import tempfile
 import time
 import wave
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 from importlib import resources
 from itertools import pairwise
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
-from miketalk.speech.backend import Retime, SpeechBackend, register
+from miketalk.speech.backend import PendingSpeech, Retime, SpeechBackend, register
 from miketalk.speech.text import normalize_text, split_chunks
 from miketalk.speech.types import Phone, Utterance
+
+if TYPE_CHECKING:
+    import numpy as np
 
 APT_PACKAGES = "festival festvox-kallpc16k"
 _INSTALL_HINT = f"install it with: apt-get install -y {APT_PACKAGES}"
@@ -59,6 +65,11 @@ class FestivalBackend(SpeechBackend):
         (Festival slows down and loses time precision on long utterances).
     timeout : float
         Seconds allowed per Festival run.
+    heap : int
+        Festival's Lisp heap, in cells. Festival's default of 10 million costs
+        about 0.25 s of start-up (the kernel zeroing 330 MB); a chunk of
+        ``max_words`` words needs far less. Too small a heap is reported as a
+        Festival failure.
     """
 
     name = "festival"
@@ -70,11 +81,15 @@ class FestivalBackend(SpeechBackend):
         voice: str = "voice_kal_diphone",
         max_words: int = 40,
         timeout: float = 600.0,
+        heap: int = 1_000_000,
     ) -> None:
         self.executable = executable or os.environ.get("MIKETALK_FESTIVAL") or "festival"
         self.voice = voice
         self.max_words = max_words
         self.timeout = timeout
+        if isinstance(heap, bool) or not isinstance(heap, int) or heap < 100_000:
+            raise MiketalkError(f"heap must be an integer of at least 100000 cells, got {heap!r}")
+        self.heap = heap
 
     # -- availability -----------------------------------------------------------------
     def _path(self) -> str:
@@ -167,12 +182,22 @@ class FestivalBackend(SpeechBackend):
         MiketalkError
             As :meth:`synthesize` and :meth:`resynthesize`.
         """
-        clean = normalize_text(text)
-        texts = split_chunks(clean, max_words=self.max_words)
-        with self._workspace(texts) as (tmp, env, command):
-            env["MIKETALK_PLAN"] = "1"
-            chunks = self._run_planned(texts, tmp, env, command, retime, clean)
-        return _join(clean, chunks)
+        with self.start(text) as speech:
+            return speech.finish(retime)
+
+    def start(self, text: str) -> _FestivalRun:
+        """Start Festival on ``text`` now; :meth:`PendingSpeech.finish` dictates the durations.
+
+        Festival starts, loads its voice and predicts the phones while the
+        caller goes on; ``finish`` waits for the prediction, hands it to
+        ``retime``, and lets Festival make the wave.
+
+        Raises
+        ------
+        MiketalkError
+            Nothing speakable in ``text``, or Festival missing.
+        """
+        return _FestivalRun(self, text)
 
     @contextmanager
     def _workspace(self, texts: list[str]) -> Iterator[tuple[Path, dict[str, str], list[str]]]:
@@ -192,7 +217,7 @@ class FestivalBackend(SpeechBackend):
             }
             for i, chunk_text in enumerate(texts):
                 env[f"MIKETALK_TEXT_{i}"] = chunk_text
-            yield Path(tmp), env, [festival, "-b", str(scheme_path)]
+            yield Path(tmp), env, [festival, "--heap", str(self.heap), "-b", str(scheme_path)]
 
     def _run(self, texts: list[str], ends: list[tuple[float, ...]] | None) -> list[_Chunk]:
         with self._workspace(texts) as (tmp, env, command):
@@ -215,59 +240,88 @@ class FestivalBackend(SpeechBackend):
             _check_exit(proc.returncode, proc.stderr + proc.stdout)
             return [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
 
-    def _run_planned(
-        self,
-        texts: list[str],
-        tmp: Path,
-        env: dict[str, str],
-        command: list[str],
-        retime: Retime,
-        clean: str,
-    ) -> list[_Chunk]:
-        deadline = time.monotonic() + self.timeout
-        with (tmp / "stdout").open("w") as stdout:
-            proc = subprocess.Popen(
-                command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
-                stderr=subprocess.PIPE,
-            )  # fmt: skip
-            try:
-                errors = _read_until(proc, _PLANNED, deadline, self.timeout)
-                if _PLANNED not in errors:
-                    proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
-                    _check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text())
-                planned = [_read_plan(tmp, i, t) for i, t in enumerate(texts)]
-                durations = retime(_join(clean, planned).phones)
-                if durations is not None:
-                    sizes = [len(c.names) for c in planned]
-                    for i, chunk_ends in enumerate(_chunk_ends(durations, sizes)):
-                        _write_ends(tmp, i, chunk_ends)
-                try:
-                    proc.stdin.write(b"go\n")
-                    proc.stdin.close()
-                except BrokenPipeError:  # Festival died after planning: its exit says why
-                    pass
-                rest = _read_until(proc, None, deadline, self.timeout)
-                proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
-            except subprocess.TimeoutExpired:
-                raise MiketalkError(f"Festival took longer than {self.timeout:.0f} s") from None
-            finally:
-                if proc.poll() is None:
-                    proc.kill()
-                    proc.wait()
-                for pipe in (proc.stdin, proc.stderr):
-                    if pipe is not None and not pipe.closed:
-                        pipe.close()
-        _check_exit(proc.returncode, errors + rest + (tmp / "stdout").read_text(errors="replace"))
-        chunks = [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
-        _check_same_phones(chunks, [name for c in planned for name in c.names])
-        return chunks
-
 
 _PLANNED = "miketalk: planned"
 
 #: voice_kal_diphone's sample rate: places chunk boundaries of the predicted phones
 #: exactly where the spoken chunks' wavs will put them.
 _VOICE_RATE = 16000
+
+
+class _FestivalRun(PendingSpeech):
+    """One Festival run in plan mode: started at once, finished with dictated durations.
+
+    Festival analyses the text, writes each chunk's predicted phones and ends,
+    prints :data:`_PLANNED` on stderr and waits for one datum on stdin; ``finish``
+    writes the dictated ends (if any) before sending it, then Festival makes
+    the waves. The text reaches Festival only through the environment.
+    """
+
+    def __init__(self, backend: FestivalBackend, text: str) -> None:
+        clean = normalize_text(text)
+        super().__init__(backend, clean)
+        self._texts = split_chunks(clean, max_words=backend.max_words)
+        self._timeout = backend.timeout
+        self._deadline = time.monotonic() + backend.timeout
+        self._stack = ExitStack()
+        self._proc: subprocess.Popen | None = None
+        try:
+            tmp, env, command = self._stack.enter_context(backend._workspace(self._texts))
+            env["MIKETALK_PLAN"] = "1"
+            self._tmp = tmp
+            stdout = self._stack.enter_context((tmp / "stdout").open("w"))
+            self._proc = subprocess.Popen(
+                command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
+                stderr=subprocess.PIPE,
+            )  # fmt: skip
+        except BaseException:
+            self.close()
+            raise
+
+    def finish(self, retime: Retime) -> Utterance:
+        """Wait for Festival's phones, dictate ``retime``'s durations, return the utterance."""
+        proc, tmp, texts = self._proc, self._tmp, self._texts
+        if proc is None:
+            raise MiketalkError("this Festival run was already finished or closed")
+        try:
+            errors = _read_until(proc, _PLANNED, self._deadline, self._timeout)
+            if _PLANNED not in errors:
+                proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
+                _check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text())
+            planned = [_read_plan(tmp, i, t) for i, t in enumerate(texts)]
+            durations = retime(_join(self.text, planned).phones)
+            if durations is not None:
+                sizes = [len(c.names) for c in planned]
+                for i, chunk_ends in enumerate(_chunk_ends(durations, sizes)):
+                    _write_ends(tmp, i, chunk_ends)
+            try:
+                proc.stdin.write(b"go\n")
+                proc.stdin.close()
+            except BrokenPipeError:  # Festival died after planning: its exit says why
+                pass
+            rest = _read_until(proc, None, self._deadline, self._timeout)
+            proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
+            stdout = (tmp / "stdout").read_text(errors="replace")
+            _check_exit(proc.returncode, errors + rest + stdout)
+            chunks = [_read_chunk(tmp, i, t) for i, t in enumerate(texts)]
+            _check_same_phones(chunks, [name for c in planned for name in c.names])
+            return _join(self.text, chunks)
+        except subprocess.TimeoutExpired:
+            raise MiketalkError(f"Festival took longer than {self._timeout:.0f} s") from None
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Kill Festival if it still runs; remove the scratch directory."""
+        proc, self._proc = self._proc, None
+        if proc is not None:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+            for pipe in (proc.stdin, proc.stderr):
+                if pipe is not None and not pipe.closed:
+                    pipe.close()
+        self._stack.close()
 
 
 def _read_until(proc: subprocess.Popen, marker: str | None, deadline: float, timeout: float) -> str:
@@ -313,6 +367,8 @@ def _chunk_ends(durations: Sequence[float], sizes: Sequence[int]) -> list[tuple[
 
     ``sizes`` holds each chunk's number of phones.
     """
+    import numpy as np  # here, not at the top: see the module docstring
+
     durations = _check_durations(durations, sum(sizes))
     bounds = np.cumsum([0, *sizes])
     return [tuple(np.cumsum(durations[a:b]).tolist()) for a, b in pairwise(bounds)]
@@ -325,6 +381,8 @@ def _check_same_phones(chunks: list[_Chunk], names: list[str]) -> None:
 
 
 def _check_durations(durations: Sequence[float], n: int) -> np.ndarray:
+    import numpy as np  # here, not at the top: see the module docstring
+
     durations = np.asarray(durations, dtype=np.float64)
     if durations.shape != (n,):
         raise MiketalkError(f"{durations.size} durations given for {n} phones")
@@ -335,6 +393,8 @@ def _check_durations(durations: Sequence[float], n: int) -> np.ndarray:
 
 def _read_plan(directory: Path, index: int, text: str) -> _Chunk:
     """Chunk ``index``'s predicted phones, with silent samples as long as the phones."""
+    import numpy as np  # here, not at the top: see the module docstring
+
     names, ends = _read_phones(directory / f"{index}.plan", text)
     n = round(ends[-1] * _VOICE_RATE)
     return _Chunk(text, np.zeros(n, np.int16), _VOICE_RATE, names, ends)
@@ -354,6 +414,8 @@ def _read_phones(path: Path, text: str) -> tuple[tuple[str, ...], tuple[float, .
 
 
 def _read_chunk(directory: Path, index: int, text: str) -> _Chunk:
+    import numpy as np  # here, not at the top: see the module docstring
+
     wav_path = directory / f"{index}.wav"
     if not wav_path.exists():
         raise MiketalkError(f"Festival wrote no output for {text!r}")
@@ -372,6 +434,8 @@ def _read_chunk(directory: Path, index: int, text: str) -> _Chunk:
 
 def _join(text: str, chunks: list[_Chunk]) -> Utterance:
     """Concatenate chunks; each chunk's times are offset by the samples before it."""
+    import numpy as np  # here, not at the top: see the module docstring
+
     rate = chunks[0].rate
     phones: list[Phone] = []
     offset = 0

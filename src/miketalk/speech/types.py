@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:  # numpy loads later: `miketalk say` starts Festival first
+    import numpy as np
 
 
 @dataclass(frozen=True)
