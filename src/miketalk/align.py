@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from miketalk.errors import MiketalkError
 
@@ -86,20 +85,26 @@ def speech_segments(
     return [Segment(a, b) for a, b in merged if b - a >= min_length]
 
 
-@njit(cache=True)
-def _dtw_path(cost: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+def _dtw_path(cost: np.ndarray) -> np.ndarray:
+    """The classic symmetric DTW path through ``cost`` (n, m), as (i, j) pairs from (0, 0).
+
+    The accumulated cost is filled one anti-diagonal at a time (every cell of
+    diagonal ``i + j = k`` depends only on diagonals ``k - 1`` and ``k - 2``), so
+    each diagonal is one vectorised step. The path is traced back from the end,
+    preferring the diagonal step, then the step in ``i``, then in ``j``.
+    """
     n, m = cost.shape
     acc = np.full((n + 1, m + 1), np.inf)
     acc[0, 0] = 0.0
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            best = min(acc[i - 1, j - 1], acc[i - 1, j], acc[i, j - 1])
-            acc[i, j] = cost[i - 1, j - 1] + best
-    path = np.empty((n + m, 2), dtype=np.int64)
-    i, j, k = n, m, 0
+    for k in range(2, n + m + 1):
+        i = np.arange(max(1, k - m), min(n, k - 1) + 1)
+        j = k - i
+        best = np.minimum(np.minimum(acc[i - 1, j - 1], acc[i - 1, j]), acc[i, j - 1])
+        acc[i, j] = cost[i - 1, j - 1] + best
+    path = []
+    i, j = n, m
     while i > 0 and j > 0:
-        path[k, 0], path[k, 1] = i - 1, j - 1
-        k += 1
+        path.append((i - 1, j - 1))
         diag, up, left = acc[i - 1, j - 1], acc[i - 1, j], acc[i, j - 1]
         if diag <= up and diag <= left:
             i, j = i - 1, j - 1
@@ -107,7 +112,7 @@ def _dtw_path(cost: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
             i -= 1
         else:
             j -= 1
-    return path[:k][::-1]
+    return np.array(path[::-1], dtype=np.int64).reshape(-1, 2)
 
 
 def dtw_map(reference: np.ndarray, query: np.ndarray) -> np.ndarray:
