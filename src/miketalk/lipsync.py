@@ -161,6 +161,11 @@ def largest_step(timeline: Timeline, displacement: Displacement) -> float:
     return float(np.max(np.diff(along))) if len(along) > 1 else 0.0
 
 
+#: Seconds added to every lengthened transition (see :func:`oversampled_durations`):
+#: more than one sample at 8 kHz, far less than a frame.
+TIME_MARGIN = 2e-4
+
+
 def oversampled_durations(
     phones: Sequence[Phone],
     table: VisemeTable,
@@ -173,8 +178,13 @@ def oversampled_durations(
     A transition from keyframe (phone a, fraction fa) to (phone b, fraction fb)
     lasts ``(1 - fa) d_a + fb d_b`` (``(fb - fa) d_a`` inside one diphthong).
     For each transition too short for its displacement ``D``, both phones are
-    lengthened by the same amount so that it lasts exactly ``D / (max F)``.
-    Lengthening never shortens another transition, so a few passes settle it.
+    lengthened by the same amount so that it lasts ``D / (max F)`` plus
+    :data:`TIME_MARGIN`: the engine quantises the times it is given (Festival
+    prints them to the microsecond, and long text is spoken in chunks joined
+    at whole audio samples), and the margin keeps the rounded transition from
+    coming out a hair too short, so the largest step stays at or under
+    ``max_px_per_frame``. Lengthening never shortens another transition, so a
+    few passes settle it.
 
     Returns
     -------
@@ -187,7 +197,9 @@ def oversampled_durations(
     durations = np.array([p.duration for p in phones], dtype=np.float64)
     keys = keyframes(phones, table)
     pairs = list(pairwise(keys))
-    need = [displacement(a.viseme, b.viseme) / (max_px_per_frame * fps) for a, b in pairs]
+    need = [
+        displacement(a.viseme, b.viseme) / (max_px_per_frame * fps) + TIME_MARGIN for a, b in pairs
+    ]
     for _ in range(10):
         changed = False
         for (a, b), required in zip(pairs, need, strict=True):
