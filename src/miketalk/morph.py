@@ -58,10 +58,17 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from miketalk._morph_kernels import fill_holes as _fill_holes
-from miketalk._morph_kernels import render as _render
-from miketalk._morph_kernels import splat as _splat
 from miketalk.errors import MiketalkError
+
+try:
+    from miketalk._morph_kernels import fill_holes as _fill_holes
+    from miketalk._morph_kernels import render as _render
+    from miketalk._morph_kernels import splat as _splat
+except ImportError as err:  # a source tree used without installing it
+    raise ImportError(
+        "miketalk's C extension (src/miketalk/_morph_kernels.c) is not built: "
+        "run `make setup`, or `pip install -e .` in the source tree"
+    ) from err
 
 __all__ = [
     "HOLE_VALUE",
