@@ -115,87 +115,62 @@ static void blend_row(const uint8_t *pixels0, const uint8_t *pixels1, const int3
         blend_row_nc(pixels0, pixels1, index0, index1, w0, w1, hole_aware, out, hole, y, w, nc);
 }
 
-/* Fill out[y, start:stop] between out[y, left] and out[y, right]; -1 = the row's
- * edge (the other end's value is extended). */
-static void lerp_run(uint8_t *out, Py_ssize_t y, Py_ssize_t start, Py_ssize_t stop,
-                     Py_ssize_t left, Py_ssize_t right, Py_ssize_t w, Py_ssize_t nc)
+/* Fill items start:stop of a sequence of items of `size` bytes each, laid end to
+ * end from `base`, by linear interpolation between items `left` and `right`; -1
+ * means that end is the sequence's edge (the other end's value is extended).
+ * The items are pixels of a row (size C) or whole rows of the image (size W * C). */
+static void lerp_items(uint8_t *base, Py_ssize_t size, Py_ssize_t start, Py_ssize_t stop,
+                       Py_ssize_t left, Py_ssize_t right)
 {
     if (left < 0)
         left = right;
     if (right < 0)
         right = left;
     const Py_ssize_t span = right - left;
-    const uint8_t *lo = out + (y * w + left) * nc, *hi = out + (y * w + right) * nc;
-    for (Py_ssize_t x = start; x < stop; x++) {
-        const double t = span != 0 ? (double)(x - left) / (double)span : 0.0;
-        uint8_t *o = out + (y * w + x) * nc;
-        for (Py_ssize_t c = 0; c < nc; c++) {
+    const uint8_t *lo = base + left * size, *hi = base + right * size;
+    for (Py_ssize_t k = start; k < stop; k++) {
+        const double t = span != 0 ? (double)(k - left) / (double)span : 0.0;
+        uint8_t *o = base + k * size;
+        for (Py_ssize_t c = 0; c < size; c++) {
             const double l = (double)lo[c];
             o[c] = (uint8_t)(l + t * ((double)hi[c] - l) + 0.5);
         }
     }
 }
 
-/* Fill whole rows start:stop between rows above and below (-1 = image edge). */
-static void lerp_rows(uint8_t *out, Py_ssize_t start, Py_ssize_t stop, Py_ssize_t above,
-                      Py_ssize_t below, Py_ssize_t w, Py_ssize_t nc)
+/* Fill every run of items marked in `mask` (count items of `size` bytes from
+ * `base`) between the unmarked items at its ends; returns 1, filling nothing,
+ * when every item is marked (nothing to fill from). */
+static int fill_runs(uint8_t *base, const uint8_t *mask, Py_ssize_t count, Py_ssize_t size)
 {
-    if (above < 0)
-        above = below;
-    if (below < 0)
-        below = above;
-    const Py_ssize_t span = below - above;
-    const uint8_t *lo = out + above * w * nc, *hi = out + below * w * nc;
-    for (Py_ssize_t y = start; y < stop; y++) {
-        const double t = span != 0 ? (double)(y - above) / (double)span : 0.0;
-        uint8_t *o = out + y * w * nc;
-        for (Py_ssize_t k = 0; k < w * nc; k++) {
-            const double l = (double)lo[k];
-            o[k] = (uint8_t)(l + t * ((double)hi[k] - l) + 0.5);
+    Py_ssize_t last = -1; /* last unmarked item seen */
+    Py_ssize_t k = 0;
+    while (k < count) {
+        if (!mask[k]) {
+            last = k++;
+            continue;
         }
+        const Py_ssize_t start = k;
+        while (k < count && mask[k])
+            k++;
+        if (last < 0 && k == count)
+            return 1;
+        lerp_items(base, size, start, k, last, k < count ? k : -1);
     }
+    return 0;
 }
 
 /* Fill the holes of row y; returns 1 if the row had no non-hole pixel. */
 static int fill_row(uint8_t *out, const uint8_t *hole, Py_ssize_t y, Py_ssize_t w, Py_ssize_t nc)
 {
-    const uint8_t *row = hole + y * w;
-    Py_ssize_t last = -1; /* last non-hole column seen */
-    Py_ssize_t x = 0;
-    while (x < w) {
-        if (!row[x]) {
-            last = x++;
-            continue;
-        }
-        const Py_ssize_t start = x;
-        while (x < w && row[x])
-            x++;
-        if (last < 0 && x == w)
-            return 1;
-        lerp_run(out, y, start, x, last, x < w ? x : -1, w, nc);
-    }
-    return 0;
+    return fill_runs(out + y * w * nc, hole + y * w, w, nc);
 }
 
 /* Fill rows with no data in the column direction; returns 0 if every row is empty. */
 static int fill_empty_rows(uint8_t *out, const uint8_t *empty_row, Py_ssize_t h, Py_ssize_t w,
                            Py_ssize_t nc)
 {
-    Py_ssize_t last = -1; /* last non-empty row seen */
-    Py_ssize_t y = 0;
-    while (y < h) {
-        if (!empty_row[y]) {
-            last = y++;
-            continue;
-        }
-        const Py_ssize_t start = y;
-        while (y < h && empty_row[y])
-            y++;
-        if (last < 0 && y == h)
-            return 0;
-        lerp_rows(out, start, y, last, y < h ? y : -1, w, nc);
-    }
-    return 1;
+    return !fill_runs(out, empty_row, h, w * nc);
 }
 
 /* ------------------------------------------------------------------------- */

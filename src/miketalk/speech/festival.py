@@ -261,7 +261,6 @@ class _FestivalRun(PendingSpeech):
         clean = normalize_text(text)
         super().__init__(backend, clean)
         self._texts = split_chunks(clean, max_words=backend.max_words)
-        self._timeout = backend.timeout
         self._deadline = time.monotonic() + backend.timeout
         self._stack = ExitStack()
         self._proc: subprocess.Popen | None = None
@@ -284,7 +283,7 @@ class _FestivalRun(PendingSpeech):
         if proc is None:
             raise MiketalkError("this Festival run was already finished or closed")
         try:
-            errors = _read_until(proc, _PLANNED, self._deadline, self._timeout)
+            errors = _read_until(proc, _PLANNED, self._deadline, self.backend.timeout)
             if _PLANNED not in errors:
                 proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
                 _check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text())
@@ -299,7 +298,7 @@ class _FestivalRun(PendingSpeech):
                 proc.stdin.close()
             except BrokenPipeError:  # Festival died after planning: its exit says why
                 pass
-            rest = _read_until(proc, None, self._deadline, self._timeout)
+            rest = _read_until(proc, None, self._deadline, self.backend.timeout)
             proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
             stdout = (tmp / "stdout").read_text(errors="replace")
             _check_exit(proc.returncode, errors + rest + stdout)
@@ -307,7 +306,7 @@ class _FestivalRun(PendingSpeech):
             _check_same_phones(chunks, [name for c in planned for name in c.names])
             return _join(self.text, chunks)
         except subprocess.TimeoutExpired:
-            raise MiketalkError(f"Festival took longer than {self._timeout:.0f} s") from None
+            raise MiketalkError(f"Festival took longer than {self.backend.timeout:.0f} s") from None
         finally:
             self.close()
 
