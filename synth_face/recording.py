@@ -3,7 +3,7 @@
 The face speaks the corpus words in order, each timed by Festival's phones for
 that word, with the silence pose held in the pauses between words. Each phone
 puts a keyframe at its middle (a diphthong one per nucleus, at a quarter and
-three quarters of it, as :mod:`miketalk.lipsync` does); the word's target
+three quarters of it, as :mod:`miketalk.talk.lipsync` does); the word's target
 phone takes the corpus target's pose (``o`` for the ``aa`` of "body", ``e@:1``
 and ``e@:2`` for the ``eh`` and ``r`` of "there"). Between keyframes the mouth
 parameters follow a smoothstep, so the mouth comes to rest at each target: the
@@ -35,12 +35,12 @@ from queue import Full, Queue
 
 import numpy as np
 
-from miketalk.atomic import write_text_atomic
-from miketalk.audio import write_wav
-from miketalk.images import write_png
-from miketalk.speech.festival import FestivalBackend
+from miketalk.media.atomic import write_text_atomic
+from miketalk.media.audio import write_wav
+from miketalk.media.images import write_png
+from miketalk.media.video import write_mp4
+from miketalk.speech.backend import SpeechBackend
 from miketalk.speech.types import Utterance
-from miketalk.video import write_mp4
 from miketalk.visemes import CorpusTarget, VisemeTable
 from synth_face import Face, FaceRenderer
 
@@ -107,7 +107,7 @@ def trajectory(poses: list[Pose], times: np.ndarray) -> np.ndarray:
 def record_corpus(
     out_dir: str | Path,
     *,
-    backend: FestivalBackend,
+    backend: SpeechBackend,
     table: VisemeTable,
     size: int = 256,
     fps: float = 30.0,
@@ -119,7 +119,7 @@ def record_corpus(
     ----------
     out_dir : path
         Directory to fill (created; files are replaced atomically).
-    backend : FestivalBackend
+    backend : SpeechBackend
         Festival: the timing and audio of each word.
     table : VisemeTable
         The corpus targets.

@@ -12,7 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from miketalk.atomic import atomic_path
+from miketalk.media.atomic import atomic_path
 from synth_face.face import Face
 from synth_face.render import FaceRenderer
 

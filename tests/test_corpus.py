@@ -9,11 +9,11 @@ import cv2
 import numpy as np
 import pytest
 
-from miketalk.corpus import ingest_video
+from miketalk.corpus.ingest import ingest_video
 from miketalk.errors import MiketalkError
-from miketalk.images import read_image
+from miketalk.media.images import read_image
+from miketalk.media.video import write_mp4
 from miketalk.speech import FestivalBackend
-from miketalk.video import write_mp4
 
 pytestmark = pytest.mark.skipif(
     not FestivalBackend().is_available(), reason="Festival with voice_kal_diphone not installed"

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
+from miketalk.evaluation.flow_error import endpoint_error
 from miketalk.flow import (
     ESTIMATORS,
     backward_warp,
@@ -18,7 +19,6 @@ from miketalk.flow import (
     concatenate_down_flows,
     concatenate_up,
     concatenate_up_flows,
-    endpoint_error,
     get_estimator,
     mixed_flow,
 )
@@ -368,7 +368,7 @@ def _bridge_recording(tmp_path):
     Frame k is ``T(p + s_k F(p))`` for a smooth field ``F`` (up to 2 px per unit of
     ``s``), so frames a and b correspond by ``q + s_b F(q) = p + s_a F(p)``.
     """
-    from miketalk.images import write_png
+    from miketalk.media.images import write_png
 
     shape = (96, 96)
     y, x = np.mgrid[: shape[0], : shape[1]].astype(np.float64)
@@ -416,7 +416,7 @@ def test_bridge_strategy_joins_far_visemes_through_rest(tmp_path):
     import pandas as pd
 
     from miketalk.flow import FlowDatabase
-    from miketalk.viseme_flows import build_flow_database
+    from miketalk.flow.build import build_flow_database
 
     frames, _, true_flow = _bridge_recording(tmp_path)
     peak_a, peak_b = 5 + 5, 5 + 12 + 5 + 5  # s = +6 and s = -6

@@ -9,9 +9,9 @@ import OpenEXR
 import pytest
 
 from miketalk.errors import MiketalkError
+from miketalk.evaluation.flow_error import endpoint_error
 from miketalk.flow import (
     FlowDatabase,
-    endpoint_error,
     pair_filename,
     pair_path,
     read_flo,

@@ -7,9 +7,9 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
-from miketalk import lipsync
 from miketalk.errors import MiketalkError
 from miketalk.speech import FestivalBackend, Phone
+from miketalk.talk import lipsync
 from miketalk.visemes import default_table
 
 TABLE = default_table()

@@ -14,9 +14,9 @@ import pytest
 
 from miketalk.errors import MiketalkError
 from miketalk.flow import get_estimator, pair_path, write_flow_pair
-from miketalk.images import write_png
-from miketalk.model import Model, build_model
+from miketalk.media.images import write_png
 from miketalk.speech import FestivalBackend
+from miketalk.talk.model import Model, build_model
 from miketalk.visemes import VISEMES
 
 needs_festival = pytest.mark.skipif(
@@ -116,8 +116,8 @@ def test_model_errors(model_dir: Path, tmp_path: Path) -> None:
 
 @needs_festival
 def test_say_writes_mp4_and_timeline(model_dir: Path, tmp_path: Path) -> None:
-    from miketalk.synthesis import say
-    from miketalk.video import probe_durations
+    from miketalk.media.video import probe_durations
+    from miketalk.talk.say import say
 
     out = tmp_path / "hello.mp4"
     utterance, timeline = say("Hello world", out, model=Model(model_dir), fps=30)
@@ -131,7 +131,7 @@ def test_say_writes_mp4_and_timeline(model_dir: Path, tmp_path: Path) -> None:
 
 @needs_festival
 def test_say_bad_input_leaves_nothing(model_dir: Path, tmp_path: Path) -> None:
-    from miketalk.synthesis import say
+    from miketalk.talk.say import say
 
     out = tmp_path / "empty.mp4"
     with pytest.raises(MiketalkError, match="nothing to speak"):

@@ -1,4 +1,4 @@
-"""Tests of miketalk.video (mp4 output, duration probe) and miketalk.audio (wav files)."""
+"""Tests of miketalk.media.video (mp4 output, duration probe) and miketalk.media.audio (wav)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from miketalk.audio import read_wav, write_wav
 from miketalk.errors import MiketalkError
-from miketalk.video import probe_durations, write_mp4
+from miketalk.media.audio import read_wav, write_wav
+from miketalk.media.video import probe_durations, write_mp4
 
 RATE = 16000
 

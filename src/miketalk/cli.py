@@ -79,7 +79,7 @@ def cmd_say(args: argparse.Namespace) -> int:
     text = _read_text(args)
     # Festival starts first and analyses the text while the rest loads
     with get_backend("festival").start(text) as speech:
-        from miketalk.synthesis import open_model, say
+        from miketalk.talk.say import open_model, say
 
         model = open_model(args.model)
         long_text = len(text.split()) > 40

@@ -1,12 +1,12 @@
 """Merge tidy CSV tables into one, with a summary by everything but the pair columns."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
     import pandas as pd
 
-    from miketalk.atomic import write_text_atomic
+    from miketalk.media.atomic import write_text_atomic
 
     table = pd.concat([pd.read_csv(path) for path in snakemake.input], ignore_index=True)
     write_text_atomic(snakemake.output.table, table.to_csv(index=False, float_format="%.6g"))

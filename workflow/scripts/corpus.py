@@ -2,13 +2,13 @@
 
 from pathlib import Path
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus import ingest_video
+    from miketalk.corpus.ingest import ingest_video
     from miketalk.errors import MiketalkError
-    from miketalk.speech import FestivalBackend
+    from miketalk.speech import get_backend
     from miketalk.visemes import VisemeTable
 
     corpus = snakemake.params.corpus
@@ -22,7 +22,7 @@ def main() -> None:
     if missing := sorted(needed - set(words)):
         raise MiketalkError(f"corpus.words lacks words that visemes are taken from: {missing}")
     out = Path(snakemake.output.audio).parent
-    festival = FestivalBackend()
+    festival = get_backend()
     if corpus["source"] == "synthetic":
         from synth_face.recording import record_corpus
 

@@ -1,10 +1,10 @@
 """Rules figure_*: each draws one figure with miketalk.figures."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk import figures
+    from miketalk.figures import plots as figures
 
     rule = snakemake.rule
     out = snakemake.output[0]

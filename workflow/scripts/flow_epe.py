@@ -2,12 +2,12 @@
 
 import json
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.atomic import write_text_atomic
-    from miketalk.evaluation import flow_epe_table
+    from miketalk.evaluation.tables import flow_epe_table
+    from miketalk.media.atomic import write_text_atomic
 
     spec = json.loads(snakemake.params.spec)
     table = flow_epe_table(

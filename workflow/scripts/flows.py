@@ -3,14 +3,14 @@
 import json
 from pathlib import Path
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
     import pandas as pd
 
-    from miketalk.atomic import write_text_atomic
-    from miketalk.viseme_flows import build_flow_database
+    from miketalk.flow.build import build_flow_database
+    from miketalk.media.atomic import write_text_atomic
 
     spec = json.loads(snakemake.params.spec)
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)

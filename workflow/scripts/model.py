@@ -3,13 +3,13 @@
 import json
 from pathlib import Path
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
     import pandas as pd
 
-    from miketalk.model import build_model
+    from miketalk.talk.model import build_model
 
     spec = json.loads(snakemake.params.spec)
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)

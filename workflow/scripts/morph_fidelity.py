@@ -1,13 +1,13 @@
 """Rule morph_fidelity: morphs vs the true in-between renders."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
     import pandas as pd
 
-    from miketalk.atomic import write_text_atomic
-    from miketalk.evaluation import morph_fidelity_table
+    from miketalk.evaluation.tables import morph_fidelity_table
+    from miketalk.media.atomic import write_text_atomic
 
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
     table = morph_fidelity_table(

@@ -1,13 +1,14 @@
 """Rule motorcycle: every configured flow method on the Middlebury motorcycle pair."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
     import pandas as pd
 
-    from miketalk.atomic import write_text_atomic
-    from miketalk.flow import get_estimator, motorcycle_table
+    from miketalk.evaluation.flow_error import motorcycle_table
+    from miketalk.flow import get_estimator
+    from miketalk.media.atomic import write_text_atomic
 
     rows = []
     for name, spec in snakemake.params.methods.items():

@@ -1,13 +1,13 @@
 """Rules sync and sync_sweep_point: a sentence's lip-sync against the synthetic face."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.atomic import write_text_atomic
-    from miketalk.evaluation import read_mask
-    from miketalk.sync_check import sync_table
-    from miketalk.synthesis import open_model
+    from miketalk.evaluation.sync import sync_table
+    from miketalk.evaluation.tables import read_mask
+    from miketalk.media.atomic import write_text_atomic
+    from miketalk.talk.say import open_model
     from miketalk.visemes import VisemeTable
 
     wildcards = snakemake.wildcards
@@ -27,7 +27,7 @@ def main() -> None:
         max_px_per_frame=max_px,
     )
     if "video" in snakemake.input.keys():
-        from miketalk.video import probe_durations
+        from miketalk.media.video import probe_durations
 
         video_s, audio_s = probe_durations(snakemake.input.video)
         for quantity, value in (("mp4_video_seconds", video_s), ("mp4_audio_seconds", audio_s)):

@@ -1,6 +1,6 @@
 """Merge sync tables and summarise each sentence / setting in one row."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def psnr_of_mean_mse(psnr):
@@ -15,7 +15,7 @@ def main() -> None:
     import numpy as np
     import pandas as pd
 
-    from miketalk.atomic import write_text_atomic
+    from miketalk.media.atomic import write_text_atomic
 
     table = pd.concat([pd.read_csv(p, keep_default_na=False) for p in snakemake.input])
     write_text_atomic(snakemake.output.table, table.to_csv(index=False, float_format="%.6g"))

@@ -1,14 +1,14 @@
 """Rule true_flows: the synthetic face's true flows between the visemes, and its mouth mask."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
     import numpy as np
     import pandas as pd
 
-    from miketalk.images import write_png
-    from miketalk.truth import viseme_params, write_true_flows
+    from miketalk.evaluation.truth import viseme_params, write_true_flows
+    from miketalk.media.images import write_png
 
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
     params = viseme_params(snakemake.input.table, visemes)

@@ -1,10 +1,10 @@
 """Rule truth_note: say which measurements were skipped, and why."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.atomic import write_text_atomic
+    from miketalk.media.atomic import write_text_atomic
 
     write_text_atomic(
         snakemake.output[0],

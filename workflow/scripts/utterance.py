@@ -1,10 +1,10 @@
 """Rule utterance: one sentence as an mp4."""
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.synthesis import open_model, say
+    from miketalk.talk.say import open_model, say
 
     model = open_model(snakemake.input.model, morph_options=snakemake.params.morph)
     say(

@@ -2,11 +2,11 @@
 
 from pathlib import Path
 
-from miketalk.workflow import run_stage
+from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.extract import extract_visemes_stage
+    from miketalk.corpus.extract import extract_visemes_stage
 
     extract_visemes_stage(
         corpus_dir=Path(snakemake.input.audio).parent,

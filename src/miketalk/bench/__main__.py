@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from miketalk.atomic import write_text_atomic
+from miketalk.media.atomic import write_text_atomic
 
 MODULES = ("synth_face", "flow", "morph", "pipeline")
 

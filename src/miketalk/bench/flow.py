@@ -1,10 +1,10 @@
 """Benchmark of the flow estimators (paper section 5.2) on one core: speed and accuracy.
 
 ``run(out_dir)`` times every registered estimator on the 256x256 textured
-sinusoidal pair (:func:`miketalk.flow.sinusoidal_pair`, 4-pixel flow) with the
+sinusoidal pair (:func:`miketalk.evaluation.flow_error.sinusoidal_pair`, 4-pixel flow) with the
 process pinned to one CPU and OpenCV on one thread (median of several calls,
 after a warm-up call), scores each against the pair's ground truth, and runs
-the Middlebury motorcycle stereo pair (:func:`miketalk.flow.motorcycle_table`,
+the Middlebury motorcycle stereo pair (:func:`miketalk.evaluation.flow_error.motorcycle_table`,
 also one thread), writing that table to ``motorcycle_epe.csv``. Run it with
 ``python -m miketalk.bench.flow --out DIR``.
 """
@@ -22,8 +22,9 @@ from contextlib import contextmanager
 
 import cv2
 
-from miketalk.atomic import atomic_path, write_text_atomic
-from miketalk.flow import ESTIMATORS, endpoint_error, motorcycle_table, sinusoidal_pair
+from miketalk.evaluation.flow_error import endpoint_error, motorcycle_table, sinusoidal_pair
+from miketalk.flow import ESTIMATORS
+from miketalk.media.atomic import atomic_path, write_text_atomic
 
 SIZE = 256
 # what `make run` leaves (the default config): the viseme images, the recording, true flows
@@ -113,8 +114,8 @@ def viseme_pairs(out_dir: pathlib.Path) -> dict[str, float]:
 
     import pandas as pd
 
-    from miketalk.evaluation import flow_epe_table
-    from miketalk.viseme_flows import build_flow_database
+    from miketalk.evaluation.tables import flow_epe_table
+    from miketalk.flow.build import build_flow_database
 
     visemes = pd.read_csv(VISEMES / "visemes.tsv", sep="\t", keep_default_na=False)
     tables = []

@@ -22,7 +22,7 @@ from contextlib import contextmanager
 import cv2
 import numpy as np
 
-from miketalk.atomic import write_text_atomic
+from miketalk.media.atomic import write_text_atomic
 from miketalk.morph import HOLE_VALUE, Morpher
 
 SIZES = (256, 512)

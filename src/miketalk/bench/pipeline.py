@@ -21,7 +21,7 @@ import time
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.synthesis import DEFAULT_MODEL
+from miketalk.talk.say import DEFAULT_MODEL
 
 SENTENCE = "The quick brown fox jumps over the lazy dog today."
 VISEMES = pathlib.Path("results/visemes/synthetic")
@@ -42,7 +42,7 @@ def _say_seconds(model: pathlib.Path, out: pathlib.Path, *options: str) -> tuple
 
 def run(out_dir: pathlib.Path) -> dict[str, float]:
     """Time the flow database build and ``miketalk say``; print and return the figures."""
-    from miketalk.viseme_flows import build_flow_database
+    from miketalk.flow.build import build_flow_database
 
     if not (DEFAULT_MODEL / "manifest.json").exists() or not (VISEMES / "visemes.tsv").exists():
         raise MiketalkError("no default model: run `make run` first (make bench does)")

@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from miketalk.atomic import write_text_atomic
+from miketalk.media.atomic import write_text_atomic
 
 #: Target pairs whose warp-back residual is measured (A, B).
 PAIRS: tuple[tuple[str, str], ...] = (

@@ -16,7 +16,7 @@ Modules, one job each:
 ``exr``        one pair's two flows in an OpenEXR file
 ``database``   pair-file naming and the :class:`FlowDatabase` reader
 ``flo``        Middlebury ``.flo`` export and import
-``evaluate``   endpoint error, ground-truth pairs, the motorcycle table
+``build``      the flow database of a recording's visemes (a pool over strategies)
 
 Examples
 --------
@@ -34,14 +34,6 @@ from miketalk.flow.concat import (
     consecutive_flows,
 )
 from miketalk.flow.database import FlowDatabase, pair_filename, pair_path, slug
-from miketalk.flow.evaluate import (
-    endpoint_error,
-    endpoint_error_map,
-    motorcycle_pair,
-    motorcycle_table,
-    sinusoidal_pair,
-    summarize_endpoint_error,
-)
 from miketalk.flow.exr import FlowPair, read_flow_header, read_flow_pair, write_flow_pair
 from miketalk.flow.flo import read_flo, write_flo
 from miketalk.flow.mixed import MixedFlowInfo, mixed_flow, window_chains
@@ -65,21 +57,15 @@ __all__ = [
     "consecutive_flows",
     "deepflow_flow",
     "dis_flow",
-    "endpoint_error",
-    "endpoint_error_map",
     "farneback_flow",
     "get_estimator",
     "mixed_flow",
-    "motorcycle_pair",
-    "motorcycle_table",
     "pair_filename",
     "pair_path",
     "read_flo",
     "read_flow_header",
     "read_flow_pair",
-    "sinusoidal_pair",
     "slug",
-    "summarize_endpoint_error",
     "tvl1_flow",
     "window_chains",
     "write_flo",

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.atomic import write_bytes_atomic
 from miketalk.errors import MiketalkError
 from miketalk.flow._checks import check_flow
+from miketalk.media.atomic import write_bytes_atomic
 
 MAGIC = np.float32(202021.25)
 _HEADER = np.dtype([("magic", "<f4"), ("width", "<i4"), ("height", "<i4")])

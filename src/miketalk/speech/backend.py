@@ -65,6 +65,10 @@ class SpeechBackend(ABC):
     def synthesize(self, text: str) -> Utterance:
         """Speak ``text``: the wav and its timed phones."""
 
+    def synthesize_each(self, texts: Sequence[str]) -> list[Utterance]:
+        """Speak each of ``texts`` as its own utterance (an engine may batch them in one run)."""
+        return [self.synthesize(text) for text in texts]
+
     @abstractmethod
     def resynthesize(self, utterance: Utterance, durations: Sequence[float]) -> Utterance:
         """Speak ``utterance`` again with each phone lasting ``durations[i]`` seconds.

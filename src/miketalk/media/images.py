@@ -7,8 +7,8 @@ import os
 import cv2
 import numpy as np
 
-from miketalk.atomic import atomic_path
 from miketalk.errors import MiketalkError
+from miketalk.media.atomic import atomic_path
 
 
 def read_image(path: str | os.PathLike[str]) -> np.ndarray:

@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.atomic import write_text_atomic
 from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
-from miketalk.images import read_image
-from miketalk.lipsync import Timeline
+from miketalk.media.atomic import write_text_atomic
+from miketalk.media.images import read_image
 from miketalk.morph import Morpher
+from miketalk.talk.lipsync import Timeline
 from miketalk.visemes import viseme_slug
 
 FORMAT = "miketalk-model/1"

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.atomic import atomic_path
 from miketalk.errors import MiketalkError
+from miketalk.media.atomic import atomic_path
 
 _SAMPLE_WIDTH = 2  # bytes: int16
 

@@ -34,9 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.atomic import atomic_path
-from miketalk.audio import check_rate, check_samples, write_wav
 from miketalk.errors import MiketalkError
+from miketalk.media.atomic import atomic_path
+from miketalk.media.audio import check_rate, check_samples, write_wav
 
 if sys.platform == "linux":
     import fcntl

@@ -20,11 +20,11 @@ import cv2
 import imageio_ffmpeg
 import numpy as np
 
-from miketalk.atomic import atomic_path, write_text_atomic
-from miketalk.audio import read_wav, write_wav
 from miketalk.errors import MiketalkError
-from miketalk.images import write_png
-from miketalk.speech.festival import FestivalBackend
+from miketalk.media.atomic import atomic_path, write_text_atomic
+from miketalk.media.audio import read_wav, write_wav
+from miketalk.media.images import write_png
+from miketalk.speech.backend import SpeechBackend
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +37,7 @@ def ingest_video(
     out_dir: str | Path,
     *,
     words: list[str],
-    backend: FestivalBackend,
+    backend: SpeechBackend,
     crop: Sequence[int] | None = None,
     width: int | None = None,
 ) -> Path:
@@ -49,7 +49,7 @@ def ingest_video(
         The recording (mp4 with sound) and the corpus directory to fill.
     words : list of str
         The corpus words, in the order they are spoken.
-    backend : FestivalBackend
+    backend : SpeechBackend
         Festival, for each word's predicted phones.
     crop : sequence of 4 int, optional
         ``(x, y, width, height)`` in the recording's pixels: the part of every

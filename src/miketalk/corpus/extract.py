@@ -5,7 +5,7 @@ position". Here it is automatic and uses only what a real recording gives: the
 video, its audio, the word list, and Festival's predicted timing of each word.
 
 1. Words are located in the audio (one speech segment per word) and Festival's
-   synthesis of each word is aligned to it (:mod:`miketalk.align`), so each
+   synthesis of each word is aligned to it (:mod:`miketalk.corpus.audio_align`), so each
    target's predicted time (its phone's middle; a diphthong's nuclei at a
    quarter and three quarters) maps into the recording.
 2. The mouth is found as the part of the picture that moves most over the
@@ -31,12 +31,12 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from miketalk.align import locate_words, map_times
-from miketalk.audio import read_wav
+from miketalk.corpus.audio_align import locate_words, map_times
 from miketalk.errors import MiketalkError
 from miketalk.flow.bridge import motion_region
-from miketalk.images import read_image
-from miketalk.speech.festival import FestivalBackend
+from miketalk.media.audio import read_wav
+from miketalk.media.images import read_image
+from miketalk.speech.backend import SpeechBackend, get_backend
 from miketalk.visemes import VisemeTable
 
 _FRACTIONS = {0: 0.5, 1: 0.25, 2: 0.75}
@@ -122,9 +122,7 @@ def _stillest(
     return int(frames[np.argmin(score)])
 
 
-def extract_targets(
-    video: CorpusVideo, table: VisemeTable, backend: FestivalBackend
-) -> pd.DataFrame:
+def extract_targets(video: CorpusVideo, table: VisemeTable, backend: SpeechBackend) -> pd.DataFrame:
     """Find every corpus target of the recorded words; see the module docstring.
 
     Returns
@@ -235,15 +233,15 @@ def extract_visemes_stage(
     ``out`` has the rule's named outputs: ``targets``, ``visemes``, ``images``,
     ``sheet``, ``strip``.
     """
-    from miketalk.atomic import write_text_atomic
-    from miketalk.images import write_png
-    from miketalk.sheets import grid
+    from miketalk.figures.sheets import grid
+    from miketalk.media.atomic import write_text_atomic
+    from miketalk.media.images import write_png
     from miketalk.visemes import viseme_slug
 
     table = VisemeTable(grouping=grouping)
     video = open_corpus(corpus_dir)
     n_frames = len(video.frame_paths)
-    targets = extract_targets(video, table, FestivalBackend())
+    targets = extract_targets(video, table, get_backend())
     targets["source"] = "extracted"
     if frames_table:
         for key, frame in read_frames_table(frames_table).items():

@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from miketalk.lipsync import Timeline, largest_step, plan, synchronize
-from miketalk.metrics import lag_frames, mouth_opening, psnr
-from miketalk.model import Model
+from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr
 from miketalk.speech.festival import FestivalBackend
+from miketalk.talk.lipsync import Timeline, largest_step, plan, synchronize
+from miketalk.talk.model import Model
 from miketalk.visemes import VisemeTable
 
 

@@ -45,7 +45,7 @@ from miketalk.flow import (
 )
 from miketalk.flow.bridge import nearest_rest, rest_frames
 from miketalk.flow.mixed import warp_residual
-from miketalk.images import read_image
+from miketalk.media.images import read_image
 
 log = logging.getLogger(__name__)
 

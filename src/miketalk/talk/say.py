@@ -11,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.atomic import write_text_atomic
 from miketalk.errors import MiketalkError
-from miketalk.lipsync import Timeline, largest_step, speak_in_sync
-from miketalk.model import Model
+from miketalk.media.atomic import write_text_atomic
+from miketalk.media.video import write_mp4
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Utterance
-from miketalk.video import write_mp4
+from miketalk.talk.lipsync import Timeline, largest_step, speak_in_sync
+from miketalk.talk.model import Model
 from miketalk.visemes import VisemeTable, default_table
 
 DEFAULT_MODEL = Path("results/model/synthetic")

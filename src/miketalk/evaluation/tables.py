@@ -20,7 +20,8 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.flow import FlowDatabase, endpoint_error_map, summarize_endpoint_error
+from miketalk.evaluation.flow_error import endpoint_error_map, summarize_endpoint_error
+from miketalk.flow import FlowDatabase
 
 
 def read_mask(path: str | os.PathLike[str]) -> np.ndarray:
@@ -109,10 +110,10 @@ def morph_fidelity_table(
     to beat). Rows: source, target, alpha, candidate, region, psnr, ssim,
     holes_before_fill (pixels neither warp reached), holes_left.
     """
-    from miketalk.images import read_image
-    from miketalk.metrics import psnr, ssim
+    from miketalk.evaluation.measures import psnr, ssim
+    from miketalk.evaluation.truth import viseme_params
+    from miketalk.media.images import read_image
     from miketalk.morph import HOLE_VALUE, Morpher, cross_dissolve
-    from miketalk.truth import viseme_params
     from synth_face import Face, FaceRenderer
 
     options = dict(morph_options or {})

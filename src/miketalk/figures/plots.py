@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from miketalk.atomic import atomic_path
+from miketalk.media.atomic import atomic_path
 
 Path_ = str | os.PathLike[str]
 
@@ -86,12 +86,12 @@ def lipsync_diagram(
     model_dir: Path_, word: str, out: Path_, *, fps: float, max_px: float | None
 ) -> None:
     """The paper's Figure 8 for one word: diphones, viseme transitions, frames and alphas."""
-    from miketalk.lipsync import speak_in_sync
-    from miketalk.speech import FestivalBackend
-    from miketalk.synthesis import open_model
+    from miketalk.speech import get_backend
+    from miketalk.talk.lipsync import speak_in_sync
+    from miketalk.talk.say import open_model
     from miketalk.visemes import default_table
 
-    festival = FestivalBackend()
+    festival = get_backend()
     model = open_model(model_dir)
     with festival.start(word) as speech:
         utterance, timeline = speak_in_sync(
@@ -125,9 +125,9 @@ def morph_strip(
     model_dir: Path_, pair: list[str], alphas: list[float], out: Path_, *, morph: dict
 ) -> None:
     """The paper's Figure 7: forward warps of each side, blend, after filling and median."""
-    from miketalk.images import write_png
-    from miketalk.sheets import grid
-    from miketalk.synthesis import open_model
+    from miketalk.figures.sheets import grid
+    from miketalk.media.images import write_png
+    from miketalk.talk.say import open_model
 
     model = open_model(model_dir, morph_options=morph)
     a, b = pair

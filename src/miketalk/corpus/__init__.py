@@ -1,0 +1,1 @@
+"""The corpus stage: recordings in, the corpus folder out, viseme frames found in it."""

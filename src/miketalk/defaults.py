@@ -1,0 +1,67 @@
+"""The one home of default settings and default paths.
+
+Every other module, the CLI, the benchmarks and the workflow's ``common.smk``
+take these from here; ``config.yaml`` sets an experiment's own values.
+
+The results tree (``results/`` under the working directory)::
+
+    results/corpus/<face>/      the recording: frames/, audio.wav, tables
+    results/visemes/<face>/     the viseme images and their table
+    results/flows/<face>/       flow databases, by method and strategy
+    results/model/<face>/       the talking-face model (what ``miketalk say`` reads)
+    results/truth/<face>/       ground truth of the synthetic face
+    results/metrics/            tidy tables
+    results/figures/            figures
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: Frame rate of rendered video, frames per second.
+FPS = 30.0
+
+#: Largest flow displacement a transition may move per frame before it is
+#: oversampled (paper §7: 2.5-3.0 px).
+MAX_PX_PER_FRAME = 2.5
+
+#: The face whose model ``miketalk say`` uses when none is given.
+FACE = "synthetic"
+
+#: Root of every workflow output.
+RESULTS = Path("results")
+
+
+def corpus_dir(face: str = FACE, *, root: Path = RESULTS) -> Path:
+    """``results/corpus/<face>``: the recording in the corpus folder format."""
+    return root / "corpus" / face
+
+
+def visemes_dir(face: str = FACE, *, root: Path = RESULTS) -> Path:
+    """``results/visemes/<face>``: the viseme images and ``visemes.tsv``."""
+    return root / "visemes" / face
+
+
+def flows_dir(face: str = FACE, *, root: Path = RESULTS) -> Path:
+    """``results/flows/<face>``: flow databases as ``<method>/<strategy>/``."""
+    return root / "flows" / face
+
+
+def model_dir(face: str = FACE, *, root: Path = RESULTS) -> Path:
+    """``results/model/<face>``: the talking-face model."""
+    return root / "model" / face
+
+
+def truth_dir(face: str = FACE, *, root: Path = RESULTS) -> Path:
+    """``results/truth/<face>``: the synthetic face's true flows and mouth mask."""
+    return root / "truth" / face
+
+
+def metrics_dir(*, root: Path = RESULTS) -> Path:
+    """``results/metrics``: tidy tables."""
+    return root / "metrics"
+
+
+def figures_dir(*, root: Path = RESULTS) -> Path:
+    """``results/figures``."""
+    return root / "figures"

@@ -1,0 +1,1 @@
+"""Measuring: truth, image and sync measures, flow error, morph fidelity, sync."""

@@ -1,0 +1,1 @@
+"""Figures: plots of the metrics and sheets of images."""

@@ -1,0 +1,140 @@
+"""One Festival run in plan mode (started at once, finished with dictated durations) and the
+handling of its process: reading its stderr within a deadline, reporting how it ended.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import subprocess
+import time
+from contextlib import ExitStack
+from typing import TYPE_CHECKING
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.backend import PendingSpeech, Retime
+from miketalk.speech.festival.output import (
+    check_same_phones,
+    join_chunks,
+    read_chunk,
+    read_plan,
+    split_ends,
+    write_ends,
+)
+from miketalk.speech.text import normalize_text, split_chunks
+from miketalk.speech.types import Utterance
+
+if TYPE_CHECKING:
+    from miketalk.speech.festival.backend import FestivalBackend
+
+APT_PACKAGES = "festival festvox-kallpc16k"
+INSTALL_HINT = f"install it with: apt-get install -y {APT_PACKAGES}"
+
+
+PLANNED = "miketalk: planned"
+
+
+class FestivalRun(PendingSpeech):
+    """One Festival run in plan mode: started at once, finished with dictated durations.
+
+    Festival analyses the text, writes each chunk's predicted phones and ends,
+    prints :data:`PLANNED` on stderr and waits for one datum on stdin; ``finish``
+    writes the dictated ends (if any) before sending it, then Festival makes
+    the waves. The text reaches Festival only through the environment.
+    """
+
+    def __init__(self, backend: FestivalBackend, text: str) -> None:
+        clean = normalize_text(text)
+        super().__init__(backend, clean)
+        self._texts = split_chunks(clean, max_words=backend.max_words)
+        self._deadline = time.monotonic() + backend.timeout
+        self._stack = ExitStack()
+        self._proc: subprocess.Popen | None = None
+        try:
+            tmp, env, command = self._stack.enter_context(backend._workspace(self._texts))
+            env["MIKETALK_PLAN"] = "1"
+            self._tmp = tmp
+            stdout = self._stack.enter_context((tmp / "stdout").open("w"))
+            self._proc = subprocess.Popen(
+                command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
+                stderr=subprocess.PIPE,
+            )  # fmt: skip
+        except BaseException:
+            self.close()
+            raise
+
+    def finish(self, retime: Retime) -> Utterance:
+        """Wait for Festival's phones, dictate ``retime``'s durations, return the utterance."""
+        proc, tmp, texts = self._proc, self._tmp, self._texts
+        if proc is None:
+            raise MiketalkError("this Festival run was already finished or closed")
+        try:
+            errors = read_until(proc, PLANNED, self._deadline, self.backend.timeout)
+            if PLANNED not in errors:
+                proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
+                check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text())
+            planned = [read_plan(tmp, i, t) for i, t in enumerate(texts)]
+            durations = retime(join_chunks(self.text, planned).phones)
+            if durations is not None:
+                sizes = [len(c.names) for c in planned]
+                for i, chunk_ends in enumerate(split_ends(durations, sizes)):
+                    write_ends(tmp, i, chunk_ends)
+            try:
+                proc.stdin.write(b"go\n")
+                proc.stdin.close()
+            except BrokenPipeError:  # Festival died after planning: its exit says why
+                pass
+            rest = read_until(proc, None, self._deadline, self.backend.timeout)
+            proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
+            stdout = (tmp / "stdout").read_text(errors="replace")
+            check_exit(proc.returncode, errors + rest + stdout)
+            chunks = [read_chunk(tmp, i, t) for i, t in enumerate(texts)]
+            check_same_phones(chunks, [name for c in planned for name in c.names])
+            return join_chunks(self.text, chunks)
+        except subprocess.TimeoutExpired:
+            raise MiketalkError(f"Festival took longer than {self.backend.timeout:.0f} s") from None
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Kill Festival if it still runs; remove the scratch directory."""
+        proc, self._proc = self._proc, None
+        if proc is not None:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+            for pipe in (proc.stdin, proc.stderr):
+                if pipe is not None and not pipe.closed:
+                    pipe.close()
+        self._stack.close()
+
+
+def read_until(proc: subprocess.Popen, marker: str | None, deadline: float, timeout: float) -> str:
+    """Festival's stderr up to the line ``marker`` (None: to its end), within ``deadline``.
+
+    Stops early at the end of the stream (Festival exited). Raises MiketalkError
+    when the deadline passes first.
+    """
+    fd = proc.stderr.fileno()
+    text = b""
+    while marker is None or marker.encode() not in text:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise MiketalkError(f"Festival took longer than {timeout:.0f} s")
+        ready, _, _ = select.select([fd], [], [], left)
+        if ready:
+            block = os.read(fd, 65536)
+            if not block:
+                break  # end of the stream: Festival exited
+            text += block
+    return text.decode(errors="replace")
+
+
+def check_exit(returncode: int, messages: str) -> None:
+    """A clear error when Festival failed (status, or an SIOD error on any stream)."""
+    errors = messages.strip()
+    if returncode != 0 or "SIOD ERROR" in errors:
+        if "voice_kal_diphone" in errors and "unbound" in errors:
+            raise MiketalkError(f"Festival's kal voice is missing; {INSTALL_HINT}")
+        tail = "\n".join(errors.splitlines()[-5:])
+        raise MiketalkError(f"Festival failed (exit {returncode}):\n{tail}")

@@ -1,0 +1,1 @@
+"""Talking: lip-sync timelines, the talking-face model, and `say`."""
