@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -35,6 +34,17 @@ from queue import Full, Queue
 
 import numpy as np
 
+from miketalk.corpus.folder import (
+    AUDIO,
+    FRAMES,
+    FRAMES_TABLE,
+    TRUTH,
+    TRUTH_COLUMNS,
+    VIDEO,
+    WORDS,
+    frame_path,
+    words_doc,
+)
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.audio import write_wav
 from miketalk.media.images import write_png
@@ -162,9 +172,9 @@ def record_corpus(
     times = np.arange(n_frames) / fps
     params = trajectory(poses, times)
 
-    frames_dir = out / "frames"
+    frames_dir = out / FRAMES
     frames_dir.mkdir(parents=True, exist_ok=True)
-    _render_frames(face, size, params, frames_dir, out / "corpus.mp4", fps, samples, rate)
+    _render_frames(face, size, params, frames_dir, out / VIDEO, fps, samples, rate)
 
     key_t = np.array([p.time for p in poses])
     which = np.clip(np.searchsorted(key_t, times, side="right") - 1, 0, len(poses) - 1)
@@ -175,11 +185,11 @@ def record_corpus(
         pose = poses[which[k]]
         word = pose.word if pose.phone != "pau" else "-"
         writer.writerow([k, f"{times[k]:.6f}", word, pose.phone, *(f"{v:.6f}" for v in params[k])])
-    write_text_atomic(out / "frames.tsv", buf.getvalue())
+    write_text_atomic(out / FRAMES_TABLE, buf.getvalue())
 
     buf = io.StringIO()
     writer = csv.writer(buf, delimiter="\t", lineterminator="\n")
-    writer.writerow(["key", "word", "phone", "time", "frame"])
+    writer.writerow(TRUTH_COLUMNS)
     silence = _silence_truth(poses, words)
     for pose in poses:
         if not pose.target:
@@ -196,12 +206,9 @@ def record_corpus(
         first, last = int(np.ceil(start * fps)) + 1, int(np.floor(end * fps)) - 1
         frame = min(n_frames - 1, (first + last) // 2)
         writer.writerow([pose.target, pose.word, pose.phone, f"{frame / fps:.6f}", frame])
-    write_text_atomic(out / "truth.tsv", buf.getvalue())
-    write_text_atomic(
-        out / "words.json",
-        json.dumps({"fps": fps, "size": size, "rate": rate, "words": predicted}, indent=1),
-    )
-    write_wav(out / "audio.wav", samples, rate)
+    write_text_atomic(out / TRUTH, buf.getvalue())
+    write_text_atomic(out / WORDS, words_doc(fps=fps, size=size, rate=rate, words=predicted))
+    write_wav(out / AUDIO, samples, rate)
     return out
 
 
@@ -229,7 +236,7 @@ def _render_frames(
 
     with ThreadPoolExecutor(2, thread_name_prefix="corpus-out") as pool:
         encoded = pool.submit(
-            write_mp4, video, stream(), fps, samples, rate, n_frames=len(params)
+            write_mp4, video, stream(), fps=fps, audio=samples, rate=rate, n_frames=len(params)
         )  # fmt: skip
 
         def feed(item: np.ndarray | None) -> bool:
@@ -247,7 +254,7 @@ def _render_frames(
         try:
             for k, p in enumerate(params):
                 image = renderer.render(p)
-                writes.append(pool.submit(write_png, frames_dir / f"{k:06d}.png", image))
+                writes.append(pool.submit(write_png, frame_path(frames_dir, k), image))
                 if not feed(image):
                     break
                 if len(writes) > 64:  # keep at most this many frames waiting

@@ -31,7 +31,7 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarra
         frames.append(np.stack([grey, grey[::-1], 255 - grey], -1).clip(0, 255).astype(np.uint8))
     path = tmp_path_factory.mktemp("video") / "person.mp4"
     tone = (3000 * np.sin(np.arange(8000) * 0.05)).astype(np.int16)
-    write_mp4(path, frames, 20, tone, 16000, crf=0)
+    write_mp4(path, frames, fps=20, audio=tone, rate=16000, crf=0)
     return path, np.stack(frames)
 
 

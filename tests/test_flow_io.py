@@ -16,11 +16,10 @@ from miketalk.flow import (
     pair_path,
     read_flo,
     read_flow_pair,
-    slug,
     write_flo,
     write_flow_pair,
 )
-from miketalk.visemes import VISEMES
+from miketalk.visemes import VISEMES, viseme_slug
 
 
 def _flows(shape=(24, 32), seed=0):
@@ -144,12 +143,12 @@ def test_nan_in_a_stored_flow_is_refused(tmp_path):
 
 def test_slugs_are_safe_and_one_to_one():
     names = [*VISEMES, "@", "ou:1", "A", "a", "_", "-x", "x-", "é"]
-    slugs = [slug(n) for n in names]
+    slugs = [viseme_slug(n) for n in names]
     assert len(set(slugs)) == len(slugs)
     for s in slugs:
         assert set(s) <= set("abcdefghijklmnopqrstuvwxyz0123456789_-")
         assert "__" not in s and not s.startswith("-")
-    assert slug("#") == "_23" and slug("w-au") == "w-au" and slug("@") == "_40"
+    assert viseme_slug("#") == "_23" and viseme_slug("w-au") == "w-au" and viseme_slug("@") == "_40"
     files = {pair_filename(a, b) for i, a in enumerate(VISEMES) for b in VISEMES[i + 1 :]}
     assert len(files) == 16 * 15 // 2
     assert pair_filename("#", "p") == pair_filename("p", "#") == "_23__p.exr"

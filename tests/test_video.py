@@ -35,7 +35,7 @@ def _tone(seconds: float) -> np.ndarray:
 def test_durations_are_equal_within_one_frame(tmp_path, fps, audio_seconds):
     n = 20
     path = tmp_path / "out" / "talk.mp4"
-    write_mp4(path, _frames(n), fps, _tone(audio_seconds), RATE)  # trimmed, padded, ~equal
+    write_mp4(path, _frames(n), fps=fps, audio=_tone(audio_seconds), rate=RATE)  # trimmed, padded
     video, audio = probe_durations(path)
     assert video == pytest.approx(n / fps, abs=1e-6)
     assert abs(audio - video) <= 1 / RATE + 1e-9
@@ -44,18 +44,20 @@ def test_durations_are_equal_within_one_frame(tmp_path, fps, audio_seconds):
 
 def test_same_input_gives_identical_bytes(tmp_path):
     frames, audio = _frames(12), _tone(0.5)
-    write_mp4(tmp_path / "a.mp4", frames, 25, audio, RATE)
-    write_mp4(tmp_path / "b.mp4", iter(list(frames)), 25, audio, RATE)  # streamed
+    write_mp4(tmp_path / "a.mp4", frames, fps=25, audio=audio, rate=RATE)
+    write_mp4(
+        tmp_path / "b.mp4", iter(list(frames)), fps=25, audio=audio, rate=RATE, n_frames=len(frames)
+    )  # streamed
     assert (tmp_path / "a.mp4").read_bytes() == (tmp_path / "b.mp4").read_bytes()
 
 
 def test_known_frame_count_writes_in_one_pass(tmp_path):
     frames, audio = _frames(15), _tone(0.45)
     path = tmp_path / "one.mp4"
-    write_mp4(path, iter(list(frames)), 30, audio, RATE, n_frames=15)
+    write_mp4(path, iter(list(frames)), fps=30, audio=audio, rate=RATE, n_frames=15)
     video, sound = probe_durations(path)
     assert video == pytest.approx(0.5, abs=1e-6) and abs(sound - video) < 1 / 30
-    write_mp4(tmp_path / "two.mp4", iter(list(frames)), 30, audio, RATE, n_frames=15)
+    write_mp4(tmp_path / "two.mp4", list(frames), fps=30, audio=audio, rate=RATE)
     assert path.read_bytes() == (tmp_path / "two.mp4").read_bytes()
 
 
@@ -63,13 +65,13 @@ def test_known_frame_count_writes_in_one_pass(tmp_path):
 def test_wrong_frame_count_is_an_error_and_leaves_nothing(tmp_path, count):
     path = tmp_path / "bad.mp4"
     with pytest.raises(MiketalkError, match="15 frames were given, not n_frames="):
-        write_mp4(path, _frames(15), 30, _tone(0.5), RATE, n_frames=count)
+        write_mp4(path, _frames(15), fps=30, audio=_tone(0.5), rate=RATE, n_frames=count)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_grey_odd_sized_frames_without_audio(tmp_path):
     frames = _frames(5, h=33, w=45)[..., 0]
-    write_mp4(tmp_path / "grey.mp4", frames, 10)
+    write_mp4(tmp_path / "grey.mp4", frames, fps=10)
     assert probe_durations(tmp_path / "grey.mp4") == (pytest.approx(0.5), 0.0)
 
 
@@ -96,7 +98,7 @@ def test_failure_mid_stream_leaves_nothing_behind(tmp_path, monkeypatch, stream,
     monkeypatch.setattr(tempfile, "tempdir", str(scratch))
     out = tmp_path / "out"
     with pytest.raises(error, match=match):
-        write_mp4(out / "bad.mp4", stream(7), 25, _tone(0.3), RATE)
+        write_mp4(out / "bad.mp4", stream(7), fps=25, audio=_tone(0.3), rate=RATE, n_frames=7)
     assert not out.exists() or list(out.iterdir()) == []
     assert list(scratch.iterdir()) == []
 
@@ -105,7 +107,7 @@ def test_failure_keeps_an_existing_file(tmp_path):
     path = tmp_path / "keep.mp4"
     path.write_bytes(b"old")
     with pytest.raises(MiketalkError, match="dtype"):
-        write_mp4(path, [np.zeros((8, 8, 3), np.float32)], 25)
+        write_mp4(path, [np.zeros((8, 8, 3), np.float32)], fps=25)
     assert path.read_bytes() == b"old"
     assert [p.name for p in tmp_path.iterdir()] == ["keep.mp4"]
 

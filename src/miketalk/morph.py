@@ -58,6 +58,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from miketalk.checks import check_flow, check_image
 from miketalk.errors import MiketalkError
 
 try:
@@ -91,43 +92,6 @@ HOLE_VALUE = 0
 # ---------------------------------------------------------------------------
 # checks and small helpers
 # ---------------------------------------------------------------------------
-
-
-def _check_image(image: object, name: str) -> np.ndarray:
-    """Return ``image`` as an ndarray after checking it is an (H, W) or (H, W, 3) uint8 image."""
-    if not isinstance(image, np.ndarray):
-        raise MiketalkError(f"{name} must be a numpy array, got {type(image).__name__}")
-    if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
-        raise MiketalkError(
-            f"{name} must be an (H, W) grey or (H, W, 3) RGB image, got shape {image.shape}"
-        )
-    if image.shape[0] < 1 or image.shape[1] < 1:
-        raise MiketalkError(f"{name} is empty (shape {image.shape})")
-    if image.dtype != np.uint8:
-        raise MiketalkError(
-            f"{name} must be uint8 (0-255), got dtype {image.dtype}; "
-            "convert it with skimage.util.img_as_ubyte"
-        )
-    return image
-
-
-def _check_flow(flow: object, name: str, size: tuple[int, int]) -> np.ndarray:
-    """Return ``flow`` as C-contiguous float32 after checking shape and finiteness."""
-    if not isinstance(flow, np.ndarray):
-        raise MiketalkError(f"{name} must be a numpy array, got {type(flow).__name__}")
-    if flow.ndim != 3 or flow.shape[2] != 2:
-        raise MiketalkError(f"{name} must be an (H, W, 2) flow field, got shape {flow.shape}")
-    if flow.shape[:2] != size:
-        raise MiketalkError(
-            f"{name} has size {flow.shape[:2]} but the images are {size}; "
-            "a flow must be computed on the images it morphs"
-        )
-    if not (np.issubdtype(flow.dtype, np.floating) or np.issubdtype(flow.dtype, np.integer)):
-        raise MiketalkError(f"{name} must be a float flow field, got dtype {flow.dtype}")
-    flow = _contiguous(flow, np.float32)
-    if not np.isfinite(flow).all():
-        raise MiketalkError(f"{name} holds NaN or inf values")
-    return flow
 
 
 def _check_alpha(alpha: object, name: str = "alpha") -> float:
@@ -274,16 +238,16 @@ class Morpher:
         median: bool = True,
         collision: Collision = "motion",
     ) -> None:
-        image0 = _check_image(image0, "image0")
-        image1 = _check_image(image1, "image1")
+        image0 = check_image(image0, "image0", uint8_only=True)
+        image1 = check_image(image1, "image1", uint8_only=True)
         if image1.shape != image0.shape:
             raise MiketalkError(
                 f"image1 has shape {image1.shape} but image0 has shape {image0.shape}; "
                 "the two visemes must have the same size and number of channels"
             )
         size = image0.shape[:2]
-        self._flow0 = _check_flow(flow01, "flow01", size)
-        self._flow1 = _check_flow(flow10, "flow10", size)
+        self._flow0 = _contiguous(check_flow(flow01, "flow01", size), np.float32)
+        self._flow1 = _contiguous(check_flow(flow10, "flow10", size), np.float32)
         collision = _check_collision(collision)
         self.shape: tuple[int, ...] = image0.shape
         self.hole_aware_blend = bool(hole_aware_blend)
@@ -501,8 +465,8 @@ def forward_warp(
     MiketalkError
         Naming the argument, for any malformed input.
     """
-    image = _check_image(image, "image")
-    flow = _check_flow(flow, "flow", image.shape[:2])
+    image = check_image(image, "image", uint8_only=True)
+    flow = _contiguous(check_flow(flow, "flow", image.shape[:2]), np.float32)
     alpha = _check_alpha(alpha)
     collision = _check_collision(collision)
     hwc = _as_hwc(image)
@@ -550,7 +514,7 @@ def fill_holes_scanline(image: np.ndarray, hole: np.ndarray) -> np.ndarray:
     >>> fill_holes_scanline(row, row == 0)
     array([[10, 10, 20, 30, 40, 40]], dtype=uint8)
     """
-    image = _check_image(image, "image")
+    image = check_image(image, "image", uint8_only=True)
     if not isinstance(hole, np.ndarray) or hole.dtype != np.bool_:
         raise MiketalkError("hole must be a numpy bool array")
     if hole.shape != image.shape[:2]:
@@ -581,8 +545,8 @@ def cross_dissolve(image0: np.ndarray, image1: np.ndarray, alpha: float) -> np.n
     MiketalkError
         Naming the argument, for any malformed input.
     """
-    image0 = _check_image(image0, "image0")
-    image1 = _check_image(image1, "image1")
+    image0 = check_image(image0, "image0", uint8_only=True)
+    image1 = check_image(image1, "image1", uint8_only=True)
     if image1.shape != image0.shape:
         raise MiketalkError(f"image1 has shape {image1.shape} but image0 has shape {image0.shape}")
     alpha = _check_alpha(alpha)

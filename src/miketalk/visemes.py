@@ -34,11 +34,26 @@ VISEMES: tuple[str, ...] = (
 SILENCE = "#"
 
 
-def viseme_slug(viseme: str) -> str:
-    """A file-name-safe name for a viseme (``#`` -> ``sil``; others keep theirs)."""
-    if viseme == SILENCE:
-        return "sil"
-    return "".join(ch if ch.isalnum() or ch == "-" else "_" for ch in viseme)
+_SAFE = frozenset("abcdefghijklmnopqrstuvwxyz0123456789")
+
+
+def viseme_slug(name: str) -> str:
+    """A file-name-safe, one-to-one spelling of a viseme name (image and flow file names).
+
+    Examples
+    --------
+    >>> viseme_slug("#"), viseme_slug("w-au"), viseme_slug("@"), viseme_slug("ii")
+    ('_23', 'w-au', '_40', 'ii')
+    """
+    if not isinstance(name, str) or not name:
+        raise MiketalkError(f"a viseme name must be a non-empty string, got {name!r}")
+    out = []
+    for i, char in enumerate(name):
+        if char in _SAFE or (char == "-" and i > 0):
+            out.append(char)
+        else:
+            out.extend(f"_{byte:02x}" for byte in char.encode("utf-8"))
+    return "".join(out)
 
 
 @dataclass(frozen=True)

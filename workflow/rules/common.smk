@@ -1,15 +1,20 @@
 # Names, paths and lookups shared by the rules.
 import json
 
+from miketalk import defaults
+from miketalk.flow.strategies import STRATEGIES, get_strategy
+
 FACE = config["face"]
 SYNTHETIC = config["corpus"]["source"] == "synthetic"
-CORPUS = f"results/corpus/{FACE}"
-VISEMES = f"results/visemes/{FACE}"
-FLOWS = f"results/flows/{FACE}"
-MODEL = f"results/model/{FACE}"
-METRICS = "results/metrics"
-FIGURES = "results/figures"
-STRATEGIES = ["direct", "concat", "mixed", "bridge"]
+CORPUS = str(defaults.corpus_dir(FACE))
+VISEMES = str(defaults.visemes_dir(FACE))
+FLOWS = str(defaults.flows_dir(FACE))
+MODEL = str(defaults.model_dir(FACE))
+TRUTH = str(defaults.truth_dir(FACE))
+METRICS = str(defaults.metrics_dir())
+FIGURES = str(defaults.figures_dir())
+# an unknown strategy fails here, naming the known ones
+get_strategy(config["flow"]["strategy"])
 
 
 def sweep_methods():
@@ -43,10 +48,11 @@ def method_spec(wildcards):
 
 
 def mixed_flows(wildcards):
-    """The bridge strategy refines the mixed database of the same method."""
-    if wildcards.strategy != "bridge":
+    """A strategy that refines another (bridge: mixed) reads that database of the same method."""
+    refines = STRATEGIES[wildcards.strategy].refines
+    if refines is None:
         return {}
-    return {"mixed": f"{FLOWS}/{wildcards.method}/mixed"}
+    return {"mixed": f"{FLOWS}/{wildcards.method}/{refines}"}
 
 
 def epe_tables():
@@ -63,11 +69,17 @@ def epe_tables():
 
 
 def utterance_videos():
+    """The mp4 of every configured sentence."""
     return [f"results/utterances/{FACE}/{name}.mp4" for name in config["sentences"]]
 
 
 def sync_tables():
+    """The sync table of every configured sentence."""
     return [f"{METRICS}/sync/{FACE}/{name}.csv" for name in config["sentences"]]
+
+
+#: A sweep setting in a path (px{px}_fps{fps}): a plain decimal number.
+NUMBER = r"\d+(\.\d+)?"
 
 
 def sync_sweep_tables():

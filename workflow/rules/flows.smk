@@ -16,7 +16,7 @@ rule flows:
     benchmark:
         f"results/benchmarks/flows/{FACE}/{{method}}/{{strategy}}.tsv"
     wildcard_constraints:
-        strategy="direct|concat|mixed|bridge",
+        strategy="|".join(STRATEGIES),
     conda:
         "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]
@@ -35,8 +35,8 @@ rule true_flows:
         visemes=rules.visemes.output.visemes,
         table=rules.corpus.output.table,
     output:
-        flows=directory(f"results/truth/{FACE}/flows"),
-        mouth=f"results/truth/{FACE}/mouth_mask.png",
+        flows=directory(f"{TRUTH}/flows"),
+        mouth=f"{TRUTH}/mouth_mask.png",
     log:
         f"results/logs/true_flows/{FACE}.log",
     benchmark:

@@ -29,6 +29,7 @@ import time
 import numpy as np
 
 from miketalk.media.atomic import write_text_atomic
+from miketalk.visemes import viseme_slug
 
 #: Target pairs whose warp-back residual is measured (A, B).
 PAIRS: tuple[tuple[str, str], ...] = (
@@ -118,7 +119,7 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
             pa, pb = face.target(ka), face.target(kb)
             flow, valid = r.true_flow(pa, pb)
             img_a, img_b = r.render(pa), r.render(pb)
-            tag = f"{ka}_{kb}".replace("#", "sil")
+            tag = f"{viseme_slug(ka)}_{viseme_slug(kb)}"
             res, base = warp_residual(img_a, img_b, flow, valid)
             figures[f"warp_residual_grey_{tag}"], figures[f"warp_baseline_grey_{tag}"] = res, base
             res, base = warp_residual(img_a, img_b, flow, valid, region=mouth)
@@ -131,10 +132,10 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
             pa, pb = face.target(ka), face.target(kb)
             flow, valid = r.true_flow(pa, pb)
             img_a, img_b = r.render(pa), r.render(pb)
-            tag = f"{ka}_{kb}".replace("#", "sil")
+            tag = f"{viseme_slug(ka)}_{viseme_slug(kb)}"
             res, _ = warp_residual(img_a, img_b, flow, valid, region=mouth)
             figures[f"albedo_warp_residual_mouth_grey_{tag}"] = res
-    tags = [f"{a}_{b}".replace("#", "sil") for a, b in PAIRS]
+    tags = [f"{viseme_slug(a)}_{viseme_slug(b)}" for a, b in PAIRS]
     figures["pairs_warp_residual_grey"] = float(
         np.mean([figures[f"warp_residual_grey_{t}"] for t in tags])
     )

@@ -23,8 +23,6 @@ is the frame of its representative target (:meth:`VisemeTable.representative`).
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -32,47 +30,14 @@ import numpy as np
 import pandas as pd
 
 from miketalk.corpus.audio_align import locate_words, map_times
+from miketalk.corpus.folder import TRUTH, CorpusVideo, open_corpus
 from miketalk.errors import MiketalkError
-from miketalk.flow.bridge import motion_region
+from miketalk.flow.rest import motion_region
 from miketalk.media.audio import read_wav
-from miketalk.media.images import read_image
 from miketalk.speech.backend import SpeechBackend, get_backend
 from miketalk.visemes import VisemeTable
 
 _FRACTIONS = {0: 0.5, 1: 0.25, 2: 0.75}
-
-
-@dataclass(frozen=True)
-class CorpusVideo:
-    """A corpus recording on disk: ``frames/*.png``, ``audio.wav``, and its frame rate."""
-
-    directory: Path
-    fps: float
-    words: list[str]
-
-    @property
-    def frame_paths(self) -> list[Path]:
-        """The frame files in order."""
-        return sorted((self.directory / "frames").glob("*.png"))
-
-    def frame(self, index: int) -> np.ndarray:
-        """Frame ``index`` as (H, W, 3) uint8 RGB."""
-        paths = self.frame_paths
-        if not 0 <= index < len(paths):
-            raise MiketalkError(f"frame {index} is outside the recording (0..{len(paths) - 1})")
-        return read_image(paths[index])
-
-
-def open_corpus(directory: str | Path, *, words: list[str] | None = None) -> CorpusVideo:
-    """Open a corpus directory written by ``synth_face.recording`` or ``miketalk.corpus``."""
-    directory = Path(directory)
-    meta_path = directory / "words.json"
-    if not meta_path.exists():
-        raise MiketalkError(f"{directory} is not a corpus recording: no words.json")
-    meta = json.loads(meta_path.read_text())
-    if not (directory / "frames").is_dir() or not (directory / "audio.wav").exists():
-        raise MiketalkError(f"{directory} lacks frames/ or audio.wav")
-    return CorpusVideo(directory, float(meta["fps"]), words or [w["word"] for w in meta["words"]])
 
 
 def motion_energy(video: CorpusVideo, *, scale: int = 2) -> tuple[np.ndarray, np.ndarray]:
@@ -131,7 +96,7 @@ def extract_targets(video: CorpusVideo, table: VisemeTable, backend: SpeechBacke
         One row per target: key, viseme, word, phone, time (seconds in the
         recording), frame.
     """
-    samples, rate = read_wav(video.directory / "audio.wav")
+    samples, rate = read_wav(video.audio_path)
     segments = locate_words(samples, rate, len(video.words))
     predicted = backend.synthesize_each(video.words)
     energy, _ = motion_energy(video)
@@ -240,7 +205,7 @@ def extract_visemes_stage(
 
     table = VisemeTable(grouping=grouping)
     video = open_corpus(corpus_dir)
-    n_frames = len(video.frame_paths)
+    n_frames = video.n_frames
     targets = extract_targets(video, table, get_backend())
     targets["source"] = "extracted"
     if frames_table:
@@ -252,7 +217,7 @@ def extract_visemes_stage(
                     f"frames table: frame {frame} of {key!r} is outside 0..{n_frames - 1}"
                 )
             targets.loc[targets["key"] == key, ["frame", "source"]] = [frame, "table"]
-    truth = pd.read_csv(corpus_dir / "truth.tsv", sep="\t", dtype={"key": str})
+    truth = pd.read_csv(corpus_dir / TRUTH, sep="\t", dtype={"key": str})
     if len(truth):
         targets = targets.merge(
             truth[["key", "frame"]].rename(columns={"frame": "true_frame"}), on="key", how="left"

@@ -8,7 +8,6 @@ header, and the metrics that need truth are skipped).
 
 from __future__ import annotations
 
-import json
 import logging
 import shutil
 import subprocess
@@ -20,6 +19,18 @@ import cv2
 import imageio_ffmpeg
 import numpy as np
 
+from miketalk.corpus.folder import (
+    AUDIO,
+    FRAMES,
+    FRAMES_TABLE,
+    TRUTH,
+    VIDEO,
+    WORDS,
+    empty_truth_text,
+    frame_path,
+    frames_table_text,
+    words_doc,
+)
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_path, write_text_atomic
 from miketalk.media.audio import read_wav, write_wav
@@ -84,7 +95,7 @@ def ingest_video(
             "set corpus.video_crop to the mouth region and corpus.video_width (e.g. 256)",
             *size,
         )
-    frames_dir = out / "frames"
+    frames_dir = out / FRAMES
     frames_dir.mkdir(parents=True, exist_ok=True)
     n = 0
     for raw in reader:
@@ -94,7 +105,7 @@ def ingest_video(
             frame = cv2.resize(
                 frame, size, interpolation=cv2.INTER_AREA if shrink else cv2.INTER_LINEAR
             )
-        write_png(frames_dir / f"{n:06d}.png", np.ascontiguousarray(frame))
+        write_png(frame_path(frames_dir, n), np.ascontiguousarray(frame))
         n += 1
     if n < 3:
         raise MiketalkError(f"corpus video {video} has {n} frames")
@@ -108,27 +119,17 @@ def ingest_video(
         if proc.returncode != 0 or not wav.exists():
             raise MiketalkError(f"corpus video {video} has no readable audio track")
         samples, rate = read_wav(wav)
-    write_wav(out / "audio.wav", samples, rate)
+    write_wav(out / AUDIO, samples, rate)
     predicted = backend.synthesize_each(words)
-    doc = {
-        "fps": fps,
-        "size": [size[1], size[0]],
-        "rate": rate,
-        "source": str(video),
-        "words": [
-            {
-                "word": w,
-                "phones": [{"name": p.name, "start": p.start, "end": p.end} for p in u.phones],
-            }
-            for w, u in zip(words, predicted, strict=True)
-        ],
-    }
-    write_text_atomic(out / "words.json", json.dumps(doc, indent=1))
-    write_text_atomic(
-        out / "frames.tsv", "frame\ttime\n" + "".join(f"{k}\t{k / fps:.6f}\n" for k in range(n))
-    )
-    write_text_atomic(out / "truth.tsv", "key\tword\tphone\ttime\tframe\n")
-    with atomic_path(out / "corpus.mp4") as tmp:
+    spoken = [
+        {"word": w, "phones": [{"name": p.name, "start": p.start, "end": p.end} for p in u.phones]}
+        for w, u in zip(words, predicted, strict=True)
+    ]
+    doc = words_doc(fps=fps, size=[size[1], size[0]], rate=rate, source=str(video), words=spoken)
+    write_text_atomic(out / WORDS, doc)
+    write_text_atomic(out / FRAMES_TABLE, frames_table_text(n, fps))
+    write_text_atomic(out / TRUTH, empty_truth_text())
+    with atomic_path(out / VIDEO) as tmp:
         shutil.copyfile(video, tmp)
     return out
 

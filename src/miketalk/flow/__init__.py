@@ -33,7 +33,7 @@ from miketalk.flow.concat import (
     concatenate_up_flows,
     consecutive_flows,
 )
-from miketalk.flow.database import FlowDatabase, pair_filename, pair_path, slug
+from miketalk.flow.database import FlowDatabase, pair_filename, pair_path
 from miketalk.flow.exr import FlowPair, read_flow_header, read_flow_pair, write_flow_pair
 from miketalk.flow.flo import read_flo, write_flo
 from miketalk.flow.mixed import MixedFlowInfo, mixed_flow, window_chains
@@ -65,7 +65,6 @@ __all__ = [
     "read_flo",
     "read_flow_header",
     "read_flow_pair",
-    "slug",
     "tvl1_flow",
     "window_chains",
     "write_flo",

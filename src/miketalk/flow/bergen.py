@@ -16,8 +16,8 @@ import math
 import cv2
 import numpy as np
 
+from miketalk.checks import check_pair, to_grey_float32
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_pair, to_grey_float32
 from miketalk.flow.pyramid import coarse_to_fine
 
 _REMAP_FLAGS = cv2.INTER_LINEAR | cv2.WARP_RELATIVE_MAP

@@ -22,8 +22,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from miketalk.checks import check_flow
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_flow
 from miketalk.flow.warp import _remap
 
 FlowEstimator = Callable[[np.ndarray, np.ndarray], np.ndarray]

@@ -7,7 +7,8 @@ both directions (see :mod:`miketalk.flow.exr` for the layout).
 File names
 ----------
 Viseme names hold characters that are awkward in file names (``#``, ``@``,
-``-`` at the start, upper case on case-insensitive disks). :func:`slug`
+``-`` at the start, upper case on case-insensitive disks).
+:func:`miketalk.visemes.viseme_slug`
 keeps ``a-z``, ``0-9`` and inner ``-`` and writes every other character as
 ``_`` plus the two hex digits of each of its UTF-8 bytes: ``#`` becomes
 ``_23``, ``w-au`` stays ``w-au``, ``@`` becomes ``_40``. The map is
@@ -27,28 +28,9 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 from miketalk.flow.exr import FlowPair, read_flow_pair
+from miketalk.visemes import viseme_slug
 
 SUFFIX = ".exr"
-_SAFE = frozenset("abcdefghijklmnopqrstuvwxyz0123456789")
-
-
-def slug(name: str) -> str:
-    """A file-name-safe, one-to-one spelling of a viseme name (see the module docstring).
-
-    Examples
-    --------
-    >>> slug("#"), slug("w-au"), slug("@"), slug("ii")
-    ('_23', 'w-au', '_40', 'ii')
-    """
-    if not isinstance(name, str) or not name:
-        raise MiketalkError(f"a viseme name must be a non-empty string, got {name!r}")
-    out = []
-    for i, char in enumerate(name):
-        if char in _SAFE or (char == "-" and i > 0):
-            out.append(char)
-        else:
-            out.extend(f"_{byte:02x}" for byte in char.encode("utf-8"))
-    return "".join(out)
 
 
 def pair_filename(a: str, b: str) -> str:
@@ -62,7 +44,7 @@ def pair_filename(a: str, b: str) -> str:
     if a == b:
         raise MiketalkError(f"a flow pair needs two different visemes, got {a!r} twice")
     first, second = sorted((a, b))
-    return f"{slug(first)}__{slug(second)}{SUFFIX}"
+    return f"{viseme_slug(first)}__{viseme_slug(second)}{SUFFIX}"
 
 
 def pair_path(directory: str | os.PathLike[str], a: str, b: str) -> Path:
@@ -150,7 +132,7 @@ class FlowDatabase:
         return pair.forward if pair.source == a else pair.backward
 
     def _zero_flow(self, a: str) -> np.ndarray:
-        name = slug(a)
+        name = viseme_slug(a)
         files = sorted(self.directory.glob(f"{name}__*{SUFFIX}"))
         files += sorted(self.directory.glob(f"*__{name}{SUFFIX}"))
         if not files:

@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 import OpenEXR
 
+from miketalk.checks import check_flow
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_flow
 from miketalk.media.atomic import atomic_path
 
 FORMAT = "miketalk-flow-pair 1"

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from miketalk.checks import check_flow
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_flow
 from miketalk.media.atomic import write_bytes_atomic
 
 MAGIC = np.float32(202021.25)

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk.checks import check_image, to_grey_float32
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_image, to_grey_float32
 from miketalk.flow.concat import _concat, concatenate_down_flows, consecutive_flows
 from miketalk.flow.warp import _remap
 

@@ -19,8 +19,8 @@ from collections.abc import Iterator
 import cv2
 import numpy as np
 
+from miketalk.checks import check_pair, to_grey_uint8
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_pair, to_grey_uint8
 
 DIS_PRESETS = {
     "ultrafast": cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from miketalk.checks import check_flow
 from miketalk.errors import MiketalkError
-from miketalk.flow._checks import check_flow
 
 _MAX_REMAP_CHANNELS = 4
 

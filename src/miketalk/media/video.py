@@ -5,15 +5,13 @@ byte-identical file) and atomic (the mp4 appears complete under its name, or
 not at all, also on errors and Ctrl-C). It works inside a private temporary
 directory:
 
-1. the frames are piped as raw video to ffmpeg and encoded to H.264 (yuv420p,
-   ``-threads 1`` so the bitstream does not depend on the machine's core count);
-   frames are streamed, so an iterator of any length works;
-2. once the number of frames ``n`` is known, the audio is padded with silence or
-   trimmed to exactly ``round(n * rate / fps)`` samples, written to a wav, and
-   muxed with the copied video stream while being encoded to AAC.
-
-When the caller knows ``n`` in advance (``n_frames=``, as ``miketalk say`` does),
-the audio is fitted first and both streams are encoded by one ffmpeg run.
+1. the number of frames ``n`` is known in advance (the length of an array or
+   sequence of frames, or ``n_frames=`` for an iterator, as ``miketalk say``
+   streams its frames), so the audio is first padded with silence or trimmed
+   to exactly ``round(n * rate / fps)`` samples and written to a wav;
+2. the frames are piped as raw video to one ffmpeg run that encodes them to
+   H.264 (yuv420p, ``-threads 1`` so the bitstream does not depend on the
+   machine's core count) and the wav to AAC.
 
 So the audio and video streams have the same duration ``n / fps`` to within one
 audio sample (well within one frame). :func:`probe_durations` measures both by
@@ -78,13 +76,13 @@ def ffmpeg_exe() -> str:
 def write_mp4(
     path: str | os.PathLike[str],
     frames: Iterable[np.ndarray] | np.ndarray,
+    *,
     fps: float,
     audio: np.ndarray | None = None,
     rate: int | None = None,
-    *,
+    n_frames: int | None = None,
     crf: int = 18,
     preset: str = "veryfast",
-    n_frames: int | None = None,
 ) -> None:
     """Write frames and mono audio to an H.264 (yuv420p) + AAC mp4, atomically and reproducibly.
 
@@ -96,23 +94,22 @@ def write_mp4(
         ``(H, W, 3)`` RGB or ``(H, W)`` grey uint8 frames, all of one shape; or
         one ``(N, H, W, 3)`` / ``(N, H, W)`` array. An odd width or height (which
         yuv420p cannot hold) is padded by one by repeating the last column/row.
-    fps : float
+    fps : float, keyword-only
         Frame rate, > 0 (a float such as 29.97 is turned into the nearest fraction).
-    audio : ndarray of int16, shape (n,), optional
+    audio : ndarray of int16, shape (n,), keyword-only, optional
         Mono audio. It is padded with silence at the end, or trimmed at the end,
         to last exactly ``n_frames / fps`` (rounded to the nearest sample). None
         writes a file without an audio stream.
-    rate : int
+    rate : int, keyword-only
         Sample rate of ``audio`` in Hz; required with ``audio``.
+    n_frames : int, keyword-only, optional
+        How many frames ``frames`` holds; required when ``frames`` is an iterator
+        without a length (the audio is fitted before the frames are made), and
+        checked against the frames given: a different count is an error.
     crf : int, keyword-only
         x264 constant rate factor, 0 (lossless) to 51; 18 is visually lossless.
     preset : str, keyword-only
         x264 preset (speed/size trade-off; does not affect determinism).
-    n_frames : int, keyword-only, optional
-        How many frames ``frames`` holds, when the caller knows it before they
-        are made. The audio is then fitted in advance and encoded by the same
-        ffmpeg run as the video (one pass instead of encode-then-mux); a
-        different number of frames is an error.
 
     Raises
     ------
@@ -132,34 +129,28 @@ def write_mp4(
         isinstance(n_frames, bool) or not isinstance(n_frames, numbers.Integral) or n_frames < 1
     ):
         raise MiketalkError(f"n_frames must be a positive integer, got {n_frames!r}")
+    if n_frames is None:
+        if not hasattr(frames, "__len__"):
+            raise MiketalkError(
+                "n_frames is required when the frames are an iterator (the audio is fitted "
+                "to the video's length before the frames are made)"
+            )
+        n_frames = len(frames)
+        if n_frames < 1:
+            raise MiketalkError("no frames to write: the frame list is empty")
     exe = ffmpeg_exe()
     with tempfile.TemporaryDirectory(prefix="miketalk-mp4-") as tmp:
         work = Path(tmp)
-        if n_frames is not None:
-            audio_args: tuple[list[str], list[str]] = ([], [])
-            if audio is not None and rate is not None:
-                audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q)
-            with atomic_path(path, suffix=".mp4") as out:
-                count = _encode_video(
-                    exe, _iter_frames(frames), fps_q, int(crf), preset, out, work / "video.log",
-                    *audio_args,
-                )  # fmt: skip
-                if count != n_frames:
-                    raise MiketalkError(f"{count} frames were given, not n_frames={n_frames}")
-            return
-        video = work / "video.mp4"
-        n_frames = _encode_video(
-            exe, _iter_frames(frames), fps_q, int(crf), preset, video, work / "video.log", [], []
-        )
-        inputs = ["-i", str(video)]
-        maps = ["-map", "0:v:0", "-c:v", "copy"]
+        audio_args: tuple[list[str], list[str]] = ([], [])
         if audio is not None and rate is not None:
-            audio_inputs, audio_options = _audio_input(work, audio, rate, n_frames, fps_q)
-            inputs += audio_inputs
-            maps += audio_options
+            audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q)
         with atomic_path(path, suffix=".mp4") as out:
-            args = [*inputs, *maps, *_BITEXACT, "-movflags", "+faststart", "-f", "mp4", str(out)]
-            _run(exe, args, work / "mux.log", what=f"muxing {Path(path).name}")
+            count = _encode_video(
+                exe, _iter_frames(frames), fps_q, int(crf), preset, out, work / "video.log",
+                *audio_args,
+            )  # fmt: skip
+            if count != n_frames:
+                raise MiketalkError(f"{count} frames were given, not n_frames={n_frames}")
 
 
 def _audio_input(
@@ -356,20 +347,6 @@ def _widen_pipe(fd: int) -> None:
 def _chain(first: np.ndarray, rest: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
     yield first
     yield from rest
-
-
-def _run(exe: str, args: list[str], log: Path, *, what: str) -> None:
-    """Run ffmpeg with ``args``; raise MiketalkError quoting its log on failure."""
-    with log.open("wb") as err:
-        code = subprocess.run(
-            [exe, "-hide_banner", "-nostdin", "-nostats", "-loglevel", "error", "-y", *args],
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
-            stderr=err,
-            check=False,
-        ).returncode
-    if code != 0:
-        raise MiketalkError(f"ffmpeg failed {what}:\n{_tail(log.read_text())}")
 
 
 def _tail(text: str) -> str:

@@ -1,4 +1,9 @@
-"""Entry checks shared by the flow package: image pairs, flow fields, greyscale conversion."""
+"""Entry checks of images and flows, one rule each, shared by the flow package and the morph.
+
+Images are ``(H, W)`` or ``(H, W, 3)``, uint8 or float; flows are float ``(H, W, 2)``
+(an integer array is not a flow) and finite. Also the greyscale conversions the
+estimators share.
+"""
 
 from __future__ import annotations
 
@@ -10,8 +15,17 @@ from miketalk.errors import MiketalkError
 _GREY_WEIGHTS = np.array([0.299, 0.587, 0.114], dtype=np.float32)  # ITU-R BT.601 luma
 
 
-def check_image(image: np.ndarray, name: str) -> np.ndarray:
+def check_image(image: np.ndarray, name: str, *, uint8_only: bool = False) -> np.ndarray:
     """Return ``image`` as an array after checking it is a finite grey or RGB image.
+
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)`` or ``(H, W, 3)``, uint8 (0-255) or float (0-1).
+    name : str
+        The argument name used in error messages.
+    uint8_only : bool
+        Accept uint8 only (the morph's kernels work on 8-bit pixels).
 
     Raises
     ------
@@ -19,13 +33,19 @@ def check_image(image: np.ndarray, name: str) -> np.ndarray:
         Naming ``name`` if the array is not ``(H, W)`` or ``(H, W, 3)``, not
         uint8/float, or holds NaN or inf.
     """
-    image = np.asarray(image)
+    if not isinstance(image, np.ndarray):
+        raise MiketalkError(f"{name} must be a numpy array, got {type(image).__name__}")
+    if uint8_only and image.dtype != np.uint8:
+        raise MiketalkError(
+            f"{name} must be uint8 (0-255), got dtype {image.dtype}; "
+            "convert it with skimage.util.img_as_ubyte"
+        )
     if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
         raise MiketalkError(
             f"{name} must be an (H, W) grey or (H, W, 3) RGB image, got shape {image.shape}"
         )
-    if image.shape[0] < 2 or image.shape[1] < 2:
-        raise MiketalkError(f"{name} must be at least 2x2 pixels, got shape {image.shape}")
+    if image.shape[0] < 1 or image.shape[1] < 1:
+        raise MiketalkError(f"{name} is empty (shape {image.shape})")
     if image.dtype != np.uint8 and not np.issubdtype(image.dtype, np.floating):
         raise MiketalkError(
             f"{name} must be uint8 (0-255) or float (0-1), got dtype {image.dtype}; "
@@ -46,6 +66,8 @@ def check_pair(image_a: np.ndarray, image_b: np.ndarray) -> tuple[np.ndarray, np
     """
     a = check_image(image_a, "image_a")
     b = check_image(image_b, "image_b")
+    if a.shape[0] < 2 or a.shape[1] < 2:
+        raise MiketalkError(f"image_a must be at least 2x2 pixels, got shape {a.shape}")
     if a.shape != b.shape:
         raise MiketalkError(
             f"image_b has shape {b.shape} but image_a has shape {a.shape}; "
@@ -76,13 +98,17 @@ def check_flow(flow: np.ndarray, name: str, shape: tuple[int, int] | None = None
     MiketalkError
         Naming ``name``.
     """
-    flow = np.asarray(flow)
+    if not isinstance(flow, np.ndarray):
+        raise MiketalkError(f"{name} must be a numpy array, got {type(flow).__name__}")
     if flow.ndim != 3 or flow.shape[2] != 2:
         raise MiketalkError(f"{name} must be an (H, W, 2) flow field, got shape {flow.shape}")
     if not np.issubdtype(flow.dtype, np.floating):
         raise MiketalkError(f"{name} must be a float flow field, got dtype {flow.dtype}")
     if shape is not None and flow.shape[:2] != tuple(shape):
-        raise MiketalkError(f"{name} has size {flow.shape[:2]} but {tuple(shape)} is required")
+        raise MiketalkError(
+            f"{name} has size {flow.shape[:2]} but {tuple(shape)} is required; "
+            "a flow belongs to the images it was computed on"
+        )
     if not np.isfinite(flow).all():
         raise MiketalkError(f"{name} holds NaN or inf values")
     return flow.astype(np.float32, copy=False)
