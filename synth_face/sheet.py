@@ -12,6 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from miketalk.figures.sheets import grid
 from miketalk.media.atomic import atomic_path
 from synth_face.face import Face
 from synth_face.render import FaceRenderer
@@ -24,7 +25,7 @@ def target_sheet(
     cols: int = 8,
     crop: bool = True,
 ) -> np.ndarray:
-    """Render targets side by side, each labelled with its key and viseme.
+    """Render targets side by side, each labelled with its key and viseme (:func:`grid`).
 
     Parameters
     ----------
@@ -51,15 +52,8 @@ def target_sheet(
         img = renderer.render(face.target(key))
         if crop:
             img = img[int(0.22 * n) : int(0.78 * n), int(0.15 * n) : int(0.85 * n)]
-        img = np.ascontiguousarray(img)
-        label = f"{key} /{viseme.get(key, '?')}/"
-        cv2.putText(img, label, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3)
-        cv2.putText(img, label, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1)
         tiles.append(img)
-    while len(tiles) % cols:
-        tiles.append(np.zeros_like(tiles[0]))
-    rows = [np.hstack(tiles[i : i + cols]) for i in range(0, len(tiles), cols)]
-    return np.vstack(rows)
+    return grid(tiles, [f"{key} /{viseme.get(key, '?')}/" for key in keys], cols=cols)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from miketalk import __version__
+from miketalk import __version__, defaults
 from miketalk.errors import MiketalkError
 
 log = logging.getLogger("miketalk")
@@ -118,12 +118,15 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument("-f", "--file", help="read the text from this UTF-8 file")
     say.add_argument("-o", "--output", required=True, help="the mp4 to write")
     say.add_argument("--model", help="model directory (default: the one `make run` builds)")
-    say.add_argument("--fps", type=float, default=30.0, help="frame rate (default 30)")
+    say.add_argument(
+        "--fps", type=float, default=defaults.FPS, help=f"frame rate (default {defaults.FPS:g})"
+    )
     say.add_argument(
         "--max-px-per-frame",
         type=float,
-        default=2.5,
-        help="oversample transitions moving more than this per frame (default 2.5)",
+        default=defaults.MAX_PX_PER_FRAME,
+        help="oversample transitions moving more than this per frame "
+        f"(default {defaults.MAX_PX_PER_FRAME:g})",
     )
     say.add_argument("--no-oversampling", action="store_true", help="turn oversampling off")
     say.add_argument("--progress", action="store_true", help="always show a progress bar")

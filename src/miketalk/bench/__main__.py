@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+from miketalk import defaults
 from miketalk.media.atomic import write_text_atomic
 
 MODULES = ("synth_face", "flow", "morph", "pipeline")
@@ -23,7 +24,7 @@ MODULES = ("synth_face", "flow", "morph", "pipeline")
 def main() -> int:
     """Run the benchmarks named on the command line (default: all)."""
     parser = argparse.ArgumentParser(prog="python -m miketalk.bench")
-    parser.add_argument("--out", type=Path, default=Path("results/bench"))
+    parser.add_argument("--out", type=Path, default=defaults.RESULTS / "bench")
     parser.add_argument("only", nargs="*", help=f"benchmarks to run, of: {' '.join(MODULES)}")
     args = parser.parse_args()
     unknown = sorted(set(args.only) - set(MODULES))

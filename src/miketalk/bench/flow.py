@@ -22,15 +22,16 @@ from contextlib import contextmanager
 
 import cv2
 
+from miketalk import defaults
 from miketalk.evaluation.flow_error import endpoint_error, motorcycle_table, sinusoidal_pair
 from miketalk.flow import ESTIMATORS
 from miketalk.media.atomic import atomic_path, write_text_atomic
 
 SIZE = 256
 # what `make run` leaves (the default config): the viseme images, the recording, true flows
-VISEMES = pathlib.Path("results/visemes/synthetic")
-FRAMES = pathlib.Path("results/corpus/synthetic/frames")
-TRUTH = pathlib.Path("results/truth/synthetic")
+VISEMES = defaults.visemes_dir("synthetic")
+FRAMES = defaults.corpus_dir("synthetic") / "frames"
+TRUTH = defaults.truth_dir("synthetic")
 _BUDGET_SECONDS = 2.0  # per estimator on the 256² pair, beyond the minimum of runs
 _MIN_RUNS, _MAX_RUNS = 3, 21
 
@@ -119,7 +120,7 @@ def viseme_pairs(out_dir: pathlib.Path) -> dict[str, float]:
 
     visemes = pd.read_csv(VISEMES / "visemes.tsv", sep="\t", keep_default_na=False)
     tables = []
-    run_table = pathlib.Path("results/metrics/flow_epe.csv")
+    run_table = defaults.metrics_dir() / "flow_epe.csv"
     if run_table.exists():
         tables.append(pd.read_csv(run_table))
     with tempfile.TemporaryDirectory() as tmp:
@@ -170,7 +171,7 @@ def _print_table(figures: dict[str, float], table: object) -> None:
 def main() -> None:
     """``python -m miketalk.bench.flow --out DIR``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("results/bench/flow"))
+    parser.add_argument("--out", type=pathlib.Path, default=defaults.RESULTS / "bench" / "flow")
     run(parser.parse_args().out)
 
 

@@ -22,6 +22,7 @@ from contextlib import contextmanager
 import cv2
 import numpy as np
 
+from miketalk import defaults
 from miketalk.media.atomic import write_text_atomic
 from miketalk.morph import HOLE_VALUE, Morpher
 
@@ -214,7 +215,7 @@ def _print_table(figures: dict[str, float]) -> None:
 def main() -> None:
     """``python -m miketalk.bench.morph --out DIR``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=pathlib.Path, default=pathlib.Path("results/bench"))
+    parser.add_argument("--out", type=pathlib.Path, default=defaults.RESULTS / "bench")
     run(parser.parse_args().out)
 
 

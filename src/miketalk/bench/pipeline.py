@@ -20,12 +20,13 @@ import time
 
 import pandas as pd
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk.talk.say import DEFAULT_MODEL
 
 SENTENCE = "The quick brown fox jumps over the lazy dog today."
-VISEMES = pathlib.Path("results/visemes/synthetic")
-FRAMES = pathlib.Path("results/corpus/synthetic/frames")
+DEFAULT_MODEL = defaults.model_dir("synthetic")
+VISEMES = defaults.visemes_dir("synthetic")
+FRAMES = defaults.corpus_dir("synthetic") / "frames"
 
 
 def _say_seconds(model: pathlib.Path, out: pathlib.Path, *options: str) -> tuple[float, int]:
@@ -74,4 +75,4 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
 
 
 if __name__ == "__main__":
-    run(pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "results/bench/pipeline"))
+    run(pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else defaults.RESULTS / "bench" / "pipeline"))

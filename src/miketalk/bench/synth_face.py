@@ -28,6 +28,7 @@ import time
 
 import numpy as np
 
+from miketalk import defaults
 from miketalk.media.atomic import write_text_atomic
 from miketalk.visemes import viseme_slug
 
@@ -186,7 +187,7 @@ def main() -> None:
     """``python -m miketalk.bench.synth_face --out DIR``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--out", type=pathlib.Path, default=pathlib.Path("results/bench/synth_face")
+        "--out", type=pathlib.Path, default=defaults.RESULTS / "bench" / "synth_face"
     )
     run(parser.parse_args().out)
 
