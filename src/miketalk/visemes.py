@@ -95,7 +95,11 @@ class CorpusTarget:
         return self.phones[self.position]
 
 
-def _read_tsv(path: Path | None, default: str) -> list[dict[str, str]]:
+def read_table(path: Path | str | None, default: str) -> list[dict[str, str]]:
+    """Rows of a package data table (``data/<default>``) or of the table at ``path``.
+
+    Comments are ``# ...`` lines (the silence row itself starts with ``#<TAB>``).
+    """
     if path is None:
         text = resources.files("miketalk.data").joinpath(default).read_text("utf-8")
         source = f"miketalk/data/{default}"
@@ -140,7 +144,7 @@ class VisemeTable:
     ) -> None:
         grouping = dict(grouping or {})
         targets = []
-        for row in _read_tsv(corpus_tsv, "corpus.tsv"):
+        for row in read_table(corpus_tsv, "corpus.tsv"):
             key = row["key"]
             nucleus = int(key.rsplit(":", 1)[1]) if ":" in key else 0
             phones = tuple(row["phones"].split())
@@ -166,7 +170,7 @@ class VisemeTable:
         for t in self.targets:
             self._by_label.setdefault(t.label, []).append(t)
         self._label_of: dict[str, str] = {}
-        for row in _read_tsv(phones_tsv, "phones.tsv"):
+        for row in read_table(phones_tsv, "phones.tsv"):
             if row["label"] not in self._by_label:
                 raise MiketalkError(
                     f"phone {row['phone']!r} maps to label {row['label']!r}, "

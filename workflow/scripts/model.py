@@ -9,7 +9,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk.talk.model import build_model
+    from miketalk.talk.model import build_model, fallbacks_of
 
     spec = json.loads(snakemake.params.spec)
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
@@ -23,6 +23,7 @@ def main() -> None:
         flows_dir=snakemake.input.flows,
         estimator=spec["estimator"],
         settings={**spec["settings"], "strategy": snakemake.params.strategy},
+        fallbacks=fallbacks_of(visemes),
     )
 
 

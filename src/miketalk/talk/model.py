@@ -22,6 +22,7 @@ from collections.abc import Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from itertools import combinations
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,9 @@ from miketalk.media.images import read_image
 from miketalk.morph import Morpher
 from miketalk.talk.lipsync import Timeline
 from miketalk.visemes import viseme_slug
+
+if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
+    import pandas as pd
 
 FORMAT = "miketalk-model/1"
 
@@ -200,11 +204,14 @@ def build_model(
     flows_dir: str | os.PathLike[str],
     estimator: str,
     settings: dict,
+    fallbacks: dict[str, str] | None = None,
 ) -> Path:
     """Assemble a model directory from viseme images and a flow database.
 
     Images and flow files are hard-linked where possible (copied otherwise);
     the manifest is written last, so a model without one is incomplete.
+    ``fallbacks`` (viseme -> the class whose image it borrows, for a class the
+    recording had no instance of) is listed in the manifest.
     """
     out = Path(out_dir)
     (out / "visemes").mkdir(parents=True, exist_ok=True)
@@ -238,8 +245,21 @@ def build_model(
         "images": image_paths,
         "max_displacement": displacement,
     }
+    if fallbacks:
+        manifest["fallbacks"] = dict(sorted(fallbacks.items()))
     write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
     return out
+
+
+def fallbacks_of(visemes: pd.DataFrame) -> dict[str, str]:
+    """``viseme -> donor`` from a ``visemes.tsv`` table's ``fallback`` column (empty: none)."""
+    if "fallback" not in visemes.columns:
+        return {}
+    return {
+        str(v): str(f)
+        for v, f in zip(visemes["viseme"], visemes["fallback"], strict=True)
+        if isinstance(f, str) and f
+    }
 
 
 def _link(src: Path, dst: Path) -> None:

@@ -1,0 +1,460 @@
+"""A corpus of ordinary speech: video clips of one person, their transcripts, optional word timings.
+
+The convention phoneticians use with forced aligners: one media file per
+utterance and a table of ``id text`` lines (GRID's ``transcripts.txt``), with
+word timings beside them when known (GRID ``.align`` or Praat ``.TextGrid``),
+all named by the clip's id through patterns such as ``video/{id}.mpg``.
+
+:func:`ingest_clips` brings the training clips into the corpus folder
+(:mod:`miketalk.corpus.folder`), in this order:
+
+1. each clip is decoded (frames and 16 kHz mono sound);
+2. its phones are aligned to the sound (:func:`miketalk.corpus.forced_align.align_phones`,
+   inside the given word timings when there are any);
+3. every frame of every clip is registered to one reference frame on the face
+   outside the mouth (:mod:`miketalk.corpus.stabilize`) and warped onto it, so
+   nothing after this stage sees the head move;
+4. the clips are written one after the other as one recording: frames
+   numbered on, each clip's sound fitted to its frames (padded with silence or
+   trimmed to ``n_frames / fps``), its phones shifted by its start time.
+
+Besides the corpus folder's files it writes ``clips.tsv`` (where each clip
+starts), ``phones.tsv`` (every aligned phone, recording time and clip time),
+``stabilization.tsv`` (each frame's registration: correlation and transform),
+``regions.json`` with ``face_mask.png`` and ``mouth_mask.png`` (where the face
+and the mouth are, found in the reference clip), and ``skipped.tsv``.
+
+A clip that cannot be used (no sound, a word the aligner cannot place, fewer
+frames than its phones need, a face that will not register, a missing timing
+file) is skipped, named in a warning and in ``skipped.tsv``: one bad clip of
+many should not cost the model, and the table says what was left out. The run
+stops (:class:`~miketalk.errors.MiketalkError`) when no clip is left, and for
+mistakes in the configuration itself (a transcript table or media file that
+does not exist, an id the table lacks, clips of different sizes or frame rates).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import logging
+import shutil
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.corpus.folder import (
+    AUDIO,
+    FRAMES,
+    FRAMES_TABLE,
+    TRUTH,
+    VIDEO,
+    WORDS,
+    empty_truth_text,
+    frame_path,
+    words_doc,
+)
+from miketalk.corpus.word_timings import WordTiming, read_word_timings
+from miketalk.errors import MiketalkError
+from miketalk.media.atomic import write_text_atomic
+from miketalk.media.audio import write_wav
+from miketalk.media.images import write_png
+from miketalk.speech.types import Phone
+
+log = logging.getLogger(__name__)
+
+#: Sample rate of the corpus sound (the aligner's rate).
+RATE = 16000
+
+CLIPS_TABLE = "clips.tsv"
+PHONES_TABLE = "phones.tsv"
+STABILIZATION_TABLE = "stabilization.tsv"
+SKIPPED_TABLE = "skipped.tsv"
+REGIONS = "regions.json"
+FACE_MASK = "face_mask.png"
+MOUTH_MASK = "mouth_mask.png"
+
+
+@dataclass(frozen=True)
+class Clip:
+    """One utterance of the corpus: its id, media file, transcript and word timings (if any)."""
+
+    id: str
+    media: Path
+    text: str
+    timings: Path | None = None
+
+    @property
+    def words(self) -> list[str]:
+        """The transcript's words, lower case."""
+        return self.text.lower().split()
+
+
+@dataclass(frozen=True)
+class DecodedClip:
+    """A clip read and aligned: frames as recorded, sound, phones (clip time)."""
+
+    clip: Clip
+    frames: np.ndarray
+    fps: float
+    samples: np.ndarray
+    phones: tuple[Phone, ...]
+    words: tuple[WordTiming, ...]
+
+
+class ClipError(MiketalkError):
+    """A clip that cannot be used; the message names the clip."""
+
+
+def read_transcripts(path: str | Path) -> dict[str, str]:
+    """The ``id text`` table: one clip per line, the id first, then the words.
+
+    Blank lines and lines starting with ``#`` are ignored.
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, a line has no words, or an id repeats.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MiketalkError(f"transcript table not found: {path}")
+    table: dict[str, str] = {}
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        clip_id, _, text = line.partition(" ")
+        if not text.strip():
+            raise MiketalkError(f"{path}:{number}: clip {clip_id!r} has no words")
+        if clip_id in table:
+            raise MiketalkError(f"{path}:{number}: clip {clip_id!r} appears twice")
+        table[clip_id] = " ".join(text.split())
+    return table
+
+
+def clip_sources(
+    ids: Sequence[str],
+    *,
+    media: str,
+    transcripts: str | Path,
+    timings: str | None = None,
+) -> list[Clip]:
+    """The clips named by ``ids``, their files found through ``{id}`` patterns.
+
+    Parameters
+    ----------
+    ids : sequence of str
+        Which clips, in order.
+    media : str
+        Path pattern of a clip's video with sound, e.g. ``data/grid_s1/video/{id}.mpg``.
+    transcripts : path
+        The ``id text`` table (:func:`read_transcripts`).
+    timings : str, optional
+        Path pattern of a clip's word timings (``.align`` or ``.TextGrid``).
+
+    Raises
+    ------
+    MiketalkError
+        For a pattern without ``{id}``, an id the table lacks, a repeated id,
+        or a media file that does not exist.
+    """
+    for name, pattern in (("media", media), ("timings", timings)):
+        if pattern is not None and "{id}" not in pattern:
+            raise MiketalkError(f"clips.{name} must contain {{id}}, got {pattern!r}")
+    if len(set(ids)) != len(ids):
+        raise MiketalkError("a clip id is listed twice")
+    table = read_transcripts(transcripts)
+    clips = []
+    for clip_id in ids:
+        if clip_id not in table:
+            raise MiketalkError(f"clip {clip_id!r} is not in the transcript table {transcripts}")
+        path = Path(media.replace("{id}", clip_id))
+        if not path.is_file():
+            raise MiketalkError(f"clip {clip_id}: media file not found: {path}")
+        timing = Path(timings.replace("{id}", clip_id)) if timings else None
+        clips.append(Clip(clip_id, path, table[clip_id], timing))
+    return clips
+
+
+def decode_clip(clip: Clip) -> DecodedClip:
+    """Read a clip's frames and sound and align its phones.
+
+    Raises
+    ------
+    ClipError
+        No sound, a missing timing file, a word the aligner cannot place, or
+        fewer frames than the clip's phones need; the message names the clip.
+    """
+    from miketalk.corpus.forced_align import align
+    from miketalk.corpus.media_audio import read_media_audio
+    from miketalk.corpus.media_video import read_video
+
+    try:
+        frames, fps = read_video(clip.media)
+        samples = read_media_audio(clip.media, rate=RATE)
+        if clip.timings is not None and not clip.timings.is_file():
+            raise MiketalkError(f"word timing file not found: {clip.timings}")
+        words = read_word_timings(clip.timings) if clip.timings is not None else None
+        if words is not None and [w.word.lower() for w in words] != clip.words:
+            raise MiketalkError(
+                f"the word timings ({' '.join(w.word for w in words)}) do not match the "
+                f"transcript ({clip.text})"
+            )
+        if len(samples) < RATE // 10 or not np.abs(samples.astype(np.int32)).max() > 64:
+            raise MiketalkError("it has no sound (silent or shorter than 0.1 s)")
+        aligned = align(samples, RATE, clip.words, word_timings=words)
+    except ClipError:
+        raise
+    except MiketalkError as err:
+        raise ClipError(f"clip {clip.id}: {err}") from err
+    spoken = [p for p in aligned.phones if p.name != "pau"]
+    if spoken and spoken[-1].end > len(frames) / fps + 0.5 / fps:
+        raise ClipError(
+            f"clip {clip.id}: its video ({len(frames)} frames, {len(frames) / fps:.2f} s) ends "
+            f"before its phones do ({spoken[-1].end:.2f} s)"
+        )
+    shortest = min((p.duration for p in spoken), default=1.0)
+    if len(frames) < 3 or shortest <= 0:
+        raise ClipError(f"clip {clip.id}: shorter than its phones")
+    return DecodedClip(clip, frames, float(fps), samples, aligned.phones, aligned.words)
+
+
+def ingest_clips(
+    out_dir: str | Path,
+    *,
+    clips: Sequence[Clip],
+    decode: Callable[[Clip], DecodedClip] = decode_clip,
+    workers: int = 1,
+) -> dict:
+    """Write the corpus folder of ``clips`` (see the module docstring).
+
+    Parameters
+    ----------
+    out_dir : path
+        The corpus folder to fill.
+    clips : sequence of Clip
+        The training clips, in the order they are written.
+    decode : callable
+        ``decode(clip) -> DecodedClip`` (:func:`decode_clip`; tests pass a fake).
+    workers : int
+        Clips decoded and aligned at once (threads: decoding runs in ffmpeg
+        and the aligner's C code).
+
+    Returns
+    -------
+    dict
+        ``clips``, ``frames``, ``skipped`` counts and the reference clip.
+
+    Raises
+    ------
+    MiketalkError
+        When no clip can be used, or the clips differ in size or frame rate.
+    """
+    from miketalk.corpus.stabilize import (
+        Stabilizer,
+        choose_reference,
+        locate_face,
+        locate_mouth,
+        registration_mask,
+    )
+    from miketalk.media.video import write_mp4
+
+    if not clips:
+        raise MiketalkError("no clips to build a corpus from")
+    out = Path(out_dir)
+    frames_dir = out / FRAMES
+    if frames_dir.exists():
+        shutil.rmtree(frames_dir)
+    frames_dir.mkdir(parents=True)
+    skipped: list[tuple[str, str]] = []
+    decoded = _decoded(clips, decode, skipped, workers)
+
+    stabilizer = None
+    size = fps = None
+    rows_clips, rows_phones, rows_stab, audio, words = [], [], [], [], []
+    n_total = 0
+    regions: dict = {}
+    video_frames: list[np.ndarray] = []  # the stabilized clips, for corpus.mp4
+    for item in decoded:
+        clip = item.clip
+        if size is None:
+            size, fps = item.frames.shape[1:3], item.fps
+            reference = int(choose_reference(item.frames))
+            face = locate_face(item.frames[reference])
+            mouth = tuple(int(v) for v in locate_mouth(item.frames, face))
+            mask = registration_mask(face, mouth)
+            stabilizer = Stabilizer(item.frames[reference], mask)
+            regions = {
+                "reference": {"clip": clip.id, "frame": reference},
+                "mouth_box": list(mouth),
+                "size": [int(size[0]), int(size[1])],
+            }
+            write_png(out / FACE_MASK, (face * 255).astype(np.uint8))
+            write_png(out / MOUTH_MASK, _box_mask(size, mouth))
+        elif item.frames.shape[1:3] != size or abs(item.fps - fps) > 1e-6:
+            raise MiketalkError(
+                f"clip {clip.id} is {item.frames.shape[2]}x{item.frames.shape[1]} at "
+                f"{item.fps:g} fps, the first clip {size[1]}x{size[0]} at {fps:g}: the clips of "
+                "one corpus must share size and frame rate"
+            )
+        try:
+            transforms = stabilizer.register(item.frames, clip=f"clip {clip.id}")
+            scores = stabilizer.correlations
+        except MiketalkError as err:
+            _skip(skipped, clip.id, str(err))
+            continue
+        steady = stabilizer.apply(item.frames, transforms)
+        first, n = n_total, len(steady)
+        for k, frame in enumerate(steady):
+            write_png(frame_path(frames_dir, first + k), frame)
+        video_frames.append(steady)
+        offset = first / fps
+        duration = n / fps
+        audio.append(_fit(item.samples, round(duration * RATE)))
+        phones = _clipped(item.phones, duration)
+        rows_clips.append((clip.id, first, n, f"{offset:.6f}", f"{duration:.6f}", clip.text))
+        for i, p in enumerate(phones):
+            rows_phones.append(
+                (clip.id, i, p.name, f"{p.start + offset:.6f}", f"{p.end + offset:.6f}",
+                 f"{p.start:.6f}", f"{p.end:.6f}")
+            )  # fmt: skip
+        for k, (t, score) in enumerate(zip(transforms, scores, strict=True)):
+            rows_stab.append(
+                (clip.id, k, first + k, f"{score:.5f}", *(f"{v:.6f}" for v in t.ravel()))
+            )
+        words += _words(clip.id, item.words, phones, offset)
+        n_total += n
+    if not rows_clips:
+        raise MiketalkError(
+            f"no usable clip among {len(clips)}: " + "; ".join(f"{c}: {why}" for c, why in skipped)
+        )
+    samples = np.concatenate(audio)
+    write_wav(out / AUDIO, samples, RATE)
+    _write_table(
+        out / CLIPS_TABLE,
+        ("clip", "first_frame", "frames", "start", "duration", "text"),
+        rows_clips,
+    )
+    _write_table(
+        out / PHONES_TABLE,
+        ("clip", "index", "phone", "start", "end", "clip_start", "clip_end"),
+        rows_phones,
+    )
+    _write_table(
+        out / STABILIZATION_TABLE,
+        ("clip", "clip_frame", "frame", "correlation", "a11", "a12", "b1", "a21", "a22", "b2"),
+        rows_stab,
+    )
+    _write_table(out / SKIPPED_TABLE, ("clip", "reason"), skipped)
+    table = ["frame\ttime\tclip\tclip_frame"]
+    for clip_id, first, n, *_ in rows_clips:
+        table += [f"{first + k}\t{(first + k) / fps:.6f}\t{clip_id}\t{k}" for k in range(n)]
+    write_text_atomic(out / FRAMES_TABLE, "\n".join(table) + "\n")
+    write_text_atomic(out / TRUTH, empty_truth_text())
+    regions["clips"] = len(rows_clips)
+    write_text_atomic(out / REGIONS, json.dumps(regions, indent=1))
+    write_mp4(
+        out / VIDEO,
+        (frame for clip_frames in video_frames for frame in clip_frames),
+        fps=fps,
+        audio=samples,
+        rate=RATE,
+        n_frames=n_total,
+    )
+    doc = words_doc(
+        fps=fps, size=[int(size[0]), int(size[1])], rate=RATE, source="clips", words=words
+    )
+    write_text_atomic(out / WORDS, doc)  # last: the folder is complete once it exists
+    log.info("corpus: %d clips, %d frames, %d skipped", len(rows_clips), n_total, len(skipped))
+    return {
+        "clips": len(rows_clips),
+        "frames": n_total,
+        "skipped": len(skipped),
+        "reference": regions["reference"],
+    }
+
+
+def _decoded(
+    clips: Sequence[Clip],
+    decode: Callable[[Clip], DecodedClip],
+    skipped: list[tuple[str, str]],
+    workers: int,
+) -> Iterable[DecodedClip]:
+    """Decode the clips (``workers`` at a time, in order), skipping the ones that fail."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def attempt(clip: Clip) -> DecodedClip | ClipError:
+        try:
+            return decode(clip)
+        except ClipError as err:
+            return err
+
+    with ThreadPoolExecutor(max(1, workers), thread_name_prefix="clip") as pool:
+        for clip, result in zip(clips, pool.map(attempt, clips), strict=True):
+            if isinstance(result, ClipError):
+                _skip(skipped, clip.id, str(result))
+            else:
+                yield result
+
+
+def _skip(skipped: list[tuple[str, str]], clip_id: str, why: str) -> None:
+    why = why.removeprefix(f"clip {clip_id}: ")
+    log.warning("clip %s skipped: %s", clip_id, why)
+    skipped.append((clip_id, why.replace("\t", " ").replace("\n", " ")))
+
+
+def _fit(samples: np.ndarray, n: int) -> np.ndarray:
+    """``samples`` padded with silence or trimmed to ``n``."""
+    if len(samples) >= n:
+        return samples[:n]
+    return np.concatenate([samples, np.zeros(n - len(samples), samples.dtype)])
+
+
+def _clipped(phones: Sequence[Phone], duration: float) -> list[Phone]:
+    """The phones inside ``[0, duration]``, the last one ending exactly there."""
+    out = [p for p in phones if p.start < duration - 1e-9]
+    if out:
+        last = out[-1]
+        out[-1] = Phone(last.name, last.start, duration)
+    return out
+
+
+def _words(
+    clip_id: str, words: Sequence[WordTiming], phones: Sequence[Phone], offset: float
+) -> list[dict]:
+    """``words.json`` entries: each word with its span and the phones inside it (recording time)."""
+    out = []
+    for w in words:
+        inside = [p for p in phones if p.name != "pau" and w.start - 1e-6 <= p.start < w.end - 1e-6]
+        out.append(
+            {
+                "word": w.word,
+                "clip": clip_id,
+                "start": w.start + offset,
+                "end": w.end + offset,
+                "phones": [
+                    {"name": p.name, "start": p.start + offset, "end": p.end + offset}
+                    for p in inside
+                ],
+            }
+        )
+    return out
+
+
+def _box_mask(size: tuple[int, int], box: tuple[int, int, int, int]) -> np.ndarray:
+    x, y, w, h = box
+    mask = np.zeros(size, np.uint8)
+    mask[y : y + h, x : x + w] = 255
+    return mask
+
+
+def _write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> None:
+    buf = io.StringIO()
+    writer = csv.writer(buf, delimiter="\t", lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    write_text_atomic(path, buf.getvalue())
