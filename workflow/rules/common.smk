@@ -68,9 +68,13 @@ def epe_tables():
     return tables
 
 
+#: Each sentence's mp4 and timeline JSON; the sync sweep's under sweep/.
+UTTERANCES = f"results/utterances/{FACE}"
+
+
 def utterance_videos():
     """The mp4 of every configured sentence."""
-    return [f"results/utterances/{FACE}/{name}.mp4" for name in config["sentences"]]
+    return [f"{UTTERANCES}/{name}.mp4" for name in config["sentences"]]
 
 
 def sync_tables():

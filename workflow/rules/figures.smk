@@ -3,7 +3,7 @@
 
 rule figure_epe_vs_levels:
     input:
-        rules.flow_epe_table.output.table,
+        flow_epe_csv=rules.flow_epe_table.output.table,
     output:
         report(
             f"{FIGURES}/epe_vs_levels.png",
@@ -14,13 +14,15 @@ rule figure_epe_vs_levels:
         "results/logs/figures/epe_vs_levels.log",
     conda:
         "../envs/miketalk.yaml"
+    params:
+        figure="epe_vs_levels",
     script:
         "../scripts/figures.py"
 
 
 rule figure_morph_psnr:
     input:
-        rules.morph_fidelity.output.table,
+        morph_csv=rules.morph_fidelity.output.table,
     output:
         report(
             f"{FIGURES}/morph_psnr_vs_alpha.png",
@@ -31,13 +33,15 @@ rule figure_morph_psnr:
         "results/logs/figures/morph_psnr_vs_alpha.log",
     conda:
         "../envs/miketalk.yaml"
+    params:
+        figure="morph_psnr_vs_alpha",
     script:
         "../scripts/figures.py"
 
 
 rule figure_sync_sweep:
     input:
-        rules.sync_sweep_table.output.summary,
+        summary_csv=rules.sync_sweep_table.output.summary,
     output:
         report(
             f"{FIGURES}/sync_vs_max_px.png",
@@ -48,13 +52,15 @@ rule figure_sync_sweep:
         "results/logs/figures/sync_vs_max_px.log",
     conda:
         "../envs/miketalk.yaml"
+    params:
+        figure="sync_vs_max_px",
     script:
         "../scripts/figures.py"
 
 
 rule figure_lipsync_diagram:
     input:
-        model=rules.model.output[0],
+        model_dir=rules.model.output[0],
     output:
         report(
             f"{FIGURES}/lipsync_diagram.png",
@@ -66,6 +72,7 @@ rule figure_lipsync_diagram:
     conda:
         "../envs/miketalk.yaml"
     params:
+        figure="lipsync_diagram",
         word="one",
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
@@ -75,7 +82,7 @@ rule figure_lipsync_diagram:
 
 rule figure_morph_strip:
     input:
-        model=rules.model.output[0],
+        model_dir=rules.model.output[0],
     output:
         report(
             f"{FIGURES}/morph_strip.png",
@@ -87,6 +94,7 @@ rule figure_morph_strip:
     conda:
         "../envs/miketalk.yaml"
     params:
+        figure="morph_strip",
         pair=["p", "aa"],
         alphas=[0.25, 0.5, 0.75],
         morph=config["morph"],

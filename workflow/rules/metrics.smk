@@ -33,7 +33,8 @@ rule sync:
     input:
         model=rules.model.output[0],
         mouth=rules.true_flows.output.mouth,
-        video=f"results/utterances/{FACE}/{{sentence}}.mp4",
+        video=rules.utterance.output.video,
+        timeline=rules.utterance.output.timeline,
     output:
         f"{METRICS}/sync/{FACE}/{{sentence}}.csv",
     log:
@@ -43,9 +44,7 @@ rule sync:
     conda:
         "../envs/miketalk.yaml"
     params:
-        text=lambda wildcards: config["sentences"][wildcards.sentence],
-        fps=config["lipsync"]["fps"],
-        max_px=config["lipsync"]["max_px_per_frame"],
+        name=lambda wildcards: wildcards.sentence,
         morph=config["morph"],
         grouping=config["visemes"]["grouping"],
     script:
@@ -56,6 +55,8 @@ rule sync_sweep_point:
     input:
         model=rules.model.output[0],
         mouth=rules.true_flows.output.mouth,
+        video=rules.sweep_utterance.output.video,
+        timeline=rules.sweep_utterance.output.timeline,
     output:
         f"{METRICS}/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.csv",
     log:
@@ -66,7 +67,6 @@ rule sync_sweep_point:
         "../envs/miketalk.yaml"
     params:
         name=config["sweeps"]["sentence"],
-        text=config["sentences"][config["sweeps"]["sentence"]],
         morph=config["morph"],
         grouping=config["visemes"]["grouping"],
     script:

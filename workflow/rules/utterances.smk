@@ -1,4 +1,5 @@
-# Each configured sentence as a talking-face mp4 with its timeline.
+# Each configured sentence as a talking-face mp4 with its timeline; and the sync
+# sweep's sentence at each of its settings (the same script, settings from the path).
 
 
 rule utterance:
@@ -6,15 +7,17 @@ rule utterance:
         model=rules.model.output[0],
     output:
         video=report(
-            f"results/utterances/{FACE}/{{sentence}}.mp4",
+            f"{UTTERANCES}/{{sentence}}.mp4",
             caption="../report/utterance.rst",
             category="Utterances",
         ),
-        timeline=f"results/utterances/{FACE}/{{sentence}}.json",
+        timeline=f"{UTTERANCES}/{{sentence}}.json",
     log:
         f"results/logs/utterances/{FACE}/{{sentence}}.log",
     benchmark:
         f"results/benchmarks/utterances/{FACE}/{{sentence}}.tsv"
+    wildcard_constraints:
+        sentence="[^/]+",
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -22,5 +25,31 @@ rule utterance:
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
         morph=config["morph"],
+        grouping=config["visemes"]["grouping"],
+    script:
+        "../scripts/utterance.py"
+
+
+rule sweep_utterance:
+    input:
+        model=rules.model.output[0],
+    output:
+        video=f"{UTTERANCES}/sweep/px{{px}}_fps{{fps}}.mp4",
+        timeline=f"{UTTERANCES}/sweep/px{{px}}_fps{{fps}}.json",
+    log:
+        f"results/logs/utterances/{FACE}/sweep/px{{px}}_fps{{fps}}.log",
+    benchmark:
+        f"results/benchmarks/utterances/{FACE}/sweep/px{{px}}_fps{{fps}}.tsv"
+    wildcard_constraints:
+        px=NUMBER,
+        fps=NUMBER,
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        text=config["sentences"][config["sweeps"]["sentence"]],
+        fps=lambda wildcards: float(wildcards.fps),
+        max_px=lambda wildcards: float(wildcards.px),
+        morph=config["morph"],
+        grouping=config["visemes"]["grouping"],
     script:
         "../scripts/utterance.py"

@@ -1,18 +1,20 @@
-"""Rule utterance: one sentence as an mp4."""
+"""Rules utterance and sweep_utterance: one text as an mp4 and its timeline JSON."""
 
 from miketalk.stage import run_stage
 
 
 def main() -> None:
     from miketalk.talk.say import open_model, say
+    from miketalk.visemes import VisemeTable
 
-    model = open_model(snakemake.input.model, morph_options=snakemake.params.morph)
+    p = snakemake.params
     say(
-        snakemake.params.text,
+        p.text,
         snakemake.output.video,
-        model=model,
-        fps=snakemake.params.fps,
-        max_px_per_frame=snakemake.params.max_px,
+        model=open_model(snakemake.input.model, morph_options=p.morph),
+        fps=p.fps,
+        max_px_per_frame=p.max_px,
+        table=VisemeTable(grouping=p.grouping),
     )
 
 

@@ -1,4 +1,9 @@
-"""Lip-sync against truth: a synthesized utterance vs the synthetic face speaking it.
+"""Lip-sync against truth: an utterance ``say`` made vs the synthetic face speaking it.
+
+The measured frames are the utterance's own: its timeline JSON (written by
+:func:`miketalk.talk.say.say` beside the mp4) is read back and rendered with
+the model's :meth:`~miketalk.talk.model.Model.render`, the very call whose
+frames ``say`` streams into the mp4; no speech engine runs here.
 
 The truth is the synthetic face driven by the true parameter timeline of the
 same phones: each phone's own target pose at the keyframe the lip-sync module
@@ -10,14 +15,20 @@ error; the measures below separate them.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterable
+
 import numpy as np
 import pandas as pd
 
 from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr
-from miketalk.speech.festival import FestivalBackend
-from miketalk.talk.lipsync import Timeline, largest_step, plan, synchronize
+from miketalk.talk.lipsync import Timeline, largest_step, plan
 from miketalk.talk.model import Model
+from miketalk.talk.say import Said
 from miketalk.visemes import VisemeTable
+
+#: The key columns of a sync table: one utterance at one setting.
+SYNC_KEYS = ["sentence", "fps", "max_px_per_frame"]
 
 
 def true_parameters(timeline: Timeline, face: object) -> np.ndarray:
@@ -86,32 +97,55 @@ def viseme_offsets(
     return rows
 
 
+def utterance_frames(timeline: Timeline, model: Model) -> np.ndarray:
+    """The frames of ``timeline`` as :func:`~miketalk.talk.say.say` writes them, (N, H, W, 3)."""
+    return np.stack(list(model.render(timeline)))
+
+
 def sync_table(
     *,
     name: str,
-    text: str,
+    said: Said,
     model: Model,
     table: VisemeTable,
     mouth: np.ndarray,
-    fps: float,
-    max_px_per_frame: float | None,
-    backend: FestivalBackend | None = None,
+    video: str | os.PathLike[str] | None = None,
 ) -> pd.DataFrame:
-    """Every sync measure of one sentence as tidy rows (quantity, key, value)."""
+    """Every sync measure of one utterance as tidy rows (sentence, fps, max_px_per_frame,
+    quantity, key, value).
+
+    Parameters
+    ----------
+    name : str
+        The ``sentence`` column.
+    said : Said
+        The utterance's timeline JSON (:func:`miketalk.talk.say.read_said`).
+    model : Model
+        The model that made the utterance, with the same morph options.
+    table : VisemeTable
+        The phone-to-viseme table it was made with (plans the un-oversampled
+        timeline of ``said.planned_phones``).
+    mouth : numpy.ndarray
+        (H, W) bool mouth region of the synthetic face.
+    video : path-like, optional
+        The utterance's mp4: its decoded video and audio durations are added
+        as ``mp4_video_seconds`` and ``mp4_audio_seconds``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per frame ``psnr_mouth`` and ``psnr_full``; ``mouth_lag_frames``,
+        ``mouth_opening_corr``, ``viseme_offset_frames`` (per transition),
+        ``largest_step_px`` (``plain`` and ``oversampled``), ``audio_seconds``,
+        ``video_seconds``, ``duration_diff_frames``, ``lengthened_seconds``,
+        then the mp4's durations.
+    """
     from synth_face import Face, FaceRenderer
 
-    backend = backend or FestivalBackend()
-    spoken = backend.synthesize(text)
-    plain = plan(spoken.phones, table, fps, spoken.duration)
-    utterance, timeline = synchronize(
-        spoken,
-        table,
-        fps=fps,
-        displacement=model.displacement,
-        max_px_per_frame=max_px_per_frame,
-        backend=backend,
-    )
-    frames = np.stack(list(model.render(timeline)))
+    timeline = said.timeline
+    fps = timeline.fps
+    plain = plan(said.planned_phones, table, fps, said.planned_duration)
+    frames = utterance_frames(timeline, model)
     face = Face()
     renderer = FaceRenderer(face, size=frames.shape[1])
     try:
@@ -121,7 +155,7 @@ def sync_table(
     rows: list[dict] = []
 
     def add(quantity: str, key: object, value: float) -> None:
-        rows.append({"sentence": name, "fps": fps, "max_px_per_frame": max_px_per_frame,
+        rows.append({"sentence": name, "fps": fps, "max_px_per_frame": said.max_px_per_frame,
                      "quantity": quantity, "key": key, "value": float(value)})  # fmt: skip
 
     for k in range(len(frames)):
@@ -134,8 +168,71 @@ def sync_table(
         add("viseme_offset_frames", f"{row['viseme']}@{row['time']:.3f}", row["offset_frames"])
     add("largest_step_px", "plain", largest_step(plain, model.displacement))
     add("largest_step_px", "oversampled", largest_step(timeline, model.displacement))
-    add("audio_seconds", "", utterance.duration)
+    add("audio_seconds", "", timeline.duration)
     add("video_seconds", "", len(frames) / fps)
-    add("duration_diff_frames", "", (len(frames) / fps - utterance.duration) * fps)
-    add("lengthened_seconds", "", utterance.duration - spoken.duration)
+    add("duration_diff_frames", "", (len(frames) / fps - timeline.duration) * fps)
+    add("lengthened_seconds", "", timeline.duration - said.planned_duration)
+    if video is not None:
+        from miketalk.media.video import probe_durations
+
+        video_s, audio_s = probe_durations(video)
+        add("mp4_video_seconds", "", video_s)
+        add("mp4_audio_seconds", "", audio_s)
+    return pd.DataFrame(rows)
+
+
+def psnr_of_mean_mse(psnr: Iterable[float]) -> float:
+    """PSNR of the mean squared error over frames, from each frame's PSNR (8-bit images).
+
+    Averaging the error, not the decibels, keeps one bad frame from hiding
+    among good ones. Infinite PSNR (an identical frame) is an error of 0; all
+    frames identical give ``inf``.
+    """
+    mse = 255.0**2 / np.power(10.0, np.asarray(list(psnr), float) / 10.0)
+    return float(10 * np.log10(255.0**2 / mse.mean())) if mse.mean() > 0 else float("inf")
+
+
+def summarize_sync(table: pd.DataFrame) -> pd.DataFrame:
+    """One row per utterance and setting (:data:`SYNC_KEYS`) of tidy sync tables.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Rows of :func:`sync_table`, of any number of utterances.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Sorted by the keys: ``frames``, ``psnr_mouth`` and ``psnr_full``
+        (:func:`psnr_of_mean_mse`), ``identical_frames``, ``mouth_lag_frames``,
+        ``mouth_opening_corr``, ``max_abs_viseme_offset_frames``,
+        ``visemes_within_half_frame`` (fraction with ``|offset| <= 0.5``),
+        ``largest_step_px_plain``, ``largest_step_px_oversampled``,
+        ``audio_seconds``, ``video_seconds``, ``duration_diff_frames``,
+        ``lengthened_seconds``.
+    """
+    rows = []
+    for group, part in table.groupby(SYNC_KEYS, sort=True):
+        q = part.groupby("quantity")["value"]
+        step = part[part["quantity"] == "largest_step_px"].set_index("key")["value"]
+        offsets = part[part["quantity"] == "viseme_offset_frames"]["value"].abs()
+        rows.append(
+            dict(zip(SYNC_KEYS, group, strict=True))
+            | {
+                "frames": int((part["quantity"] == "psnr_full").sum()),
+                "psnr_mouth": psnr_of_mean_mse(q.get_group("psnr_mouth")),
+                "psnr_full": psnr_of_mean_mse(q.get_group("psnr_full")),
+                "identical_frames": int(np.isinf(q.get_group("psnr_full")).sum()),
+                "mouth_lag_frames": q.get_group("mouth_lag_frames").iloc[0],
+                "mouth_opening_corr": q.get_group("mouth_opening_corr").iloc[0],
+                "max_abs_viseme_offset_frames": offsets.max(),
+                "visemes_within_half_frame": float((offsets <= 0.5 + 1e-9).mean()),
+                "largest_step_px_plain": step.get("plain"),
+                "largest_step_px_oversampled": step.get("oversampled"),
+                "audio_seconds": q.get_group("audio_seconds").iloc[0],
+                "video_seconds": q.get_group("video_seconds").iloc[0],
+                "duration_diff_frames": q.get_group("duration_diff_frames").iloc[0],
+                "lengthened_seconds": q.get_group("lengthened_seconds").iloc[0],
+            }
+        )
     return pd.DataFrame(rows)

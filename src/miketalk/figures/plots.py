@@ -1,8 +1,14 @@
-"""The workflow's figures, drawn from its tidy tables with matplotlib (PNG, deterministic)."""
+"""The workflow's figures, drawn from its tidy tables with matplotlib (PNG, deterministic).
+
+Each figure is a function ``name(..., out, ...)`` taking its inputs and
+settings by keyword; :data:`FIGURES` names them and :func:`draw` draws one by
+name (the workflow's ``figure_*`` rules).
+"""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from itertools import pairwise
 
 import matplotlib
@@ -12,6 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_path
 
 Path_ = str | os.PathLike[str]
@@ -138,3 +145,36 @@ def morph_strip(
             images.append(getattr(morpher.stages(alpha), stage))
             labels.append(f"{stage} a={alpha:g}")
     write_png(out, grid(images, labels, cols=len(alphas)))
+
+
+#: Every figure by name: ``draw(name, out, **inputs)`` calls ``FIGURES[name](out=out, **inputs)``.
+FIGURES: dict[str, Callable[..., None]] = {
+    "epe_vs_levels": epe_vs_levels,
+    "morph_psnr_vs_alpha": morph_psnr_vs_alpha,
+    "sync_vs_max_px": sync_vs_max_px,
+    "lipsync_diagram": lipsync_diagram,
+    "morph_strip": morph_strip,
+}
+
+
+def draw(figure: str, out: Path_, **inputs: object) -> None:
+    """Draw the figure named ``figure`` (a key of :data:`FIGURES`) to ``out``.
+
+    Parameters
+    ----------
+    figure : str
+        The figure's name.
+    out : path-like
+        The PNG to write.
+    **inputs
+        The figure function's other arguments, by keyword (input files and
+        settings).
+
+    Raises
+    ------
+    MiketalkError
+        For an unknown figure name.
+    """
+    if figure not in FIGURES:
+        raise MiketalkError(f"no figure {figure!r}; known: {', '.join(sorted(FIGURES))}")
+    FIGURES[figure](out=out, **inputs)

@@ -17,9 +17,10 @@ is re-synthesized with those durations, so that sound and picture stay in sync.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from itertools import pairwise
+from typing import Any
 
 import numpy as np
 
@@ -85,6 +86,30 @@ class Timeline:
             "transitions": [asdict(t) for t in self.transitions],
             "frames": [asdict(f) for f in self.frames],
         }
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any]) -> Timeline:
+        """The timeline :meth:`to_dict` wrote (other keys of ``doc`` are ignored).
+
+        ``Timeline.from_dict(t.to_dict()) == t``, also through JSON (floats
+        round-trip exactly).
+
+        Raises
+        ------
+        MiketalkError
+            If ``doc`` lacks a field or has a malformed one.
+        """
+        try:
+            return cls(
+                fps=doc["fps"],
+                duration=doc["duration"],
+                phones=tuple(Phone(**p) for p in doc["phones"]),
+                keyframes=tuple(Keyframe(**k) for k in doc["keyframes"]),
+                transitions=tuple(Transition(**t) for t in doc["transitions"]),
+                frames=tuple(FrameSample(**f) for f in doc["frames"]),
+            )
+        except (KeyError, TypeError) as err:
+            raise MiketalkError(f"not a timeline: {type(err).__name__} {err}") from None
 
 
 def keyframes(phones: Sequence[Phone], table: VisemeTable) -> list[Keyframe]:
@@ -268,6 +293,7 @@ def speak_in_sync(
     fps: float,
     displacement: Displacement,
     max_px_per_frame: float | None,
+    on_planned: Callable[[tuple[Phone, ...]], object] | None = None,
 ) -> tuple[Utterance, Timeline]:
     """Finish a started synthesis and plan its video, oversampling where transitions move too fast.
 
@@ -276,12 +302,24 @@ def speak_in_sync(
     durations are dictated to the engine before it makes the wave
     (:meth:`PendingSpeech.finish`): one run of the engine, not two.
 
+    Parameters
+    ----------
+    on_planned : callable, optional
+        Called with the phones the engine predicted, before any retiming
+        (what ``synchronize`` gets as ``utterance.phones``).
+
     Returns
     -------
     (Utterance, Timeline)
         The utterance as spoken and the timeline of its frames.
     """
-    retime = _retimer(table, fps, displacement, max_px_per_frame)
+    retimer = _retimer(table, fps, displacement, max_px_per_frame)
+
+    def retime(phones: Sequence[Phone]) -> np.ndarray | None:
+        if on_planned is not None:
+            on_planned(tuple(phones))
+        return retimer(phones)
+
     utterance = speech.finish(retime)
     return utterance, plan(utterance.phones, table, fps, utterance.duration)
 

@@ -4,27 +4,24 @@ from __future__ import annotations
 
 import json
 import os
-import sys
-import time
-from collections.abc import Iterator
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import numpy as np
-
+from miketalk import defaults
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.video import write_mp4
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
-from miketalk.speech.types import Utterance
+from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.lipsync import Timeline, largest_step, speak_in_sync
 from miketalk.talk.model import Model
 from miketalk.visemes import VisemeTable, default_table
 
-DEFAULT_MODEL = Path("results/model/synthetic")
+DEFAULT_MODEL = defaults.model_dir()
 
 
 def default_model_dir() -> Path:
-    """``$MIKETALK_MODEL``, else ``results/model/default`` here or in the source checkout."""
+    """``$MIKETALK_MODEL``, else :data:`DEFAULT_MODEL` here or in the source checkout."""
     if env := os.environ.get("MIKETALK_MODEL"):
         return Path(env)
     here = DEFAULT_MODEL
@@ -52,8 +49,8 @@ def say(
     output: str | os.PathLike[str],
     *,
     model: Model,
-    fps: float = 30.0,
-    max_px_per_frame: float | None = 2.5,
+    fps: float = defaults.FPS,
+    max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
     backend: SpeechBackend | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
@@ -61,7 +58,11 @@ def say(
     """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
 
     The video is written atomically: on any failure no mp4 (and no timeline)
-    is left at ``output``.
+    is left at ``output``. The JSON (``output`` with suffix ``.json``) is
+    :meth:`Timeline.to_dict` plus ``text``, ``largest_step_px``,
+    ``max_px_per_frame``, ``planned_phones`` (the phones the engine predicted
+    before oversampling lengthened them) and ``planned_duration``;
+    :func:`read_said` reads it back.
 
     Parameters
     ----------
@@ -94,6 +95,7 @@ def say(
         speech = text
     else:
         speech = (backend or get_backend("festival")).start(text)
+    planned: list[tuple[Phone, ...]] = []
     with speech:
         output = Path(output)
         if output.suffix.lower() != ".mp4":
@@ -104,17 +106,31 @@ def say(
             fps=fps,
             displacement=model.displacement,
             max_px_per_frame=max_px_per_frame,
+            on_planned=planned.append,
         )
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
     frames = model.render(timeline)
     if progress:
-        frames = _progress(frames, len(timeline.frames))
-    write_mp4(output, frames, fps, utterance.samples, utterance.rate, n_frames=len(timeline.frames))
+        from tqdm import tqdm
+
+        frames = tqdm(frames, total=len(timeline.frames), desc="rendering", unit="frame")
+    write_mp4(
+        output,
+        frames,
+        fps=fps,
+        audio=utterance.samples,
+        rate=utterance.rate,
+        n_frames=len(timeline.frames),
+    )
+    planned_phones = planned[-1] if planned else utterance.phones
     doc = timeline.to_dict()
     doc["text"] = utterance.text
     doc["largest_step_px"] = largest_step(timeline, model.displacement)
     doc["max_px_per_frame"] = max_px_per_frame
+    doc["planned_phones"] = [asdict(p) for p in planned_phones]
+    # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
+    doc["planned_duration"] = round(planned_phones[-1].end * utterance.rate) / utterance.rate
     try:
         write_text_atomic(output.with_suffix(".json"), json.dumps(doc, indent=1))
     except BaseException:
@@ -123,18 +139,62 @@ def say(
     return utterance, timeline
 
 
-def _progress(frames: Iterator[np.ndarray], total: int) -> Iterator[np.ndarray]:
-    """Pass frames through, drawing a progress bar on stderr."""
-    start = time.monotonic()
-    width = 30
-    for i, frame in enumerate(frames, 1):
-        yield frame
-        if i == total or i % 10 == 0:
-            done = int(width * i / total)
-            rate = i / max(time.monotonic() - start, 1e-9)
-            sys.stderr.write(
-                f"\rrendering [{'#' * done}{'.' * (width - done)}] {i}/{total} frames "
-                f"({rate:.0f}/s)"
-            )
-            sys.stderr.flush()
-    sys.stderr.write("\n")
+@dataclass(frozen=True)
+class Said:
+    """What :func:`say` wrote beside an mp4: enough to render its frames again and check them.
+
+    Attributes
+    ----------
+    text : str
+        The text as spoken.
+    timeline : Timeline
+        The timeline of the mp4's frames (``Model.render(timeline)`` made them).
+    planned_phones : tuple of Phone
+        The phones the engine predicted, before oversampling lengthened any.
+    planned_duration : float
+        Seconds of audio the predicted phones would have made.
+    max_px_per_frame : float or None
+        The oversampling limit ``say`` was given.
+    """
+
+    text: str
+    timeline: Timeline
+    planned_phones: tuple[Phone, ...]
+    planned_duration: float
+    max_px_per_frame: float | None
+
+
+def read_said(path: str | os.PathLike[str]) -> Said:
+    """Read the timeline JSON :func:`say` wrote (``<name>.json`` beside ``<name>.mp4``).
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, is not JSON, or lacks a field (for example a
+        JSON from before ``planned_phones`` was recorded: make the utterance again).
+    """
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise MiketalkError(f"no timeline at {path}") from None
+    except (OSError, json.JSONDecodeError) as err:
+        raise MiketalkError(f"cannot read the timeline {path}: {err}") from None
+    missing = [k for k in ("text", "planned_phones", "planned_duration") if k not in doc]
+    if missing:
+        raise MiketalkError(f"{path} has no {', '.join(missing)}: make the utterance again")
+    try:
+        planned = tuple(Phone(**p) for p in doc["planned_phones"])
+    except TypeError as err:
+        raise MiketalkError(f"{path}: malformed planned_phones ({err})") from None
+    try:
+        timeline = Timeline.from_dict(doc)
+    except MiketalkError as err:
+        raise MiketalkError(f"{path}: {err}") from None
+    return Said(
+        text=doc["text"],
+        timeline=timeline,
+        planned_phones=planned,
+        planned_duration=doc["planned_duration"],
+        max_px_per_frame=doc.get("max_px_per_frame"),
+    )
