@@ -16,6 +16,10 @@ log = logging.getLogger("miketalk")
 
 
 def _read_text(args: argparse.Namespace) -> str:
+    if getattr(args, "text_option", None) is not None:
+        if args.text is not None:
+            raise MiketalkError("give the text once: as an argument or with --text")
+        args.text = args.text_option
     if args.file is not None and args.text is not None:
         raise MiketalkError("give the text or --file, not both")
     if args.file is not None:
@@ -73,7 +77,11 @@ def cmd_phones(args: argparse.Namespace) -> int:
 
 
 def cmd_say(args: argparse.Namespace) -> int:
-    """Speak a text as an mp4."""
+    """Speak a text as an mp4 (Festival's voice), or make the face speak a recording."""
+    if args.audio is not None:
+        return _say_recorded(args)
+    if args.timings is not None:
+        raise MiketalkError("--timings goes with --audio (the word timings of that recording)")
     from miketalk.speech import get_backend
 
     text = _read_text(args)
@@ -98,6 +106,36 @@ def cmd_say(args: argparse.Namespace) -> int:
     return 0
 
 
+def _say_recorded(args: argparse.Namespace) -> int:
+    """``say --audio``: the recording's own sound, its phones found by forced alignment."""
+    from miketalk.talk.recorded import say_recorded
+    from miketalk.talk.say import open_model
+
+    if args.no_oversampling or args.max_px_per_frame != defaults.MAX_PX_PER_FRAME:
+        raise MiketalkError(
+            "--audio keeps the recording as it is, so nothing is oversampled: drop "
+            "--max-px-per-frame / --no-oversampling"
+        )
+    given = (args.text, args.text_option, args.file)
+    text = None if given == (None, None, None) else _read_text(args)
+    model = open_model(args.model)
+    said = say_recorded(
+        args.audio,
+        args.output,
+        model=model,
+        text=text,
+        timings=args.timings,
+        fps=args.fps,
+        progress=args.progress,
+    )
+    print(
+        f"{args.output}: {len(said.timeline.frames)} frames at {args.fps:g} fps, "
+        f"{said.audio_seconds:.2f} s of recorded audio, largest step "
+        f"{said.largest_step_px:.2f} px per frame (not oversampled)"
+    )
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
     parser = argparse.ArgumentParser(
@@ -116,6 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
     say = sub.add_parser("say", help="speak a text as a talking-face mp4")
     say.add_argument("text", nargs="?", help="the text (or use --file)")
     say.add_argument("-f", "--file", help="read the text from this UTF-8 file")
+    say.add_argument("--text", dest="text_option", help="the text (the same as the argument)")
     say.add_argument("-o", "--output", required=True, help="the mp4 to write")
     say.add_argument("--model", help="model directory (default: the one `make run` builds)")
     say.add_argument(
@@ -130,6 +169,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     say.add_argument("--no-oversampling", action="store_true", help="turn oversampling off")
     say.add_argument("--progress", action="store_true", help="always show a progress bar")
+    say.add_argument(
+        "--audio",
+        help="speak this recording (wav, mp4, ...) instead of Festival's voice; give what it "
+        "says as the text (or --file) or as --timings",
+    )
+    say.add_argument(
+        "--timings", help="with --audio: its word timings (GRID .align or Praat .TextGrid)"
+    )
     say.set_defaults(func=cmd_say)
     return parser
 

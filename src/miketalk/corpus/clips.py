@@ -22,7 +22,9 @@ Besides the corpus folder's files it writes ``clips.tsv`` (where each clip
 starts), ``phones.tsv`` (every aligned phone, recording time and clip time),
 ``stabilization.tsv`` (each frame's registration: correlation and transform),
 ``regions.json`` with ``face_mask.png`` and ``mouth_mask.png`` (where the face
-and the mouth are, found in the reference clip), and ``skipped.tsv``.
+and the mouth are, found in the reference clip), ``reference.png`` and
+``registration_mask.png`` (what :func:`corpus_stabilizer` registers other
+recordings of the same person with), and ``skipped.tsv``.
 
 A clip that cannot be used (no sound, a word the aligner cannot place, fewer
 frames than its phones need, a face that will not register, a missing timing
@@ -76,6 +78,8 @@ SKIPPED_TABLE = "skipped.tsv"
 REGIONS = "regions.json"
 FACE_MASK = "face_mask.png"
 MOUTH_MASK = "mouth_mask.png"
+REFERENCE = "reference.png"
+REGISTRATION_MASK = "registration_mask.png"
 
 
 @dataclass(frozen=True)
@@ -293,6 +297,8 @@ def ingest_clips(
                 "mouth_box": list(mouth),
                 "size": [int(size[0]), int(size[1])],
             }
+            write_png(out / REFERENCE, item.frames[reference])
+            write_png(out / REGISTRATION_MASK, (mask * 255).astype(np.uint8))
             write_png(out / FACE_MASK, (face * 255).astype(np.uint8))
             write_png(out / MOUTH_MASK, _box_mask(size, mouth))
         elif item.frames.shape[1:3] != size or abs(item.fps - fps) > 1e-6:
@@ -378,6 +384,22 @@ def ingest_clips(
     }
 
 
+def corpus_stabilizer(corpus_dir: str | Path):
+    """The stabilizer the corpus was registered with, for other clips of the same person."""
+    from miketalk.corpus.stabilize import Stabilizer
+    from miketalk.media.images import read_image
+
+    corpus_dir = Path(corpus_dir)
+    mask = read_image(corpus_dir / REGISTRATION_MASK) > 127
+    return Stabilizer(read_image(corpus_dir / REFERENCE), mask if mask.ndim == 2 else mask[..., 0])
+
+
+def mouth_box(corpus_dir: str | Path) -> tuple[int, int, int, int]:
+    """The mouth box ``(x, y, w, h)`` the corpus stage found."""
+    regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
+    return tuple(int(v) for v in regions["mouth_box"])
+
+
 def _decoded(
     clips: Sequence[Clip],
     decode: Callable[[Clip], DecodedClip],
@@ -458,3 +480,17 @@ def _write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[obje
     writer.writerow(header)
     writer.writerows(rows)
     write_text_atomic(path, buf.getvalue())
+
+
+def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
+    """The box flows are estimated in: the mouth box widened to hold the jaw and cheeks.
+
+    One mouth-box width each side, half its height above (to the nose) and one
+    and a half below (the chin, which follows the jaw), clipped to the frame.
+    """
+    regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
+    x, y, w, h = regions["mouth_box"]
+    height, width = regions["size"]
+    x0, y0 = max(0, x - w), max(0, y - h // 2)
+    x1, y1 = min(width, x + 2 * w), min(height, y + h + (3 * h) // 2)
+    return x0, y0, x1 - x0, y1 - y0

@@ -25,7 +25,7 @@ from miketalk.corpus.folder import count_frames, frame_path
 from miketalk.errors import MiketalkError
 from miketalk.flow.database import FlowDatabase, pair_path
 from miketalk.flow.exr import write_flow_pair
-from miketalk.flow.registry import get_estimator
+from miketalk.flow.registry import get_estimator, in_region
 from miketalk.flow.rest import rest_frames
 from miketalk.flow.strategies import Pair, Recording, Strategy, get_strategy
 from miketalk.media.images import read_image
@@ -46,6 +46,8 @@ def _init_worker(recording: Recording, strategy: str, out: Path, spec: dict) -> 
     if isinstance(recording.mixed, str):
         recording.mixed = FlowDatabase(recording.mixed)
     recording.estimate = get_estimator(spec["estimator"], **spec["settings"])
+    if spec.get("region") is not None:
+        recording.estimate = in_region(recording.estimate, spec["region"])
     _WORKER.update(recording=recording, strategy=get_strategy(strategy), out=out, spec=spec)
 
 
@@ -70,7 +72,11 @@ def _pair_job(pair: Pair) -> dict:
         source=pair.source,
         target=pair.target,
         estimator=spec["estimator"],
-        settings={**spec["settings"], "strategy": _WORKER["strategy"].name},
+        settings={
+            **spec["settings"],
+            "strategy": _WORKER["strategy"].name,
+            **({"region": list(spec["region"])} if spec["region"] is not None else {}),
+        },
     )
     log.info("flows %s <-> %s written", pair.source, pair.target)
     return {"source": pair.source, "target": pair.target, **flows.info}
@@ -93,6 +99,7 @@ def build_flow_database(
     mask: np.ndarray | None = None,
     rest_viseme: str = "#",
     mixed: str | os.PathLike[str] | None = None,
+    region: tuple[int, int, int, int] | None = None,
     workers: int = 1,
 ) -> pd.DataFrame:
     """Compute and write the flow database of ``visemes`` by ``strategy``.
@@ -121,6 +128,10 @@ def build_flow_database(
     mixed : path, optional
         For ``bridge``: the ``mixed`` database of the same estimator, settings
         and window (read instead of computed again).
+    region : (x, y, w, h), optional
+        Estimate flow inside this box only, zero outside
+        (:func:`~miketalk.flow.registry.in_region`): for a stabilized recording
+        whose only motion is the lower face. Default: the whole frame.
     workers : int
         Worker processes.
 
@@ -185,7 +196,7 @@ def build_flow_database(
                     recording,
                     strategy,
                     out,
-                    {"estimator": estimator, "settings": settings},
+                    {"estimator": estimator, "settings": settings, "region": region},
                 ),
             ) as pool:
                 chunks = [steps[i : i + 25] for i in range(0, len(steps), 25)]

@@ -6,6 +6,7 @@ import json
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
@@ -16,6 +17,9 @@ from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.lipsync import Timeline, largest_step, speak_in_sync
 from miketalk.talk.model import Model
 from miketalk.visemes import VisemeTable, default_table
+
+if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
+    import numpy as np
 
 DEFAULT_MODEL = defaults.model_dir()
 
@@ -108,6 +112,42 @@ def say(
             max_px_per_frame=max_px_per_frame,
             on_planned=planned.append,
         )
+    planned_phones = planned[-1] if planned else utterance.phones
+    write_utterance(
+        output,
+        model=model,
+        timeline=timeline,
+        samples=utterance.samples,
+        rate=utterance.rate,
+        extra={
+            "text": utterance.text,
+            "largest_step_px": largest_step(timeline, model.displacement),
+            "max_px_per_frame": max_px_per_frame,
+            "planned_phones": [asdict(p) for p in planned_phones],
+            # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
+            "planned_duration": round(planned_phones[-1].end * utterance.rate) / utterance.rate,
+        },
+        progress=progress,
+    )
+    return utterance, timeline
+
+
+def write_utterance(
+    output: Path,
+    *,
+    model: Model,
+    timeline: Timeline,
+    samples: np.ndarray,
+    rate: int,
+    extra: dict,
+    progress: bool = False,
+) -> None:
+    """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
+
+    The JSON is :meth:`Timeline.to_dict` plus ``extra``. Both files are written
+    atomically; when the JSON cannot be written the new mp4 is removed, so no
+    mp4 is left without its timeline.
+    """
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
     frames = model.render(timeline)
@@ -116,27 +156,14 @@ def say(
 
         frames = tqdm(frames, total=len(timeline.frames), desc="rendering", unit="frame")
     write_mp4(
-        output,
-        frames,
-        fps=fps,
-        audio=utterance.samples,
-        rate=utterance.rate,
-        n_frames=len(timeline.frames),
+        output, frames, fps=timeline.fps, audio=samples, rate=rate, n_frames=len(timeline.frames)
     )
-    planned_phones = planned[-1] if planned else utterance.phones
-    doc = timeline.to_dict()
-    doc["text"] = utterance.text
-    doc["largest_step_px"] = largest_step(timeline, model.displacement)
-    doc["max_px_per_frame"] = max_px_per_frame
-    doc["planned_phones"] = [asdict(p) for p in planned_phones]
-    # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
-    doc["planned_duration"] = round(planned_phones[-1].end * utterance.rate) / utterance.rate
+    doc = timeline.to_dict() | extra
     try:
         write_text_atomic(output.with_suffix(".json"), json.dumps(doc, indent=1))
     except BaseException:
         output.unlink(missing_ok=True)
         raise
-    return utterance, timeline
 
 
 @dataclass(frozen=True)

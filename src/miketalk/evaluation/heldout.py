@@ -1,0 +1,305 @@
+"""Measured against the real person: held-out clips re-synthesized and compared frame by frame.
+
+A test clip is driven by its own audio and phone alignment at its own frame
+rate, so synthesized frame ``k`` and the real (stabilized) frame ``k`` show the
+same moment, ``k / fps``. Every measure compares the two on the mouth region:
+
+``psnr_mouth``, ``ssim_mouth``
+    pixels (:func:`miketalk.evaluation.measures.psnr`, ``ssim``);
+``eigenlip_<i>``
+    mouth shape without a learned landmark model: the mouth region projected
+    on the first principal components of the *training* frames' mouth regions
+    ("eigenlips", Bregler & Konig 1994; :class:`Eigenlips`); per clip the
+    Pearson correlation of each coefficient's trajectory, synthesized vs real,
+    and the lag in frames that maximizes their cross-correlation;
+``opening``
+    the mouth's mean darkness (:func:`miketalk.evaluation.measures.mouth_opening`),
+    a measure a person can read: it rises as the dark interior shows.
+
+Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
+the same timeline and so the same frames: the silence viseme held (a still
+face), the nearest viseme held (a flip-book, no morph), and a cross-dissolve
+with the morph's alpha.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from miketalk.errors import MiketalkError
+from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr, ssim
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.model import Model
+from miketalk.visemes import SILENCE
+
+Box = tuple[int, int, int, int]
+
+#: How many eigenlip coefficients are compared.
+N_EIGENLIPS = 3
+
+#: Largest lag (frames) searched by the cross-correlation.
+MAX_LAG = 5
+
+
+class Eigenlips:
+    """Principal components of mouth regions ("eigenlips", Bregler & Konig 1994).
+
+    Fitted on the grey mouth boxes of the training frames; :meth:`project`
+    gives each frame's coefficients on the first ``n`` components.
+
+    Parameters
+    ----------
+    mouths : (N, h, w) array
+        Grey mouth boxes of the training frames.
+    n : int
+        Components kept.
+    """
+
+    def __init__(self, mouths: np.ndarray, *, n: int = N_EIGENLIPS) -> None:
+        data = _flat(mouths)
+        if len(data) <= n:
+            raise MiketalkError(f"eigenlips need more than {n} training frames, got {len(data)}")
+        self.mean = data.mean(axis=0)
+        # the right singular vectors of the centred data are the principal axes
+        _, s, vt = np.linalg.svd(data - self.mean, full_matrices=False)
+        self.components = vt[:n]
+        self.variance = (s[:n] ** 2) / (len(data) - 1)
+        self.explained = self.variance / float((s**2).sum() / (len(data) - 1))
+        # sign convention: each axis points the way the mouth darkens (opens)
+        darker = -np.sign(self.components.sum(axis=1))
+        self.components *= np.where(darker == 0, 1.0, darker)[:, None]
+
+    def project(self, mouths: np.ndarray) -> np.ndarray:
+        """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
+        return (_flat(mouths) - self.mean) @ self.components.T
+
+
+def _flat(mouths: np.ndarray) -> np.ndarray:
+    mouths = np.asarray(mouths)
+    return mouths.reshape(len(mouths), -1).astype(np.float64) / 255.0
+
+
+def grey_mouths(frames: np.ndarray, box: Box) -> np.ndarray:
+    """The grey mouth box of every frame: ``(N, h, w)`` float32 (BT.601 luma)."""
+    x, y, w, h = box
+    crop = np.asarray(frames)[:, y : y + h, x : x + w].astype(np.float32)
+    if crop.ndim == 3:
+        return crop
+    return crop @ np.array([0.299, 0.587, 0.114], np.float32)
+
+
+def _pairs(model: Model, timeline: Timeline) -> Iterator[tuple[str, str, float]]:
+    for sample in timeline.frames:
+        t = timeline.transitions[sample.transition]
+        yield t.source, t.target, sample.alpha
+
+
+def render_still(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The silence viseme held: a face that does not speak."""
+    image = model.image(SILENCE)
+    for _ in timeline.frames:
+        yield image
+
+
+def render_flipbook(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The nearest viseme held, no morph: ``alpha < 0.5`` shows the source, else the target."""
+    for a, b, alpha in _pairs(model, timeline):
+        yield model.image(a if alpha < 0.5 else b)
+
+
+def render_dissolve(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """A cross-dissolve with the morph's alpha: ``(1 - alpha) A + alpha B``, no flow."""
+    for a, b, alpha in _pairs(model, timeline):
+        blend = (1.0 - alpha) * model.image(a).astype(np.float32) + alpha * model.image(b).astype(
+            np.float32
+        )
+        yield np.clip(blend + 0.5, 0, 255).astype(np.uint8)
+
+
+def render_morph(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The paper's morph (what ``miketalk say`` renders)."""
+    return model.render(timeline)
+
+
+#: Renderers of a timeline, by the name the tables use.
+RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
+    "still": render_still,
+    "flipbook": render_flipbook,
+    "dissolve": render_dissolve,
+    "morph": render_morph,
+}
+
+
+@dataclass(frozen=True)
+class ClipScores:
+    """Per-frame rows and the per-clip summary of one clip and one renderer."""
+
+    frames: pd.DataFrame
+    summary: dict
+
+
+def compare(
+    real: np.ndarray,
+    synthesized: np.ndarray,
+    *,
+    mouth_box: Box,
+    eigenlips: Eigenlips,
+    max_lag: int = MAX_LAG,
+) -> ClipScores:
+    """Every measure of a synthesized clip against its real frames (see the module docstring).
+
+    Parameters
+    ----------
+    real, synthesized : (N, H, W, 3) uint8
+        The same number of frames, frame ``k`` of each at ``k / fps``.
+    mouth_box : (x, y, w, h)
+        The mouth region.
+    eigenlips : Eigenlips
+        Fitted on the training frames.
+    max_lag : int
+        Largest lag searched, frames.
+    """
+    if real.shape != synthesized.shape:
+        raise MiketalkError(f"real {real.shape} and synthesized {synthesized.shape} frames differ")
+    x, y, w, h = mouth_box
+    mask = np.zeros(real.shape[1:3], bool)
+    mask[y : y + h, x : x + w] = True
+    n = len(real)
+    rows = {
+        "frame": np.arange(n),
+        "psnr_mouth": [psnr(s, r, mask) for s, r in zip(synthesized, real, strict=True)],
+        "ssim_mouth": [ssim(s, r, mask) for s, r in zip(synthesized, real, strict=True)],
+    }
+    coef_real = eigenlips.project(grey_mouths(real, mouth_box))
+    coef_synth = eigenlips.project(grey_mouths(synthesized, mouth_box))
+    open_real, open_synth = mouth_opening(real, mask), mouth_opening(synthesized, mask)
+    summary: dict = {
+        "frames": n,
+        "psnr_mouth": _psnr_of_mean_mse(np.asarray(rows["psnr_mouth"])),
+        "ssim_mouth": float(np.mean(rows["ssim_mouth"])),
+        "opening_corr": _corr(open_synth, open_real),
+        "opening_lag": lag_frames(open_synth, open_real, max_lag=max_lag),
+    }
+    for i in range(coef_real.shape[1]):
+        rows[f"eigenlip{i + 1}_real"] = coef_real[:, i]
+        rows[f"eigenlip{i + 1}_synth"] = coef_synth[:, i]
+        summary[f"eigenlip{i + 1}_corr"] = _corr(coef_synth[:, i], coef_real[:, i])
+        summary[f"eigenlip{i + 1}_lag"] = lag_frames(
+            coef_synth[:, i], coef_real[:, i], max_lag=max_lag
+        )
+        accel = np.diff(coef_synth[:, i], 2)
+        summary[f"eigenlip{i + 1}_accel_rms"] = float(np.sqrt(np.mean(accel**2)))
+        summary[f"eigenlip{i + 1}_accel_rms_real"] = float(
+            np.sqrt(np.mean(np.diff(coef_real[:, i], 2) ** 2))
+        )
+    rows["opening_real"], rows["opening_synth"] = open_real, open_synth
+    return ClipScores(pd.DataFrame(rows), summary)
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation; 0 when either signal is constant (a still face correlates with none)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.std() == 0 or b.std() == 0:
+        return 0.0
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def _psnr_of_mean_mse(values: np.ndarray) -> float:
+    """PSNR of the mean squared error over frames."""
+    mse = 255.0**2 / np.power(10.0, values / 10.0)
+    return float(10 * np.log10(255.0**2 / mse.mean())) if mse.mean() > 0 else float("inf")
+
+
+@dataclass(frozen=True)
+class HeldoutClip:
+    """A test clip ready to compare: its stabilized real frames, sound, and timeline."""
+
+    id: str
+    real: np.ndarray
+    samples: np.ndarray
+    rate: int
+    fps: float
+    timeline: Timeline
+
+
+def prepare_heldout(clip, *, stabilizer, table, decode=None) -> HeldoutClip:
+    """Decode, align and stabilize a test clip; its timeline at its own frame rate.
+
+    ``clip`` is a :class:`miketalk.corpus.clips.Clip`, ``stabilizer`` the
+    corpus's (:func:`miketalk.corpus.clips.corpus_stabilizer`), so the test
+    frames are registered to the same reference as the training frames.
+    """
+    from miketalk.corpus.clips import RATE, decode_clip
+    from miketalk.talk.lipsync import plan
+
+    decoded = (decode or decode_clip)(clip)
+    transforms = stabilizer.register(decoded.frames, clip=f"clip {clip.id}")
+    real = stabilizer.apply(decoded.frames, transforms)
+    timeline = plan(decoded.phones, table, decoded.fps, len(real) / decoded.fps)
+    if len(timeline.frames) != len(real):  # round(n / fps * fps) is n
+        raise MiketalkError(
+            f"clip {clip.id}: {len(timeline.frames)} frames planned, {len(real)} real"
+        )
+    return HeldoutClip(clip.id, real, decoded.samples, RATE, decoded.fps, timeline)
+
+
+def evaluate_clip(
+    heldout: HeldoutClip,
+    models: dict[str, Model],
+    *,
+    mouth_box: Box,
+    eigenlips: Eigenlips,
+    baselines_of: str | None = None,
+) -> tuple[list[dict], pd.DataFrame, dict[str, np.ndarray]]:
+    """Every renderer's scores on one clip.
+
+    Parameters
+    ----------
+    heldout : HeldoutClip
+    models : dict
+        ``name -> Model``: each is rendered with the morph (``morph``).
+    mouth_box, eigenlips
+        As :func:`compare`.
+    baselines_of : str, optional
+        The model whose images the baselines (still, flip-book, dissolve) use.
+
+    Returns
+    -------
+    (summaries, frames, renders)
+        One summary dict per renderer (``clip``, ``renderer``, ``model`` and
+        the measures), the per-frame table, and the rendered frames by
+        ``"<renderer>:<model>"``.
+    """
+    jobs = [("morph", name) for name in models]
+    if baselines_of is not None:
+        jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
+    summaries, tables, renders = [], [], {}
+    for renderer, name in jobs:
+        frames = np.stack(list(RENDERERS[renderer](models[name], heldout.timeline)))
+        scores = compare(heldout.real, frames, mouth_box=mouth_box, eigenlips=eigenlips)
+        label = {"clip": heldout.id, "renderer": renderer, "model": name}
+        summaries.append(label | scores.summary)
+        tables.append(scores.frames.assign(**label))
+        renders[f"{renderer}:{name}"] = frames
+    return summaries, pd.concat(tables, ignore_index=True), renders
+
+
+def side_by_side(real: np.ndarray, *columns: np.ndarray, gain: float = 3.0) -> np.ndarray:
+    """Frames ``real | columns... | |real - first column| x gain`` side by side."""
+    diff = np.clip(np.abs(real.astype(np.int16) - columns[0].astype(np.int16)) * gain, 0, 255)
+    return np.concatenate([real, *columns, diff.astype(np.uint8)], axis=2)
+
+
+def summarize(table: pd.DataFrame) -> pd.DataFrame:
+    """Mean and spread (standard deviation) over clips of every measure, per renderer and model."""
+    measures = [c for c in table.columns if c not in ("clip", "renderer", "model", "frames")]
+    grouped = table.groupby(["renderer", "model"], sort=False)[measures]
+    mean = grouped.mean().add_suffix("_mean")
+    spread = grouped.std(ddof=1).add_suffix("_sd")
+    out = pd.concat([mean, spread], axis=1)
+    out.insert(0, "clips", grouped.size())
+    return out.reset_index()
