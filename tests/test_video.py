@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import tempfile
 import wave
 from collections.abc import Iterator
@@ -173,3 +174,96 @@ def test_wav_errors(tmp_path):
     with pytest.raises(MiketalkError, match="rate"):
         write_wav(tmp_path / "f.wav", np.zeros(4, np.int16), 0)
     assert not (tmp_path / "f.wav").exists()
+
+
+# ---------------------------------------------------------------------------
+# files replaced together, and what killed runs leave
+# ---------------------------------------------------------------------------
+
+
+def _dead_tag() -> str:
+    """A tag whose owner is gone: this process's id with another start time."""
+    from miketalk.media.scratch import owner_tag
+
+    pid, start = owner_tag().split(".")
+    return f"{pid}.{int(start) + 12345}"
+
+
+def test_atomic_paths_replace_files_together_or_not_at_all(tmp_path):
+    from miketalk.media.atomic import atomic_paths
+
+    old = {"v.mp4": b"old video", "v.json": b"old json"}
+    for name, data in old.items():
+        (tmp_path / name).write_bytes(data)
+    with (
+        pytest.raises(RuntimeError),
+        atomic_paths([tmp_path / "v.mp4", tmp_path / "v.json"]) as (
+            video,
+            timeline,
+        ),
+    ):
+        video.write_bytes(b"new video")
+        assert video.name.startswith(".v.mp4.miketalk-") and video.suffix == ".mp4"
+        raise RuntimeError("the render failed")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == old
+    with atomic_paths([tmp_path / "v.mp4", tmp_path / "v.json"]) as (video, timeline):
+        video.write_bytes(b"new video")
+        timeline.write_bytes(b"new json")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == {
+        "v.mp4": b"new video", "v.json": b"new json",
+    }  # fmt: skip
+
+
+def test_a_commit_cut_short_by_a_kill_is_finished_by_the_next_run(tmp_path):
+    from miketalk.media.atomic import sweep_beside
+
+    tag = _dead_tag()
+    (tmp_path / "v.mp4").write_bytes(b"old video")
+    (tmp_path / "v.json").write_bytes(b"new json")  # renamed before the kill
+    new_video = tmp_path / f".v.mp4.miketalk-{tag}.abc123.mp4"
+    new_video.write_bytes(b"new video")
+    journal = tmp_path / f".v.mp4.miketalk-{tag}.commit"
+    journal.write_text(json.dumps([[new_video.name, "v.mp4"], [".v.json.x.json", "v.json"]]))
+    orphan = tmp_path / f".w.mp4.miketalk-{tag}.def456.mp4"  # a render that was killed
+    orphan.write_bytes(b"half a video")
+    from miketalk.media.scratch import owner_tag
+
+    running = tmp_path / f".w.mp4.miketalk-{owner_tag()}.ghi789.mp4"  # a live run's
+    running.write_bytes(b"being written")
+    foreign = tmp_path / ".v.mp4.tmp"  # not ours
+    foreign.write_bytes(b"someone else's")
+    removed = sweep_beside(tmp_path / "v.mp4")
+    assert set(removed) == {journal, orphan}
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == {
+        "v.mp4": b"new video", "v.json": b"new json", running.name: b"being written",
+        foreign.name: b"someone else's",
+    }  # fmt: skip
+
+
+def test_scratch_directories_of_dead_runs_are_swept(tmp_path, monkeypatch):
+    from miketalk.media.scratch import owner_tag, scratch_dir
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    dead = tmp_path / f"miketalk-festival-{_dead_tag()}-x1"
+    (dead / "sub").mkdir(parents=True)
+    (dead / "sub" / "0.wav").write_bytes(b"RIFF")
+    alive = tmp_path / f"miketalk-mp4-{owner_tag()}-x2"
+    alive.mkdir()
+    untagged = tmp_path / "miketalk-mp4-abcdef"  # an older miketalk's: owner unknown
+    untagged.mkdir()
+    with scratch_dir("mp4") as work:
+        assert work.parent == tmp_path and work.name.startswith(f"miketalk-mp4-{owner_tag()}-")
+        assert not dead.exists() and alive.exists() and untagged.exists()
+    assert not work.exists()
+    with pytest.raises(ValueError), scratch_dir("Bad-Kind"):
+        pass
+
+
+def test_a_directory_that_cannot_be_written_is_reported_before_writing(tmp_path):
+    from miketalk.media.atomic import check_writable
+
+    (tmp_path / "file").write_bytes(b"")
+    with pytest.raises(MiketalkError, match="cannot write"):
+        check_writable(tmp_path / "file" / "v.mp4")
+    check_writable(tmp_path / "new" / "v.mp4")  # made on the way
+    assert list((tmp_path / "new").iterdir()) == []

@@ -3,7 +3,8 @@
 :func:`write_mp4` is deterministic (the same frames and audio give a
 byte-identical file) and atomic (the mp4 appears complete under its name, or
 not at all, also on errors and Ctrl-C). It works inside a private temporary
-directory:
+directory (:func:`miketalk.media.scratch.scratch_dir`, removed whatever happens; one left by
+a killed run is removed by the next):
 
 1. the number of frames ``n`` is known in advance (the length of an array or
    sequence of frames, or ``n_frames=`` for an iterator, as ``miketalk say``
@@ -25,7 +26,6 @@ import numbers
 import os
 import subprocess
 import sys
-import tempfile
 from collections.abc import Iterable, Iterator
 from fractions import Fraction
 from pathlib import Path
@@ -35,6 +35,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_path
 from miketalk.media.audio import check_rate, check_samples, write_wav
+from miketalk.media.scratch import scratch_dir
 
 if sys.platform == "linux":
     import fcntl
@@ -139,8 +140,7 @@ def write_mp4(
         if n_frames < 1:
             raise MiketalkError("no frames to write: the frame list is empty")
     exe = ffmpeg_exe()
-    with tempfile.TemporaryDirectory(prefix="miketalk-mp4-") as tmp:
-        work = Path(tmp)
+    with scratch_dir("mp4") as work:
         audio_args: tuple[list[str], list[str]] = ([], [])
         if audio is not None and rate is not None:
             audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q)

@@ -1,0 +1,132 @@
+"""Scratch files that name their owner, so that what a killed run left behind can be removed.
+
+A run cleans up after itself on errors, Ctrl-C and SIGTERM; only SIGKILL (or a
+power cut) leaves its scratch behind. So every scratch directory in the
+temporary directory and every temporary file beside an output carries its
+owner's *tag*: the process id and the process's start time (in clock ticks
+since boot, from ``/proc/<pid>/stat``). The pair identifies one process even
+when the id is later reused, so "the owner is gone" is decided exactly:
+:func:`owner_alive` is false only when no process with that id and that start
+time exists. :func:`sweep_scratch` removes such leftovers from the temporary
+directory; :func:`miketalk.media.atomic.sweep_beside` does the same beside an
+output. Names without a tag (made by other programs, or by miketalk before the
+tag) are never touched.
+
+Only the standard library is used: Festival is started before numpy loads.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Iterator
+from functools import cache
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+#: ``<kind>-<pid>.<start>-`` after the ``miketalk-`` prefix of a scratch directory.
+_SCRATCH = re.compile(r"^miketalk-(?P<kind>[a-z0-9]+)-(?P<pid>\d+)\.(?P<start>\d+)-[^/]+$")
+
+
+def _start_time(pid: int) -> int | None:
+    """The start time of process ``pid`` in clock ticks since boot; None if there is none.
+
+    On systems without ``/proc`` a live process has start time 0.
+    """
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return None
+    except OSError:  # no /proc (not Linux): fall back to whether the id is in use
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return None
+        except PermissionError:
+            return 0
+        return 0
+    # the command name (field 2) is in parentheses and may hold spaces: split after it
+    fields = stat[stat.rindex(")") + 2 :].split()
+    return int(fields[19])  # field 22 of the whole line
+
+
+@cache
+def _own_tag(pid: int) -> str:
+    start = _start_time(pid)
+    return f"{pid}.{start if start is not None else 0}"
+
+
+def owner_tag() -> str:
+    """``<pid>.<start time>`` of this process (what scratch names carry)."""
+    return _own_tag(os.getpid())
+
+
+def owner_alive(pid: int, start: int) -> bool:
+    """Whether the process that made a scratch name tagged ``<pid>.<start>`` still runs."""
+    now = _start_time(pid)
+    return now is not None and (now == start or now == 0 or start == 0)
+
+
+def tag_owner_alive(tag: str) -> bool:
+    """:func:`owner_alive` of a ``<pid>.<start>`` tag (a malformed tag counts as alive)."""
+    try:
+        pid, start = (int(x) for x in tag.split("."))
+    except ValueError:
+        return True
+    return owner_alive(pid, start)
+
+
+@contextlib.contextmanager
+def scratch_dir(kind: str) -> Iterator[Path]:
+    """A private directory in the temporary directory, removed on leaving (whatever happened).
+
+    Named ``miketalk-<kind>-<pid>.<start>-XXXX``; leftovers of runs that were
+    killed are swept first (:func:`sweep_scratch`).
+
+    Parameters
+    ----------
+    kind : str
+        Lower-case letters and digits: what the directory is for (``festival``, ``mp4``).
+    """
+    if not re.fullmatch(r"[a-z0-9]+", kind):
+        raise ValueError(f"scratch kind must be lower-case letters and digits, not {kind!r}")
+    sweep_scratch()
+    path = Path(tempfile.mkdtemp(prefix=f"miketalk-{kind}-{owner_tag()}-"))
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def sweep_scratch(directory: str | os.PathLike[str] | None = None) -> list[Path]:
+    """Remove the scratch directories whose owner is gone; return what was removed.
+
+    Parameters
+    ----------
+    directory : path-like, optional
+        Where to look (default: the temporary directory, ``$TMPDIR``).
+    """
+    root = Path(directory) if directory is not None else Path(tempfile.gettempdir())
+    removed = []
+    try:
+        names = os.listdir(root)
+    except OSError:
+        return removed
+    for name in names:
+        match = _SCRATCH.match(name)
+        if match is None:
+            continue
+        if owner_alive(int(match["pid"]), int(match["start"])):
+            continue
+        path = root / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+            if not path.exists():
+                removed.append(path)
+                log.info("removed %s, left by a run that was killed", path)
+    return removed
