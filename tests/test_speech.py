@@ -318,3 +318,57 @@ def test_cli_phones_prints_visemes_and_zero_offset() -> None:
     )
     assert bad.returncode == 2
     assert "Traceback" not in bad.stderr and "nothing to speak" in bad.stderr
+
+
+def test_a_word_longer_than_festival_reads_is_refused_before_it_runs(tmp_path: Path) -> None:
+    from miketalk.speech.text import MAX_WORD
+
+    never = FestivalBackend(_fake_festival(tmp_path, f"touch '{tmp_path}/ran'; exit 1"))
+    word = "supercalifragilistic" * 500
+    for text in (word, f"Say {word} now.", "1" * (MAX_WORD + 1)):
+        with pytest.raises(
+            MiketalkError, match=f"letters long; Festival reads words of up to {MAX_WORD}"
+        ):
+            never.start(text)
+        with pytest.raises(MiketalkError, match="letters long"):
+            never.synthesize(text)
+    assert not (tmp_path / "ran").exists()
+    assert normalize_text("a" * MAX_WORD) == "a" * MAX_WORD
+
+
+@pytest.mark.parametrize(("voice", "rate"), [("kal", 16000), ("ked", 16000), ("slt", 32000)])
+def test_each_voice_speaks_radio_phones_with_sound_and_phones_ending_together(
+    voice: str, rate: int
+) -> None:
+    backend = FestivalBackend(voice=voice)
+    text = "Hello world. Her bird."
+    planned: list = []
+    with backend.start(text) as speech:
+        utterance = speech.finish(lambda phones: planned.append(phones))
+    assert utterance.rate == rate
+    assert len(utterance.samples) == round(utterance.phones[-1].end * rate)
+    names = [p.name for p in utterance.phones]
+    assert names == [p.name for p in planned[0]]  # ked's er + r is spoken as er
+    assert names[:5] == ["pau", "hh", "ax", "l", "ow"] and "er" in names
+    assert np.abs(utterance.samples.astype(int)).max() > 1000
+
+
+def test_the_hts_voice_cannot_be_dictated_durations() -> None:
+    slt = FestivalBackend(voice="slt")
+    utterance = slt.synthesize("Hello world.")
+    with pytest.raises(MiketalkError, match="slt voice sets its own phone durations"):
+        slt.resynthesize(utterance, [2 * d for d in utterance.durations()])
+    with slt.start("Hello world.") as speech, pytest.raises(MiketalkError, match="its own phone"):
+        speech.finish(lambda phones: [0.1] * len(phones))
+    with pytest.raises(
+        MiketalkError, match=r"unknown voice 'bob'; known: kal \(festvox-kallpc16k\)"
+    ):
+        FestivalBackend(voice="bob")
+    assert FestivalBackend(voice="voice_kal_diphone").voice.name == "kal"
+
+
+def test_a_missing_voice_names_its_package(tmp_path: Path) -> None:
+    script = "echo 'SIOD ERROR: unbound variable : voice_ked_diphone' >&2; exit 1"
+    backend = FestivalBackend(_fake_festival(tmp_path, script), voice="ked")
+    with pytest.raises(MiketalkError, match="apt-get install -y festival festvox-kdlpc16k"):
+        backend.synthesize("Hello")

@@ -1,4 +1,5 @@
-"""Festival (voice_kal_diphone) as a subprocess: text -> wav + timed radio phones.
+"""Festival as a subprocess: text -> wav + timed radio phones, in one of the voices of
+:mod:`miketalk.speech.festival.voices`.
 
 The Scheme program is package data (``scheme/synthesize.scm``); text and
 settings reach it through environment variables only, so user text is never
@@ -15,7 +16,6 @@ import os
 import re
 import shutil
 import subprocess
-import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from functools import cached_property
@@ -24,16 +24,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
+from miketalk.media.scratch import scratch_dir
 from miketalk.speech.backend import Retime, SpeechBackend, register
 from miketalk.speech.festival.output import (
     Chunk,
+    check_followed,
+    check_follows_durations,
     check_same_phones,
     join_chunks,
     read_chunk,
     split_ends,
     write_ends,
 )
-from miketalk.speech.festival.run import INSTALL_HINT, FestivalRun, check_exit
+from miketalk.speech.festival.run import FestivalRun, check_exit
+from miketalk.speech.festival.voices import DEFAULT_VOICE, Voice, get_voice, install_hint
 from miketalk.speech.text import normalize_text, split_chunks
 from miketalk.speech.types import Utterance
 
@@ -50,8 +54,9 @@ class FestivalBackend(SpeechBackend):
     executable : str, optional
         Path to ``festival``; else ``$MIKETALK_FESTIVAL``; else ``festival`` on PATH.
     voice : str
-        Festival voice function; only ``voice_kal_diphone`` is supported (its
-        phone set is the radio set that the viseme table maps).
+        A voice of :data:`~miketalk.speech.festival.voices.VOICES` by its short
+        name (``kal``, ``ked``, ``slt``) or Festival's function name; all speak
+        the radio phone set that the viseme table maps.
     max_words : int
         Text is spoken in chunks of whole sentences of at most this many words
         (Festival slows down and loses time precision on long utterances).
@@ -70,13 +75,13 @@ class FestivalBackend(SpeechBackend):
         self,
         executable: str | None = None,
         *,
-        voice: str = "voice_kal_diphone",
+        voice: str = DEFAULT_VOICE,
         max_words: int = 40,
         timeout: float = 600.0,
         heap: int = 1_000_000,
     ) -> None:
         self.executable = executable or os.environ.get("MIKETALK_FESTIVAL") or "festival"
-        self.voice = voice
+        self.voice: Voice = get_voice(voice)
         self.max_words = max_words
         self.timeout = timeout
         if isinstance(heap, bool) or not isinstance(heap, int) or heap < 100_000:
@@ -87,7 +92,9 @@ class FestivalBackend(SpeechBackend):
     def _path(self) -> str:
         path = shutil.which(self.executable)
         if path is None:
-            raise MiketalkError(f"Festival not found ({self.executable!r}); {INSTALL_HINT}")
+            raise MiketalkError(
+                f"Festival not found ({self.executable!r}); {install_hint(self.voice)}"
+            )
         return path
 
     def is_available(self) -> bool:
@@ -149,15 +156,19 @@ class FestivalBackend(SpeechBackend):
         Raises
         ------
         MiketalkError
-            Wrong number of durations, a non-positive or non-finite duration, or
-            Festival producing other phones than ``utterance`` has.
+            Wrong number of durations, a non-positive or non-finite duration, a
+            voice that sets its own durations, or Festival producing other
+            phones than ``utterance`` has.
         """
+        check_follows_durations(self.voice)
         texts = split_chunks(utterance.text, max_words=self.max_words)
         sizes = [n for _, n in utterance.chunks] if utterance.chunks else [len(utterance.phones)]
         if len(sizes) != len(texts):
             raise MiketalkError("the utterance's chunks do not match its text; synthesize it again")
-        chunks = self._run(texts, split_ends(durations, sizes))
+        ends = split_ends(durations, sizes)
+        chunks = self._run(texts, ends)
         check_same_phones(chunks, [p.name for p in utterance.phones])
+        check_followed(chunks, ends)
         return join_chunks(utterance.text, chunks)
 
     def synthesize_retimed(self, text: str, retime: Retime) -> Utterance:
@@ -196,20 +207,17 @@ class FestivalBackend(SpeechBackend):
         """A scratch directory, the environment carrying ``texts``, and the command line."""
         festival = self._path()
         scheme = resources.files("miketalk.speech").joinpath("scheme/synthesize.scm")
-        with (
-            tempfile.TemporaryDirectory(prefix="miketalk-festival-") as tmp,
-            resources.as_file(scheme) as scheme_path,
-        ):
+        with scratch_dir("festival") as tmp, resources.as_file(scheme) as scheme_path:
             env = {
                 "PATH": os.environ.get("PATH", "/usr/bin:/bin"),
-                "HOME": tmp,
-                "MIKETALK_VOICE": self.voice,
-                "MIKETALK_OUT": tmp,
+                "HOME": str(tmp),
+                "MIKETALK_VOICE": self.voice.function,
+                "MIKETALK_OUT": str(tmp),
                 "MIKETALK_CHUNKS": str(len(texts)),
             }
             for i, chunk_text in enumerate(texts):
                 env[f"MIKETALK_TEXT_{i}"] = chunk_text
-            yield Path(tmp), env, [festival, "--heap", str(self.heap), "-b", str(scheme_path)]
+            yield tmp, env, [festival, "--heap", str(self.heap), "-b", str(scheme_path)]
 
     def _run(self, texts: list[str], ends: list[tuple[float, ...]] | None) -> list[Chunk]:
         with self._workspace(texts) as (tmp, env, command):
@@ -229,5 +237,5 @@ class FestivalBackend(SpeechBackend):
                 )
             except subprocess.TimeoutExpired:
                 raise MiketalkError(f"Festival took longer than {self.timeout:.0f} s") from None
-            check_exit(proc.returncode, proc.stderr + proc.stdout)
+            check_exit(proc.returncode, proc.stderr + proc.stdout, self.voice)
             return [read_chunk(tmp, i, t) for i, t in enumerate(texts)]

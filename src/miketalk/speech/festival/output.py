@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
+from miketalk.speech.festival.voices import Voice
 from miketalk.speech.types import Phone, Utterance
 
 if TYPE_CHECKING:
@@ -29,9 +30,9 @@ class Chunk:
     ends: tuple[float, ...]
 
 
-#: voice_kal_diphone's sample rate: places chunk boundaries of the predicted phones
-#: exactly where the spoken chunks' wavs will put them.
-VOICE_RATE = 16000
+#: Tolerance, seconds, between a dictated phone end and the end Festival reports
+#: (it prints times to the microsecond; a voice that ignores them is off by far more).
+FOLLOW_TOLERANCE = 1e-3
 
 
 def write_ends(directory: Path, index: int, ends: Sequence[float]) -> Path:
@@ -59,6 +60,26 @@ def check_same_phones(chunks: list[Chunk], names: list[str]) -> None:
         raise MiketalkError("Festival produced different phones on re-synthesis")
 
 
+def check_follows_durations(voice: Voice) -> None:
+    """Dictated durations need a voice that speaks them (the diphone voices, not HTS)."""
+    if not voice.follows_durations:
+        raise MiketalkError(
+            f"the {voice.name} voice sets its own phone durations, so the paper's oversampling "
+            "cannot lengthen them: use sampling blur (the default) or the kal or ked voice"
+        )
+
+
+def check_followed(chunks: list[Chunk], ends: Sequence[Sequence[float]]) -> None:
+    """Festival's phone ends must be the dictated ones (within :data:`FOLLOW_TOLERANCE`)."""
+    for chunk, dictated in zip(chunks, ends, strict=True):
+        worst = max(abs(a - b) for a, b in zip(chunk.ends, dictated, strict=True))
+        if worst > FOLLOW_TOLERANCE:
+            raise MiketalkError(
+                f"Festival did not speak the dictated phone durations ({worst * 1000:.1f} ms "
+                f"off in {chunk.text[:40]!r})"
+            )
+
+
 def check_durations(durations: Sequence[float], n: int) -> np.ndarray:
     import numpy as np  # here, not at the top: see the module docstring
 
@@ -70,13 +91,17 @@ def check_durations(durations: Sequence[float], n: int) -> np.ndarray:
     return durations
 
 
-def read_plan(directory: Path, index: int, text: str) -> Chunk:
-    """Chunk ``index``'s predicted phones, with silent samples as long as the phones."""
+def read_plan(directory: Path, index: int, text: str, rate: int) -> Chunk:
+    """Chunk ``index``'s predicted phones, with silent samples as long as the phones.
+
+    ``rate`` is the voice's sample rate, so the chunk boundaries of the
+    predicted phones fall where the spoken chunks' wavs will put them.
+    """
     import numpy as np  # here, not at the top: see the module docstring
 
     names, ends = read_phones(directory / f"{index}.plan", text)
-    n = round(ends[-1] * VOICE_RATE)
-    return Chunk(text, np.zeros(n, np.int16), VOICE_RATE, names, ends)
+    n = round(ends[-1] * rate)
+    return Chunk(text, np.zeros(n, np.int16), rate, names, ends)
 
 
 def read_phones(path: Path, text: str) -> tuple[tuple[str, ...], tuple[float, ...]]:

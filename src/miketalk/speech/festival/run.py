@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING
 from miketalk.errors import MiketalkError
 from miketalk.speech.backend import PendingSpeech, Retime
 from miketalk.speech.festival.output import (
+    check_followed,
+    check_follows_durations,
     check_same_phones,
     join_chunks,
     read_chunk,
@@ -21,14 +23,15 @@ from miketalk.speech.festival.output import (
     split_ends,
     write_ends,
 )
+from miketalk.speech.festival.voices import VOICES, Voice, install_hint
 from miketalk.speech.text import normalize_text, split_chunks
 from miketalk.speech.types import Utterance
 
 if TYPE_CHECKING:
     from miketalk.speech.festival.backend import FestivalBackend
 
-APT_PACKAGES = "festival festvox-kallpc16k"
-INSTALL_HINT = f"install it with: apt-get install -y {APT_PACKAGES}"
+#: Festival and every voice miketalk knows (the Makefile installs them).
+APT_PACKAGES = " ".join(["festival", *(v.package for v in VOICES.values())])
 
 
 PLANNED = "miketalk: planned"
@@ -66,18 +69,21 @@ class FestivalRun(PendingSpeech):
     def finish(self, retime: Retime) -> Utterance:
         """Wait for Festival's phones, dictate ``retime``'s durations, return the utterance."""
         proc, tmp, texts = self._proc, self._tmp, self._texts
+        voice = self.backend.voice
         if proc is None:
             raise MiketalkError("this Festival run was already finished or closed")
         try:
             errors = read_until(proc, PLANNED, self._deadline, self.backend.timeout)
             if PLANNED not in errors:
                 proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
-                check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text())
-            planned = [read_plan(tmp, i, t) for i, t in enumerate(texts)]
+                check_exit(proc.returncode or 1, errors + (tmp / "stdout").read_text(), voice)
+            planned = [read_plan(tmp, i, t, voice.rate) for i, t in enumerate(texts)]
             durations = retime(join_chunks(self.text, planned).phones)
+            ends = None
             if durations is not None:
-                sizes = [len(c.names) for c in planned]
-                for i, chunk_ends in enumerate(split_ends(durations, sizes)):
+                check_follows_durations(voice)
+                ends = split_ends(durations, [len(c.names) for c in planned])
+                for i, chunk_ends in enumerate(ends):
                     write_ends(tmp, i, chunk_ends)
             try:
                 proc.stdin.write(b"go\n")
@@ -87,9 +93,11 @@ class FestivalRun(PendingSpeech):
             rest = read_until(proc, None, self._deadline, self.backend.timeout)
             proc.wait(timeout=max(self._deadline - time.monotonic(), 0.1))
             stdout = (tmp / "stdout").read_text(errors="replace")
-            check_exit(proc.returncode, errors + rest + stdout)
+            check_exit(proc.returncode, errors + rest + stdout, voice)
             chunks = [read_chunk(tmp, i, t) for i, t in enumerate(texts)]
             check_same_phones(chunks, [name for c in planned for name in c.names])
+            if ends is not None:
+                check_followed(chunks, ends)
             return join_chunks(self.text, chunks)
         except subprocess.TimeoutExpired:
             raise MiketalkError(f"Festival took longer than {self.backend.timeout:.0f} s") from None
@@ -130,11 +138,11 @@ def read_until(proc: subprocess.Popen, marker: str | None, deadline: float, time
     return text.decode(errors="replace")
 
 
-def check_exit(returncode: int, messages: str) -> None:
+def check_exit(returncode: int, messages: str, voice: Voice) -> None:
     """A clear error when Festival failed (status, or an SIOD error on any stream)."""
     errors = messages.strip()
     if returncode != 0 or "SIOD ERROR" in errors:
-        if "voice_kal_diphone" in errors and "unbound" in errors:
-            raise MiketalkError(f"Festival's kal voice is missing; {INSTALL_HINT}")
+        if voice.function in errors and "unbound" in errors:
+            raise MiketalkError(f"Festival's {voice.name} voice is missing; {install_hint(voice)}")
         tail = "\n".join(errors.splitlines()[-5:])
         raise MiketalkError(f"Festival failed (exit {returncode}):\n{tail}")

@@ -1,4 +1,4 @@
-;;; miketalk: text -> wav + timed phones with Festival (voice_kal_diphone).
+;;; miketalk: text -> wav + timed phones with Festival (a radio-phoneset voice).
 ;;;
 ;;; Run as `festival -b synthesize.scm`. Everything comes in through environment
 ;;; variables; the user's text is read with getenv and only ever used as a string
@@ -29,6 +29,8 @@
   (let ((name (miketalk-env "MIKETALK_VOICE")))
     (cond
      ((equal? name "voice_kal_diphone") (voice_kal_diphone))
+     ((equal? name "voice_ked_diphone") (voice_ked_diphone))
+     ((equal? name "voice_cmu_us_slt_arctic_hts") (voice_cmu_us_slt_arctic_hts))
      (t (format stderr "miketalk: unsupported voice %s\n" name) (exit 3)))))
 
 (define (miketalk-read-ends path)
@@ -45,10 +47,24 @@
           (exit 4)))
     (mapcar (lambda (seg end) (item.set_feat seg "end" end)) segs ends)))
 
+;;; voice_ked_diphone's synthesis splits every er into er + r (its diphones have er-r):
+;;; the r it inserts belongs to no syllable. It is written as part of its er, so
+;;; that the phones spoken are the phones planned.
+(define (miketalk-inserted? seg)
+  (and seg
+       (string-equal (item.name seg) "r")
+       (not (item.relation seg 'SylStructure))
+       (item.prev seg)
+       (string-equal (item.name (item.prev seg)) "er")))
+
 (define (miketalk-write-phones utt path)
   (let ((fd (fopen path "w")))
     (mapcar
-     (lambda (seg) (format fd "%s %.6f\n" (item.name seg) (item.feat seg "end")))
+     (lambda (seg)
+       (if (not (miketalk-inserted? seg))
+           (format fd "%s %.6f\n" (item.name seg)
+                   (item.feat (if (miketalk-inserted? (item.next seg)) (item.next seg) seg)
+                              "end"))))
      (utt.relation.items utt 'Segment))
     (fclose fd)))
 
