@@ -15,7 +15,7 @@ import pytest
 from miketalk.errors import MiketalkError
 from miketalk.flow import get_estimator, pair_path, write_flow_pair
 from miketalk.media.images import write_png
-from miketalk.speech import FestivalBackend
+from miketalk.speech import FestivalBackend, Phone
 from miketalk.talk.model import Model, build_model
 from miketalk.visemes import VISEMES
 
@@ -158,3 +158,58 @@ def test_cli_say_errors_are_one_line(model_dir: Path, tmp_path: Path) -> None:
     assert ok.returncode == 0, ok.stderr
     assert (tmp_path / "hi.mp4").exists() and (tmp_path / "hi.json").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["hi.json", "hi.mp4"]
+
+
+def test_a_blurred_frame_is_the_weighted_mean_of_its_morphs(model_dir: Path) -> None:
+    from miketalk.talk import lipsync
+    from miketalk.visemes import default_table
+
+    phones = [Phone("pau", 0.0, 0.1), Phone("f", 0.1, 0.2), Phone("aa", 0.2, 0.3)]
+    timeline = lipsync.plan(phones, default_table(), fps=30.0, duration=0.3)
+    model = Model(model_dir)
+    samples = ((1, 0.25, 0.5), (1, 0.75, 0.25), (2, 0.5, 0.25))
+    t1, t2 = timeline.transitions[1], timeline.transitions[2]
+    expected = (
+        0.5 * model.frame(t1.source, t1.target, 0.25).astype(float)
+        + 0.25 * model.frame(t1.source, t1.target, 0.75)
+        + 0.25 * model.frame(t2.source, t2.target, 0.5)
+    )
+    got = model.exposure(timeline, samples)
+    assert got.dtype == np.uint8 and np.abs(got - expected).max() <= 0.5 + 1e-3
+
+
+def test_render_gives_the_same_bytes_with_any_number_of_workers(model_dir: Path) -> None:
+    from miketalk.talk import lipsync
+    from miketalk.visemes import default_table
+
+    phones = [
+        Phone(n, 0.06 * i, 0.06 * (i + 1)) for i, n in enumerate("pau b ae t f ay pau".split())
+    ]
+    point = lipsync.plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
+    blurred = lipsync.motion_blur(
+        point, displacement=lambda a, b: 0.0 if a == b else 12.0, max_px_per_frame=0.5
+    )
+    assert blurred.morph_count > 2 * len(blurred.frames)
+    with Model(model_dir) as one, Model(model_dir) as two:
+        serial = list(one.render(blurred, workers=1))
+        parallel = list(two.render(blurred, workers=2))
+    assert len(serial) == len(blurred.frames)
+    assert all(np.array_equal(a, b) for a, b in zip(serial, parallel, strict=True))
+    plain = list(Model(model_dir).render(point, workers=1))
+    assert any(not np.array_equal(a, b) for a, b in zip(plain, serial, strict=True))
+
+
+def test_manifest_paths_stay_inside_the_model(model_dir: Path, tmp_path: Path) -> None:
+    from miketalk.talk.model import inside
+
+    assert inside(model_dir, "visemes/p.png", "x") == model_dir / "visemes" / "p.png"
+    for bad in ("../x.png", "/etc/passwd", "visemes/../../x", "..\\x", "C:/x.png", "a/../../b"):
+        with pytest.raises(MiketalkError, match="outside the model directory"):
+            inside(model_dir, bad, "the image")
+    escaped = tmp_path / "escaped"
+    shutil.copytree(model_dir, escaped)
+    manifest = json.loads((escaped / "manifest.json").read_text())
+    manifest["images"]["p"] = "../../etc/passwd"
+    (escaped / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(MiketalkError, match="outside the model directory"):
+        Model(escaped)

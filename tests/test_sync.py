@@ -75,7 +75,7 @@ ONE = timed([("pau", 0.2), ("w", 0.05), ("ay", 0.1), ("d", 0.05), ("pau", 0.2)])
 
 
 def test_timeline_round_trips_through_json_exactly() -> None:
-    timeline = lipsync.plan(ONE, TABLE, 29.97, ONE[-1].end)
+    timeline = lipsync.plan(ONE, TABLE, fps=29.97, duration=ONE[-1].end)
     doc = json.loads(json.dumps(timeline.to_dict()))
     assert lipsync.Timeline.from_dict(doc) == timeline
     assert lipsync.Timeline.from_dict({**doc, "text": "ignored"}) == timeline
@@ -90,7 +90,7 @@ def test_speak_in_sync_reports_the_phones_predicted_before_oversampling() -> Non
     with backend.start("wide") as speech:
         utterance, timeline = lipsync.speak_in_sync(
             speech, TABLE, fps=30.0, displacement=lambda a, b: 0.0 if a == b else 20.0,
-            max_px_per_frame=2.5, on_planned=planned.append,
+            max_px_per_frame=2.5, sampling="paper", on_planned=planned.append,
         )  # fmt: skip
     assert planned == [ONE]
     assert utterance.duration > ONE[-1].end  # lengthened; the plan is what came before
@@ -104,13 +104,16 @@ def test_say_records_planned_phones_and_read_said_rebuilds_the_timeline(
 
     model = Model(model_dir)
     out = tmp_path / "wide.mp4"
-    utterance, timeline = say("wide", out, model=model, backend=Scripted(ONE), max_px_per_frame=0.5)
+    utterance, timeline = say(
+        "wide", out, model=model, backend=Scripted(ONE), max_px_per_frame=0.5, sampling="paper"
+    )
     said = read_said(out.with_suffix(".json"))
     assert said.timeline == timeline and said.text == "wide"
     assert said.planned_phones == ONE and said.max_px_per_frame == 0.5
+    assert said.sampling == "paper"
     assert said.planned_duration == round(ONE[-1].end * 16000) / 16000
     assert utterance.duration > said.planned_duration  # 0.5 px per frame lengthens phones
-    plain = lipsync.plan(said.planned_phones, TABLE, 30.0, said.planned_duration)
+    plain = lipsync.plan(said.planned_phones, TABLE, fps=30.0, duration=said.planned_duration)
     assert lipsync.largest_step(plain, model.displacement) > 0.5
     assert lipsync.largest_step(said.timeline, model.displacement) <= 0.5
 
@@ -134,7 +137,8 @@ def test_read_said_errors(tmp_path: Path) -> None:
     with pytest.raises(MiketalkError, match="no timeline"):
         read_said(tmp_path / "none.json")
     old = tmp_path / "old.json"
-    old.write_text(json.dumps({**lipsync.plan(ONE, TABLE, 30.0, 0.6).to_dict(), "text": "x"}))
+    timeline = lipsync.plan(ONE, TABLE, fps=30.0, duration=0.6)
+    old.write_text(json.dumps({**timeline.to_dict(), "text": "x"}))
     with pytest.raises(MiketalkError, match="no planned_phones, planned_duration: make"):
         read_said(old)
     old.write_text("{")

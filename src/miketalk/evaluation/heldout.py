@@ -239,7 +239,7 @@ def prepare_heldout(clip, *, stabilizer, table, decode=None) -> HeldoutClip:
     decoded = (decode or decode_clip)(clip)
     transforms = stabilizer.register(decoded.frames, clip=f"clip {clip.id}")
     real = stabilizer.apply(decoded.frames, transforms)
-    timeline = plan(decoded.phones, table, decoded.fps, len(real) / decoded.fps)
+    timeline = plan(decoded.phones, table, fps=decoded.fps, duration=len(real) / decoded.fps)
     if len(timeline.frames) != len(real):  # round(n / fps * fps) is n
         raise MiketalkError(
             f"clip {clip.id}: {len(timeline.frames)} frames planned, {len(real)} real"

@@ -144,7 +144,7 @@ def sync_table(
 
     timeline = said.timeline
     fps = timeline.fps
-    plain = plan(said.planned_phones, table, fps, said.planned_duration)
+    plain = plan(said.planned_phones, table, fps=fps, duration=said.planned_duration)
     frames = utterance_frames(timeline, model)
     face = Face()
     renderer = FaceRenderer(face, size=frames.shape[1])

@@ -103,7 +103,7 @@ def lipsync_diagram(
     with festival.start(word) as speech:
         utterance, timeline = speak_in_sync(
             speech, default_table(), fps=fps,
-            displacement=model.displacement, max_px_per_frame=max_px,
+            displacement=model.displacement, max_px_per_frame=max_px, sampling="paper",
         )  # fmt: skip
     fig, ax = plt.subplots(figsize=(11, 3.4))
     phones = utterance.phones

@@ -8,17 +8,31 @@ hold of the last viseme the last, so that video and audio start and end
 together. Frame ``k`` at time ``k / F`` takes the transition it falls in and
 ``alpha_k = (k/F - s(V_i)) / l(V_i)`` (Eq. 10).
 
-Adaptive oversampling: a transition whose largest flow displacement ``D`` would
-move more than ``max_px_per_frame`` per frame (``D / (l F)``) is lengthened to
-``D / (max_px_per_frame F)`` by lengthening the phones it spans, and the audio
-is re-synthesized with those durations, so that sound and picture stay in sync.
+A transition whose largest flow displacement ``D`` is crossed in a time ``l``
+moves ``D / (l F)`` pixels per frame, and more than ``max_px_per_frame`` looks
+like a jump. Three ways of sampling it (:data:`SAMPLINGS`):
+
+``"blur"`` (the default; beyond the paper)
+    The speech keeps its own timing. Where the mouth moves faster than
+    ``max_px_per_frame`` per frame, more morphs than frames are rendered and
+    each frame is their average over its exposure (:func:`motion_blur`), as a
+    camera with a 360-degree shutter integrates the motion during a frame. No
+    two consecutive morphs are more than ``max_px_per_frame`` apart.
+``"paper"`` (the paper's adaptive oversampling)
+    The transition is lengthened to ``D / (max_px_per_frame F)`` by lengthening
+    the phones it spans, and the audio is spoken again with those durations
+    (:func:`oversampled_durations`). ``max_slowdown`` caps how much longer the
+    speech may become (:func:`capped_durations`); whatever is then still too
+    fast is blurred.
+``"none"``
+    One morph per frame at the speech's own timing, however far apart.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from itertools import pairwise
 from typing import Any
 
@@ -27,10 +41,50 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.speech.backend import PendingSpeech, SpeechBackend
 from miketalk.speech.types import Phone, Utterance
+from miketalk.talk.settings import (
+    FPS_RANGE,
+    MAX_PX_RANGE,
+    SAMPLINGS,
+    Sampling,
+    check_fps,
+    check_max_px,
+    check_max_slowdown,
+    check_sampling,
+)
 from miketalk.visemes import VisemeTable
+
+__all__ = [
+    "FPS_RANGE",
+    "MAX_PX_RANGE",
+    "SAMPLINGS",
+    "FrameSample",
+    "Keyframe",
+    "Sampling",
+    "Timeline",
+    "Transition",
+    "capped_durations",
+    "check_fps",
+    "check_max_px",
+    "check_max_slowdown",
+    "check_sampling",
+    "frame_count",
+    "keyframes",
+    "largest_frame_motion",
+    "largest_step",
+    "motion_blur",
+    "oversampled_durations",
+    "plan",
+    "sample_frames",
+    "speak_in_sync",
+    "synchronize",
+    "transitions",
+]
 
 #: ``displacement(a, b)``: the largest flow displacement in pixels from viseme a to b.
 Displacement = Callable[[str, str], float]
+
+#: The most morphs averaged into one frame.
+MAX_SAMPLES = 256
 
 _NUCLEUS_FRACTIONS = {1: (0.5,), 2: (0.25, 0.75)}
 
@@ -57,12 +111,23 @@ class Transition:
 
 @dataclass(frozen=True)
 class FrameSample:
-    """Frame ``index`` at ``time = index / fps``: transition ``transition`` at ``alpha``."""
+    """Frame ``index`` at ``time = index / fps``: transition ``transition`` at ``alpha``.
+
+    Attributes
+    ----------
+    samples : tuple of (int, float, float)
+        Empty for a frame that is the one morph at (``transition``, ``alpha``).
+        Otherwise the frame is motion-blurred: the weighted average of the
+        morphs ``(transition, alpha, weight)``, in time order, over the frame's
+        exposure; the weights sum to 1. ``transition`` and ``alpha`` still say
+        where the frame's middle is.
+    """
 
     index: int
     time: float
     transition: int
     alpha: float
+    samples: tuple[tuple[int, float, float], ...] = field(default=())
 
 
 @dataclass(frozen=True)
@@ -77,14 +142,23 @@ class Timeline:
     frames: tuple[FrameSample, ...]
 
     def to_dict(self) -> dict:
-        """JSON-ready form (the timeline file written beside each video)."""
+        """JSON-ready form (the timeline file written beside each video).
+
+        A frame's ``samples`` is left out when it is empty.
+        """
+        frames = []
+        for f in self.frames:
+            row = asdict(f)
+            if not f.samples:
+                del row["samples"]
+            frames.append(row)
         return {
             "fps": self.fps,
             "duration": self.duration,
             "phones": [asdict(p) for p in self.phones],
             "keyframes": [asdict(k) for k in self.keyframes],
             "transitions": [asdict(t) for t in self.transitions],
-            "frames": [asdict(f) for f in self.frames],
+            "frames": frames,
         }
 
     @classmethod
@@ -106,10 +180,25 @@ class Timeline:
                 phones=tuple(Phone(**p) for p in doc["phones"]),
                 keyframes=tuple(Keyframe(**k) for k in doc["keyframes"]),
                 transitions=tuple(Transition(**t) for t in doc["transitions"]),
-                frames=tuple(FrameSample(**f) for f in doc["frames"]),
+                frames=tuple(_frame_from_dict(f) for f in doc["frames"]),
             )
-        except (KeyError, TypeError) as err:
+        except (KeyError, TypeError, ValueError) as err:
             raise MiketalkError(f"not a timeline: {type(err).__name__} {err}") from None
+
+    @property
+    def morph_count(self) -> int:
+        """How many morphs rendering the timeline draws (a blurred frame draws several)."""
+        return sum(max(1, len(f.samples)) for f in self.frames)
+
+
+def _frame_from_dict(row: Mapping[str, Any]) -> FrameSample:
+    samples = tuple((int(i), float(a), float(w)) for i, a, w in row.get("samples", ()))
+    return FrameSample(**{**row, "samples": samples})
+
+
+# ---------------------------------------------------------------------------
+# the timeline
+# ---------------------------------------------------------------------------
 
 
 def keyframes(phones: Sequence[Phone], table: VisemeTable) -> list[Keyframe]:
@@ -152,10 +241,22 @@ def sample_frames(stream: Sequence[Transition], fps: float, duration: float) -> 
     return [FrameSample(int(k), float(times[k]), int(which[k]), float(alpha[k])) for k in range(n)]
 
 
-def plan(phones: Sequence[Phone], table: VisemeTable, fps: float, duration: float) -> Timeline:
-    """Keyframes, transitions and per-frame alphas for timed phones."""
-    if fps <= 0:
-        raise MiketalkError(f"fps must be positive, not {fps}")
+def plan(phones: Sequence[Phone], table: VisemeTable, *, fps: float, duration: float) -> Timeline:
+    """Keyframes, transitions and per-frame alphas for timed phones (one morph per frame).
+
+    Parameters
+    ----------
+    phones : sequence of Phone
+        The timed phones.
+    table : VisemeTable
+        Phone -> viseme map.
+    fps : float
+        Frame rate, > 0.
+    duration : float
+        Seconds of audio the video covers.
+    """
+    if not isinstance(fps, int | float) or not math.isfinite(fps) or fps <= 0:
+        raise MiketalkError(f"fps must be a positive number, not {fps!r}")
     keys = keyframes(phones, table)
     stream = transitions(keys, duration)
     return Timeline(
@@ -168,23 +269,154 @@ def plan(phones: Sequence[Phone], table: VisemeTable, fps: float, duration: floa
     )
 
 
-def largest_step(timeline: Timeline, displacement: Displacement) -> float:
-    """The largest displacement in pixels between two consecutive frames.
+# ---------------------------------------------------------------------------
+# motion blur
+# ---------------------------------------------------------------------------
 
-    A frame pair inside one transition moves ``D * (alpha_2 - alpha_1)``; a pair
-    across a boundary moves the rest of the first transition plus the start of
-    the next one(s).
+
+def motion_blur(
+    timeline: Timeline,
+    *,
+    displacement: Displacement,
+    max_px_per_frame: float,
+    max_samples: int = MAX_SAMPLES,
+) -> Timeline:
+    """The timeline with every frame that moves too fast blurred over its exposure.
+
+    Frame ``k`` is exposed over ``[(k - 1/2) / F, (k + 1/2) / F]`` (clipped to the
+    audio): the exposures tile time, as with a 360-degree shutter, and each is
+    centred on the frame's time, so the sync of the point-sampled timeline is
+    kept. A frame whose exposure sees no transition faster than
+    ``max_px_per_frame * F`` pixels per second stays the one morph at its
+    middle. Any other frame becomes the time average of its exposure by the
+    midpoint rule: the part of each transition inside the exposure is cut into
+    ``ceil(motion / max_px_per_frame)`` equal slices, each sampled at its middle
+    and weighted by its duration. Consecutive morphs, within a frame and across
+    frames, are then at most ``max_px_per_frame`` apart along the transitions
+    (see :func:`largest_step`).
+
+    Parameters
+    ----------
+    timeline : Timeline
+        A point-sampled timeline (:func:`plan`).
+    displacement : callable
+        ``displacement(a, b)``: largest flow displacement of transition a -> b, px.
+    max_px_per_frame : float
+        The largest distance between consecutive morphs, px.
+    max_samples : int
+        The most morphs averaged into one frame; a frame that would need more
+        gets this many, and the bound above no longer holds for it.
+
+    Returns
+    -------
+    Timeline
+        The same timeline, blurred frames carrying :attr:`FrameSample.samples`.
     """
-    d = np.array([displacement(t.source, t.target) for t in timeline.transitions])
-    position = np.array([f.transition + f.alpha for f in timeline.frames])
-    # cumulative displacement along the stream at each frame: sum of whole
-    # transitions before it plus alpha of the current one
-    cum = np.concatenate([[0.0], np.cumsum(d)])
-    whole = np.floor(position).astype(int)
-    frac = position - whole
-    along = cum[whole] + frac * d[np.minimum(whole, len(d) - 1)]
-    return float(np.max(np.diff(along))) if len(along) > 1 else 0.0
+    if not max_px_per_frame > 0:
+        raise MiketalkError(f"max_px_per_frame must be positive, not {max_px_per_frame}")
+    stream = timeline.transitions
+    fps, duration = timeline.fps, timeline.duration
+    starts = np.array([t.start for t in stream])
+    ends = np.array([t.start + t.duration for t in stream])
+    speed = np.array([displacement(t.source, t.target) / t.duration for t in stream])
+    limit = max_px_per_frame * fps
+    frames = []
+    for frame in timeline.frames:
+        lo = max(0.0, frame.time - 0.5 / fps)
+        hi = min(duration, frame.time + 0.5 / fps)
+        first = max(0, int(np.searchsorted(starts, lo, side="right")) - 1)
+        last = max(first, int(np.searchsorted(starts, hi, side="left")) - 1)
+        if hi <= lo or speed[first : last + 1].max() <= limit:
+            frames.append(frame)
+            continue
+        pieces = []  # (transition, slice start, slice end, slices)
+        for i in range(first, last + 1):
+            a, b = max(lo, starts[i]), min(hi, ends[i])
+            if b > a:
+                n = max(1, math.ceil(speed[i] * (b - a) / max_px_per_frame - 1e-9))
+                pieces.append([i, a, b, n])
+        total = sum(p[3] for p in pieces)
+        if total > max_samples:
+            for p in pieces:
+                p[3] = max(1, math.floor(p[3] * max_samples / total))
+        samples = []
+        for i, a, b, n in pieces:
+            width = (b - a) / n
+            for j in range(n):
+                t = a + (j + 0.5) * width
+                alpha = min(1.0, max(0.0, (t - starts[i]) / stream[i].duration))
+                samples.append((int(i), float(alpha), float(width / (hi - lo))))
+        frames.append(
+            FrameSample(frame.index, frame.time, frame.transition, frame.alpha, tuple(samples))
+        )
+    return Timeline(
+        fps=timeline.fps,
+        duration=timeline.duration,
+        phones=timeline.phones,
+        keyframes=timeline.keyframes,
+        transitions=timeline.transitions,
+        frames=tuple(frames),
+    )
 
+
+# ---------------------------------------------------------------------------
+# measures of motion
+# ---------------------------------------------------------------------------
+
+
+def _along(timeline: Timeline, displacement: Displacement) -> Callable[[int, float], float]:
+    """Distance travelled along the transition stream at (transition, alpha), px."""
+    d = np.array([displacement(t.source, t.target) for t in timeline.transitions])
+    cum = np.concatenate([[0.0], np.cumsum(d)])
+
+    def along(transition: int, alpha: float) -> float:
+        return float(cum[transition] + alpha * d[transition])
+
+    return along
+
+
+def _morph_positions(timeline: Timeline, displacement: Displacement) -> list[list[float]]:
+    """Each frame's morphs as distances along the stream, in time order."""
+    along = _along(timeline, displacement)
+    return [
+        [along(i, a) for i, a, _ in f.samples] if f.samples else [along(f.transition, f.alpha)]
+        for f in timeline.frames
+    ]
+
+
+def largest_step(timeline: Timeline, displacement: Displacement) -> float:
+    """The largest displacement in pixels between two consecutive rendered morphs.
+
+    What the paper bounds by ``max_px_per_frame``. Without blur, a frame pair
+    inside one transition moves ``D * (alpha_2 - alpha_1)`` and a pair across a
+    boundary the rest of the first transition plus the start of the next
+    one(s); a blurred frame's morphs (:attr:`FrameSample.samples`) are steps of
+    their own, and so is the step from one frame's last morph to the next
+    frame's first.
+    """
+    flat = [x for frame in _morph_positions(timeline, displacement) for x in frame]
+    return float(np.max(np.diff(flat))) if len(flat) > 1 else 0.0
+
+
+def largest_frame_motion(timeline: Timeline, displacement: Displacement) -> float:
+    """The largest distance in pixels between the middles of two consecutive frames.
+
+    How fast the mouth moves, in pixels per frame: for a point-sampled
+    timeline it is :func:`largest_step`; for a blurred one it is how far the
+    motion goes from one frame to the next (each frame's weighted mean
+    position), which blurring leaves as it is and lengthening shrinks.
+    """
+    along = _along(timeline, displacement)
+    middle = [
+        sum(w * along(i, a) for i, a, w in f.samples) if f.samples else along(f.transition, f.alpha)
+        for f in timeline.frames
+    ]
+    return float(np.max(np.diff(middle))) if len(middle) > 1 else 0.0
+
+
+# ---------------------------------------------------------------------------
+# the paper's oversampling
+# ---------------------------------------------------------------------------
 
 #: Seconds added to every lengthened transition (see :func:`oversampled_durations`):
 #: more than one sample at 8 kHz, far less than a frame.
@@ -194,6 +426,7 @@ TIME_MARGIN = 2e-4
 def oversampled_durations(
     phones: Sequence[Phone],
     table: VisemeTable,
+    *,
     fps: float,
     displacement: Displacement,
     max_px_per_frame: float,
@@ -217,8 +450,10 @@ def oversampled_durations(
         The new duration of every phone, seconds (unchanged where no transition
         is undersampled).
     """
-    if max_px_per_frame <= 0:
+    if not max_px_per_frame > 0:
         raise MiketalkError(f"max_px_per_frame must be positive, not {max_px_per_frame}")
+    if not fps > 0:
+        raise MiketalkError(f"fps must be positive, not {fps}")
     durations = np.array([p.duration for p in phones], dtype=np.float64)
     keys = keyframes(phones, table)
     pairs = list(pairwise(keys))
@@ -244,6 +479,32 @@ def oversampled_durations(
     return durations
 
 
+def capped_durations(
+    natural: Sequence[float], lengthened: Sequence[float], *, max_slowdown: float | None
+) -> np.ndarray:
+    """``lengthened`` pulled back towards ``natural`` so the total is at most ``max_slowdown``
+    times the natural total.
+
+    Every phone keeps the same fraction ``s`` of its lengthening, ``s`` chosen
+    so that the speech lasts exactly ``max_slowdown`` times its own duration
+    (``s = 1``, all of it, when that is already so; None: no cap).
+    """
+    natural = np.asarray(natural, dtype=np.float64)
+    lengthened = np.asarray(lengthened, dtype=np.float64)
+    if max_slowdown is None:
+        return lengthened
+    budget = (max_slowdown - 1.0) * natural.sum()
+    extra = lengthened.sum() - natural.sum()
+    if extra <= budget:
+        return lengthened
+    return natural + (lengthened - natural) * (budget / extra)
+
+
+# ---------------------------------------------------------------------------
+# speech and timeline together
+# ---------------------------------------------------------------------------
+
+
 def synchronize(
     utterance: Utterance,
     table: VisemeTable,
@@ -251,14 +512,16 @@ def synchronize(
     fps: float,
     displacement: Displacement,
     max_px_per_frame: float | None,
+    sampling: Sampling = "blur",
+    max_slowdown: float | None = None,
     backend: SpeechBackend | None = None,
 ) -> tuple[Utterance, Timeline]:
-    """Plan the video for ``utterance``, oversampling and re-synthesizing if needed.
+    """Plan the video for ``utterance``, sampling fast transitions as ``sampling`` says.
 
     Parameters
     ----------
     utterance : Utterance
-        Festival's audio and phones.
+        The engine's audio and phones.
     table : VisemeTable
         Phone -> viseme map.
     fps : float
@@ -266,7 +529,13 @@ def synchronize(
     displacement : callable
         ``displacement(a, b)``: largest flow displacement of transition a -> b, px.
     max_px_per_frame : float or None
-        Oversampling threshold (paper: 2.5-3.0 px); None turns oversampling off.
+        The largest step between consecutive morphs (paper: 2.5-3.0 px); None
+        sets no limit (as ``sampling="none"``).
+    sampling : {"blur", "paper", "none"}
+        See the module docstring.
+    max_slowdown : float, optional
+        With ``sampling="paper"``: the speech may become at most this many
+        times longer (None: as long as the limit needs).
     backend : SpeechBackend, optional
         Re-synthesizes the audio with the lengthened phones; required when a
         phone has to be lengthened.
@@ -277,13 +546,14 @@ def synchronize(
         The (possibly re-synthesized) utterance and its timeline; the video has
         ``round(duration * fps)`` frames, ending with the audio within a frame.
     """
-    retime = _retimer(table, fps, displacement, max_px_per_frame)
+    retime = _retimer(table, fps, displacement, max_px_per_frame, sampling, max_slowdown)
     durations = retime(utterance.phones)
     if durations is not None:
         if backend is None:
             raise MiketalkError("oversampling lengthens phones but no speech back-end given")
         utterance = backend.resynthesize(utterance, durations)
-    return utterance, plan(utterance.phones, table, fps, utterance.duration)
+    timeline = plan(utterance.phones, table, fps=fps, duration=utterance.duration)
+    return utterance, _blurred(timeline, displacement, max_px_per_frame, sampling)
 
 
 def speak_in_sync(
@@ -293,14 +563,16 @@ def speak_in_sync(
     fps: float,
     displacement: Displacement,
     max_px_per_frame: float | None,
+    sampling: Sampling = "blur",
+    max_slowdown: float | None = None,
     on_planned: Callable[[tuple[Phone, ...]], object] | None = None,
 ) -> tuple[Utterance, Timeline]:
-    """Finish a started synthesis and plan its video, oversampling where transitions move too fast.
+    """Finish a started synthesis and plan its video, sampling as ``sampling`` says.
 
     ``speech`` is ``backend.start(text)``. The same result as
-    ``synchronize(backend.synthesize(text), ...)``, but the lengthened
-    durations are dictated to the engine before it makes the wave
-    (:meth:`PendingSpeech.finish`): one run of the engine, not two.
+    ``synchronize(backend.synthesize(text), ...)``, but lengthened durations
+    (``sampling="paper"``) are dictated to the engine before it makes the
+    wave (:meth:`PendingSpeech.finish`): one run of the engine, not two.
 
     Parameters
     ----------
@@ -308,12 +580,14 @@ def speak_in_sync(
         Called with the phones the engine predicted, before any retiming
         (what ``synchronize`` gets as ``utterance.phones``).
 
+    Other parameters are those of :func:`synchronize`.
+
     Returns
     -------
     (Utterance, Timeline)
         The utterance as spoken and the timeline of its frames.
     """
-    retimer = _retimer(table, fps, displacement, max_px_per_frame)
+    retimer = _retimer(table, fps, displacement, max_px_per_frame, sampling, max_slowdown)
 
     def retime(phones: Sequence[Phone]) -> np.ndarray | None:
         if on_planned is not None:
@@ -321,19 +595,43 @@ def speak_in_sync(
         return retimer(phones)
 
     utterance = speech.finish(retime)
-    return utterance, plan(utterance.phones, table, fps, utterance.duration)
+    timeline = plan(utterance.phones, table, fps=fps, duration=utterance.duration)
+    return utterance, _blurred(timeline, displacement, max_px_per_frame, sampling)
+
+
+def _blurred(
+    timeline: Timeline, displacement: Displacement, max_px: float | None, sampling: Sampling
+) -> Timeline:
+    if max_px is None or sampling == "none":
+        return timeline
+    return motion_blur(timeline, displacement=displacement, max_px_per_frame=max_px)
 
 
 def _retimer(
-    table: VisemeTable, fps: float, displacement: Displacement, max_px_per_frame: float | None
+    table: VisemeTable,
+    fps: float,
+    displacement: Displacement,
+    max_px_per_frame: float | None,
+    sampling: Sampling,
+    max_slowdown: float | None,
 ) -> Callable[[Sequence[Phone]], np.ndarray | None]:
-    """phones -> oversampled durations, or None where oversampling changes nothing."""
+    """phones -> oversampled durations, or None where nothing is lengthened."""
+    check_sampling(sampling)
+    max_slowdown = check_max_slowdown(max_slowdown)
+    if max_slowdown is not None and sampling != "paper":
+        raise MiketalkError(
+            "max_slowdown caps the lengthening of sampling='paper'; "
+            f"sampling={sampling!r} keeps the speech's own duration"
+        )
 
     def retime(phones: Sequence[Phone]) -> np.ndarray | None:
-        if max_px_per_frame is None:
+        if max_px_per_frame is None or sampling != "paper":
             return None
         old = np.array([p.duration for p in phones])
-        new = oversampled_durations(phones, table, fps, displacement, max_px_per_frame)
+        new = oversampled_durations(
+            phones, table, fps=fps, displacement=displacement, max_px_per_frame=max_px_per_frame
+        )
+        new = capped_durations(old, new, max_slowdown=max_slowdown)
         return None if np.allclose(new, old, rtol=0, atol=1e-6) else new
 
     return retime

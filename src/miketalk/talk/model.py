@@ -7,9 +7,16 @@ Layout of a model directory::
     visemes/<slug>.png   one image per viseme (RGB)
     flows/               the flow database (:class:`miketalk.flow.FlowDatabase`)
 
-The manifest is validated when the model is opened (every image present and of
-the declared size, every flow file present); flows are read lazily, each file
-checked as it is read, and morphers for recently used transitions are cached.
+The manifest is validated when the model is opened: strict JSON (no NaN), the
+structure of ``data/model_manifest.schema.json`` (JSON Schema), every viseme
+with an image and every ordered pair with a displacement, image paths inside
+the model directory, every image present and of the declared size, every flow
+file present. Flows are read lazily, each file checked as it is read (an error
+names the file), and morphers for recently used transitions are cached.
+
+A timeline frame with several samples (motion blur,
+:func:`miketalk.talk.lipsync.motion_blur`) is rendered as the weighted average
+of its morphs.
 """
 
 from __future__ import annotations
@@ -17,13 +24,17 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from collections import OrderedDict
-from collections.abc import Iterable, Iterator
+import threading
+from collections import OrderedDict, deque
+from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+from functools import cache
+from importlib import resources
 from itertools import combinations
-from pathlib import Path
-from typing import TYPE_CHECKING
+from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING, Any
 
+import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
@@ -31,13 +42,17 @@ from miketalk.flow import FlowDatabase
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
 from miketalk.morph import Morpher
-from miketalk.talk.lipsync import Timeline
+from miketalk.talk.lipsync import FrameSample, Timeline
 from miketalk.visemes import viseme_slug
 
 if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
     import pandas as pd
 
 FORMAT = "miketalk-model/1"
+
+#: Threads :meth:`Model.render` draws frames in (the machine's cores, at most 2: the
+#: third core's worth of work, encoding the video, runs in ffmpeg beside them).
+RENDER_WORKERS = max(1, min(2, os.cpu_count() or 1))
 
 
 class Model:
@@ -69,21 +84,13 @@ class Model:
     ) -> None:
         self.directory = Path(directory)
         self.morph_options = dict(morph_options or {})
-        path = self.directory / "manifest.json"
-        if not path.exists():
-            raise MiketalkError(f"no model at {self.directory} (missing manifest.json)")
-        try:
-            manifest = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as err:
-            raise MiketalkError(f"cannot read model manifest {path}: {err}") from err
-        if manifest.get("format") != FORMAT:
-            raise MiketalkError(f"{path} is not a {FORMAT} manifest")
+        manifest = read_manifest(self.directory)
         self.manifest = manifest
         self.visemes: tuple[str, ...] = tuple(manifest["visemes"])
         self.size: tuple[int, int] = tuple(manifest["size"])  # (H, W)
         self._images: dict[str, np.ndarray] = {}
         for viseme in self.visemes:
-            image = read_image(self.directory / manifest["images"][viseme])
+            image = read_image(inside(self.directory, manifest["images"][viseme], "image"))
             if image.shape[:2] != self.size:
                 raise MiketalkError(
                     f"viseme image {manifest['images'][viseme]} is {image.shape[1]}x"
@@ -95,12 +102,28 @@ class Model:
         self._displacement = {
             tuple(k.split("|")): float(v) for k, v in manifest["max_displacement"].items()
         }
-        self._morphers: OrderedDict[tuple[str, str], Morpher] = OrderedDict()
+        # each thread has its own morphers (a Morpher reuses its work buffers)
+        self._local = threading.local()
         self._cache_size = cache_size
         # every flow file is read by this one thread (FlowDatabase is not
         # thread-safe), ahead of the render when prefetch() is told what comes
         self._reader = ThreadPoolExecutor(1, thread_name_prefix="miketalk-flows")
         self._reads: dict[tuple[str, str], Future] = {}
+        self._lock = threading.Lock()
+
+    def close(self) -> None:
+        """Wait for the flow reads under way and stop the reading thread (idempotent).
+
+        The model reads no more flows after this; images, displacements and
+        the morphers already made still work.
+        """
+        self._reader.shutdown(wait=True, cancel_futures=True)
+
+    def __enter__(self) -> Model:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def image(self, viseme: str) -> np.ndarray:
         """The viseme's image, (H, W, 3) uint8."""
@@ -113,18 +136,44 @@ class Model:
         self._check(b)
         return 0.0 if a == b else self._displacement[(a, b)]
 
+    @property
+    def _morphers(self) -> OrderedDict[tuple[str, str], Morpher]:
+        """This thread's morphers, least recently used first."""
+        cache = getattr(self._local, "morphers", None)
+        if cache is None:
+            cache = self._local.morphers = OrderedDict()
+        return cache
+
     def morpher(self, a: str, b: str) -> Morpher:
-        """A morpher for transition a -> b (cached)."""
+        """A morpher for transition a -> b (cached; each thread has its own)."""
         key = (a, b)
-        if key in self._morphers:
-            self._morphers.move_to_end(key)
-            return self._morphers[key]
-        forward, backward = self._read(a, b).result()
-        self._reads.pop(key, None)
-        morpher = Morpher(self.image(a), self.image(b), forward, backward, **self.morph_options)
-        self._morphers[key] = morpher
-        if len(self._morphers) > self._cache_size:
-            self._morphers.popitem(last=False)
+        morphers = self._morphers
+        if key in morphers:
+            morphers.move_to_end(key)
+            return morphers[key]
+        try:
+            forward, backward = self._read(a, b).result()
+            for flow in (forward, backward):
+                if flow.shape[:2] != self.size:
+                    raise MiketalkError(
+                        f"flow file {self.flows.path_for(a, b)} holds flows of "
+                        f"{flow.shape[1]}x{flow.shape[0]} pixels, but the model's images are "
+                        f"{self.size[1]}x{self.size[0]}: it belongs to another model"
+                    )
+            morpher = Morpher(self.image(a), self.image(b), forward, backward, **self.morph_options)
+        except MiketalkError as err:
+            path = self.flows.path_for(a, b)
+            if path.name in str(err):
+                raise
+            raise MiketalkError(
+                f"flow file {path} ({a} -> {b}) does not fit the model: {err}"
+            ) from None
+        finally:
+            with self._lock:
+                self._reads.pop(key, None)
+        morphers[key] = morpher
+        if len(morphers) > self._cache_size:
+            morphers.popitem(last=False)
         return morpher
 
     def prefetch(self, transitions: Iterable[tuple[str, str]]) -> None:
@@ -139,13 +188,14 @@ class Model:
 
     def _read(self, a: str, b: str) -> Future:
         key = (a, b)
-        if key not in self._reads:
-            self._check(a)
-            self._check(b)
-            self._reads[key] = self._reader.submit(
-                lambda: (self.flows.flow(a, b), self.flows.flow(b, a))
-            )
-        return self._reads[key]
+        with self._lock:
+            if key not in self._reads:
+                self._check(a)
+                self._check(b)
+                self._reads[key] = self._reader.submit(
+                    lambda: (self.flows.flow(a, b), self.flows.flow(b, a))
+                )
+            return self._reads[key]
 
     def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
         """The morph from viseme a to b at ``alpha``."""
@@ -155,26 +205,158 @@ class Model:
             return self.image(b)
         return self.morpher(a, b).frame(alpha)
 
-    def render(self, timeline: Timeline, *, lookahead: int = 8) -> Iterator[np.ndarray]:
-        """The frames of a timeline, in order.
+    def exposure(
+        self, timeline: Timeline, samples: Sequence[tuple[int, float, float]]
+    ) -> np.ndarray:
+        """A motion-blurred frame: the average of the morphs ``(transition, alpha, weight)``.
+
+        The weights sum to 1; the sum is accumulated in float32 in the order
+        given (so the same samples give the same bytes) and rounded.
+        """
+        total = np.zeros((*self.size, 3), np.float32)
+        for i, alpha, weight in samples:
+            t = timeline.transitions[i]
+            image = self.frame(t.source, t.target, alpha)
+            cv2.addWeighted(image, weight, total, 1.0, 0.0, dst=total, dtype=cv2.CV_32F)
+        return np.clip(np.rint(total), 0, 255).astype(np.uint8)
+
+    def draw(self, timeline: Timeline, sample: FrameSample) -> np.ndarray:
+        """One frame of ``timeline``: its one morph, or the :meth:`exposure` of its samples."""
+        if sample.samples:
+            return self.exposure(timeline, sample.samples)
+        t = timeline.transitions[sample.transition]
+        return self.frame(t.source, t.target, sample.alpha)
+
+    def render(
+        self, timeline: Timeline, *, lookahead: int = 8, workers: int | None = None
+    ) -> Iterator[np.ndarray]:
+        """The frames of a timeline, in order (:meth:`draw`).
 
         The flows of the next ``lookahead`` transitions are read in a thread
-        while the current one is drawn.
+        while the current one is drawn, and ``workers`` threads draw frames
+        side by side (the morph kernel runs without the GIL). The frames do not
+        depend on the number of workers.
+
+        Parameters
+        ----------
+        timeline : Timeline
+            What to draw.
+        lookahead : int
+            Transitions whose flows are read ahead.
+        workers : int, optional
+            Threads drawing frames (default :data:`RENDER_WORKERS`; 1 draws in
+            the calling thread).
         """
+        workers = RENDER_WORKERS if workers is None else max(1, int(workers))
         pairs = [(t.source, t.target) for t in timeline.transitions]
         ahead = 0
-        for sample in timeline.frames:
-            if sample.transition >= ahead - lookahead // 2:
-                ahead = min(len(pairs), sample.transition + lookahead)
+
+        def read_ahead(sample: FrameSample) -> None:
+            nonlocal ahead
+            last = sample.samples[-1][0] if sample.samples else sample.transition
+            if last >= ahead - lookahead // 2:
+                ahead = min(len(pairs), last + lookahead)
                 self.prefetch(pairs[sample.transition : ahead])
-            t = timeline.transitions[sample.transition]
-            yield self.frame(t.source, t.target, sample.alpha)
+
+        if workers == 1:
+            for sample in timeline.frames:
+                read_ahead(sample)
+                yield self.draw(timeline, sample)
+            return
+        pending: deque[Future] = deque()
+        with ThreadPoolExecutor(workers, thread_name_prefix="miketalk-render") as pool:
+            try:
+                for sample in timeline.frames:
+                    read_ahead(sample)
+                    pending.append(pool.submit(self.draw, timeline, sample))
+                    if len(pending) > 2 * workers:
+                        yield pending.popleft().result()
+                while pending:
+                    yield pending.popleft().result()
+            finally:
+                for future in pending:
+                    future.cancel()
 
     def _check(self, viseme: str) -> None:
         if viseme not in self._images:
             raise MiketalkError(
                 f"the model has no viseme {viseme!r} (it has {' '.join(self.visemes)})"
             )
+
+
+@cache
+def _manifest_validator() -> Any:
+    import jsonschema  # here: only opening a model needs it
+
+    schema = json.loads(
+        resources.files("miketalk").joinpath("data/model_manifest.schema.json").read_text()
+    )
+    return jsonschema.Draft202012Validator(schema)
+
+
+def _no_constants(name: str) -> float:
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def strict_json(text: str) -> Any:
+    """``json.loads`` that refuses ``NaN``, ``Infinity`` and ``-Infinity`` (not JSON)."""
+    return json.loads(text, parse_constant=_no_constants)
+
+
+def read_manifest(directory: str | os.PathLike[str]) -> dict:
+    """The checked manifest of the model in ``directory`` (see the module docstring).
+
+    Raises
+    ------
+    MiketalkError
+        Naming the manifest and what is wrong with it.
+    """
+    path = Path(directory) / "manifest.json"
+    if not path.is_file():
+        raise MiketalkError(f"no model at {directory} (missing manifest.json)")
+    try:
+        manifest = strict_json(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise MiketalkError(f"cannot read model manifest {path}: {err}") from None
+    if isinstance(manifest, dict) and manifest.get("format") != FORMAT:
+        raise MiketalkError(
+            f"{path} is not a {FORMAT} manifest (its format is {manifest.get('format')!r})"
+        )
+    errors = sorted(_manifest_validator().iter_errors(manifest), key=lambda e: list(e.path))
+    if errors:
+        error = errors[0]
+        where = "/".join(str(p) for p in error.absolute_path) or "the top level"
+        raise MiketalkError(f"{path} is not a {FORMAT} manifest: at {where}, {error.message}")
+    visemes = manifest["visemes"]
+    lacking = [v for v in visemes if v not in manifest["images"]]
+    if lacking:
+        raise MiketalkError(f"{path}: no image for viseme(s) {', '.join(lacking)}")
+    pairs = [f"{a}|{b}" for a in visemes for b in visemes if a != b]
+    missing = [p for p in pairs if p not in manifest["max_displacement"]]
+    if missing:
+        raise MiketalkError(
+            f"{path}: max_displacement lacks {len(missing)} pair(s), e.g. {missing[0]!r}"
+        )
+    for viseme in visemes:
+        inside(directory, manifest["images"][viseme], f"the image of viseme {viseme!r}")
+    return manifest
+
+
+def inside(directory: str | os.PathLike[str], relative: str, what: str) -> Path:
+    """``directory / relative``, for a path that stays inside ``directory``.
+
+    Raises
+    ------
+    MiketalkError
+        For an absolute path, a drive, a backslash, or a ``..`` component.
+    """
+    posix = PurePosixPath(relative)
+    if posix.is_absolute() or ".." in posix.parts or "\\" in relative or ":" in relative:
+        raise MiketalkError(
+            f"{what}, {relative!r}, is outside the model directory {directory}: a manifest "
+            "names files by paths relative to its directory, inside it"
+        )
+    return Path(directory) / posix
 
 
 def check_complete(flows: FlowDatabase, visemes: tuple[str, ...] | list[str]) -> None:

@@ -7,9 +7,11 @@ The phones are placed in the recording by
 :func:`miketalk.corpus.forced_align.align_phones` and the video follows them
 (paper §7: one keyframe per phone, the morph rate from the phone timing).
 
-The audio is fixed, so oversampling (which lengthens phones and speaks them
-again) cannot apply: the largest per-frame step is measured and reported
-instead, in the JSON beside the mp4 and in the return value.
+The audio is fixed, so the paper's oversampling (which lengthens phones and
+speaks them again) cannot apply; motion blur (the default sampling,
+:func:`miketalk.talk.lipsync.motion_blur`) keeps the steps between morphs
+under ``max_px_per_frame`` at the recording's own speed. The measures of the
+motion are in the JSON beside the mp4 and in the return value.
 """
 
 from __future__ import annotations
@@ -17,13 +19,18 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk.talk.lipsync import Timeline, largest_step, plan
+from miketalk.speech.types import Phone
+from miketalk.talk.lipsync import Sampling, Timeline, motion_blur, plan
 from miketalk.talk.model import Model
+from miketalk.talk.motion import Motion
 from miketalk.visemes import VisemeTable, default_table
+
+if TYPE_CHECKING:
+    import numpy as np
 
 #: Rate the recording is decoded at (the aligner's).
 RATE = 16000
@@ -33,12 +40,40 @@ _TOKEN = re.compile(r"[a-z0-9']+(?:[.\-][a-z0-9']+)*")
 
 @dataclass(frozen=True)
 class RecordedSpeech:
-    """What :func:`say_recorded` made: the words, the timeline, and the largest step."""
+    """What :func:`say_recorded` made: the words, the timeline, and the measures of its motion."""
 
     words: tuple[str, ...]
     timeline: Timeline
     largest_step_px: float
     audio_seconds: float
+    motion: Motion
+
+
+@dataclass(frozen=True)
+class Aligned:
+    """A recording with its phones placed by forced alignment.
+
+    Attributes
+    ----------
+    words : tuple of str
+        What is said, lower case.
+    phones : tuple of Phone
+        The timed phones, covering the recording.
+    samples : numpy.ndarray
+        The recording, mono int16 at :data:`RATE`.
+    rate : int
+        :data:`RATE`.
+    """
+
+    words: tuple[str, ...]
+    phones: tuple[Phone, ...]
+    samples: np.ndarray
+    rate: int
+
+    @property
+    def duration(self) -> float:
+        """Seconds of sound."""
+        return len(self.samples) / self.rate
 
 
 def transcript_words(text: str) -> list[str]:
@@ -55,54 +90,35 @@ def transcript_words(text: str) -> list[str]:
     return words
 
 
-def say_recorded(
+def align_recording(
     audio: str | os.PathLike[str],
-    output: str | os.PathLike[str],
     *,
-    model: Model,
     text: str | None = None,
     timings: str | os.PathLike[str] | None = None,
-    fps: float = defaults.FPS,
-    table: VisemeTable | None = None,
-    progress: bool = False,
-) -> RecordedSpeech:
-    """Make the model's face speak a recording: an mp4 at ``output``, its timeline JSON beside it.
+) -> Aligned:
+    """The phones of a recording, placed by forced alignment of what it says.
 
     Parameters
     ----------
     audio : path-like
         The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
-    output : path-like
-        The ``.mp4`` to write (atomically: nothing is left there on failure).
-    model : Model
-        The face.
     text : str, optional
         What is said. Needed unless ``timings`` is given.
     timings : path-like, optional
         Word timings of the recording (``.align`` or ``.TextGrid``); the phones
         then stay inside their words. With ``text`` as well, both must name the
         same words.
-    fps : float
-        Frame rate of the video.
-    table : VisemeTable, optional
-        Phone -> viseme (default: the paper's).
-    progress : bool
-        Draw a progress bar on stderr.
 
     Raises
     ------
     MiketalkError
-        A bad output name, a recording without sound, no words, words that do
-        not match the timings, a word the aligner cannot place.
+        No text and no timings, words that do not match the timings, a
+        recording without sound, a word the aligner cannot place.
     """
     from miketalk.corpus.forced_align import align_phones
     from miketalk.corpus.media_audio import read_media_audio
     from miketalk.corpus.word_timings import read_word_timings
-    from miketalk.talk.say import write_utterance
 
-    output = Path(output)
-    if output.suffix.lower() != ".mp4":
-        raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
     if text is None and timings is None:
         raise MiketalkError("say what the recording says: give its text or its word timings")
     given = read_word_timings(timings) if timings is not None else None
@@ -116,21 +132,88 @@ def say_recorded(
     if len(samples) == 0 or not abs(samples.astype(int)).max() > 0:
         raise MiketalkError(f"{audio} has no sound")
     phones = align_phones(samples, RATE, words, word_timings=given)
-    duration = len(samples) / RATE
-    timeline = plan(phones, table or default_table(), fps, duration)
-    step = largest_step(timeline, model.displacement)
-    write_utterance(
+    return Aligned(tuple(words), tuple(phones), samples, RATE)
+
+
+def say_recorded(
+    audio: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    *,
+    model: Model,
+    text: str | None = None,
+    timings: str | os.PathLike[str] | None = None,
+    fps: float = defaults.FPS,
+    max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
+    sampling: Sampling = "blur",
+    table: VisemeTable | None = None,
+    progress: bool = False,
+    overwrite: bool = False,
+) -> RecordedSpeech:
+    """Make the model's face speak a recording: an mp4 at ``output``, its timeline JSON beside it.
+
+    Parameters
+    ----------
+    audio : path-like
+        The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
+    output : path-like
+        The ``.mp4`` to write (with its JSON, together or not at all; see
+        :mod:`miketalk.talk.say`).
+    model : Model
+        The face.
+    text, timings
+        What is said (see :func:`align_recording`).
+    fps : float
+        Frame rate of the video.
+    max_px_per_frame : float or None
+        The largest step between consecutive morphs (None: no limit).
+    sampling : {"blur", "none"}
+        ``"blur"`` renders more morphs than frames where the mouth moves fast;
+        ``"paper"`` is refused (a recording cannot be lengthened).
+    table : VisemeTable, optional
+        Phone -> viseme (default: the paper's).
+    progress : bool
+        Draw a progress bar on stderr.
+    overwrite : bool
+        Replace a ``NAME.json`` that is not a miketalk timeline.
+
+    Raises
+    ------
+    MiketalkError
+        A bad setting or output name (before the recording is read), and the
+        errors of :func:`align_recording`.
+    """
+    from miketalk.talk.output import check_output
+    from miketalk.talk.say import write_utterance
+    from miketalk.talk.settings import check_settings
+
+    if sampling == "paper":
+        raise MiketalkError(
+            "sampling 'paper' lengthens the speech, and a recording cannot be lengthened: "
+            "use blur (the default) or none"
+        )
+    check_settings(fps=fps, max_px_per_frame=max_px_per_frame, sampling=sampling, max_slowdown=None)
+    output = check_output(output, overwrite=overwrite)
+    aligned = align_recording(audio, text=text, timings=timings)
+    timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)
+    if max_px_per_frame is not None and sampling == "blur":
+        timeline = motion_blur(
+            timeline, displacement=model.displacement, max_px_per_frame=max_px_per_frame
+        )
+    motion = write_utterance(
         output,
         model=model,
         timeline=timeline,
-        samples=samples,
-        rate=RATE,
+        samples=aligned.samples,
+        rate=aligned.rate,
+        natural_duration=aligned.duration,
         extra={
-            "text": " ".join(words),
+            "text": " ".join(aligned.words),
             "audio": str(audio),
-            "largest_step_px": step,
-            "max_px_per_frame": None,
+            "sampling": sampling if max_px_per_frame is not None else "none",
+            "max_px_per_frame": max_px_per_frame,
+            "max_slowdown": None,
         },
         progress=progress,
+        overwrite=overwrite,
     )
-    return RecordedSpeech(tuple(words), timeline, step, duration)
+    return RecordedSpeech(aligned.words, timeline, motion.largest_step_px, aligned.duration, motion)

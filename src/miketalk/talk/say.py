@@ -1,27 +1,47 @@
-"""Text in, talking-face video out: speech, lip-sync, morphing, mp4."""
+"""Text in, talking-face video out: speech, lip-sync, morphing, mp4.
+
+:func:`say` writes two files: ``NAME.mp4`` and, beside it, ``NAME.json``, the
+timeline of its frames and the measures of its motion
+(:mod:`miketalk.talk.motion`). They are replaced together or not at all
+(:func:`miketalk.media.atomic.atomic_paths`): on any failure, Ctrl-C or
+SIGTERM included, an older pair is left as it was, and a run killed outright
+leaves nothing the next run does not tidy. The output is checked before any
+work (:func:`check_output`), and so are the settings.
+"""
 
 from __future__ import annotations
 
 import json
+import logging
 import os
+import time
+from contextlib import closing
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk.media.atomic import write_text_atomic
+from miketalk.media.atomic import atomic_paths, sweep_beside
 from miketalk.media.video import write_mp4
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone, Utterance
-from miketalk.talk.lipsync import Timeline, largest_step, speak_in_sync
-from miketalk.talk.model import Model
+from miketalk.talk.lipsync import Timeline, speak_in_sync
+from miketalk.talk.model import Model, strict_json
+from miketalk.talk.motion import JerkMeter, Motion, measure
+from miketalk.talk.output import TIMELINE_FORMAT, check_output
+from miketalk.talk.settings import Sampling, check_settings
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
+log = logging.getLogger(__name__)
+
 DEFAULT_MODEL = defaults.model_dir()
+
+#: The default sampling of transitions too fast for ``max_px_per_frame``.
+DEFAULT_SAMPLING: Sampling = "blur"
 
 
 def default_model_dir() -> Path:
@@ -48,6 +68,29 @@ def open_model(directory: str | os.PathLike[str] | None, **options: object) -> M
     return Model(path, **options)
 
 
+@dataclass(frozen=True)
+class Spoken:
+    """What :func:`speak` made.
+
+    Attributes
+    ----------
+    utterance : Utterance
+        The audio as spoken (lengthened if the paper's mode lengthened phones).
+    timeline : Timeline
+        The timeline of the mp4's frames.
+    motion : Motion
+        The measures of its motion.
+    video, timeline_json : Path
+        The two files written.
+    """
+
+    utterance: Utterance
+    timeline: Timeline
+    motion: Motion
+    video: Path
+    timeline_json: Path
+
+
 def say(
     text: str | PendingSpeech,
     output: str | os.PathLike[str],
@@ -55,18 +98,48 @@ def say(
     model: Model,
     fps: float = defaults.FPS,
     max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
+    sampling: Sampling = DEFAULT_SAMPLING,
+    max_slowdown: float | None = None,
     backend: SpeechBackend | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
+    overwrite: bool = False,
 ) -> tuple[Utterance, Timeline]:
     """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
 
-    The video is written atomically: on any failure no mp4 (and no timeline)
-    is left at ``output``. The JSON (``output`` with suffix ``.json``) is
-    :meth:`Timeline.to_dict` plus ``text``, ``largest_step_px``,
-    ``max_px_per_frame``, ``planned_phones`` (the phones the engine predicted
-    before oversampling lengthened them) and ``planned_duration``;
-    :func:`read_said` reads it back.
+    :func:`speak` with the same arguments; returns its utterance and timeline.
+    """
+    spoken = speak(
+        text, output, model=model, fps=fps, max_px_per_frame=max_px_per_frame,
+        sampling=sampling, max_slowdown=max_slowdown, backend=backend, table=table,
+        progress=progress, overwrite=overwrite,
+    )  # fmt: skip
+    return spoken.utterance, spoken.timeline
+
+
+def speak(
+    text: str | PendingSpeech,
+    output: str | os.PathLike[str],
+    *,
+    model: Model,
+    fps: float = defaults.FPS,
+    max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
+    sampling: Sampling = DEFAULT_SAMPLING,
+    max_slowdown: float | None = None,
+    backend: SpeechBackend | None = None,
+    table: VisemeTable | None = None,
+    progress: bool = False,
+    overwrite: bool = False,
+) -> Spoken:
+    """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
+
+    The JSON (``output`` with suffix ``.json``) is :meth:`Timeline.to_dict`
+    plus ``format`` (:data:`TIMELINE_FORMAT`), ``text``, ``sampling``,
+    ``max_px_per_frame``, ``max_slowdown``, ``planned_phones`` (the phones
+    the engine predicted, before the paper's mode lengthened any),
+    ``planned_duration``, ``largest_step_px`` and ``motion``
+    (:class:`~miketalk.talk.motion.Motion`); :func:`read_said` reads it back.
+    It is strict JSON (no NaN).
 
     Parameters
     ----------
@@ -79,57 +152,99 @@ def say(
     model : Model
         The visemes and their flows.
     fps : float
-        Frame rate.
+        Frame rate, in :data:`~miketalk.talk.lipsync.FPS_RANGE`.
     max_px_per_frame : float or None
-        Oversampling limit (None: no oversampling).
+        The largest step between consecutive morphs, in
+        :data:`~miketalk.talk.lipsync.MAX_PX_RANGE`; None: no limit (as
+        ``sampling="none"``).
+    sampling : {"blur", "paper", "none"}
+        How transitions too fast for the limit are sampled
+        (:mod:`miketalk.talk.lipsync`): ``"blur"`` (default) keeps the speech's
+        own duration and renders more morphs than frames, each frame their
+        average; ``"paper"`` lengthens the speech (paper §7); ``"none"``
+        renders one morph per frame.
+    max_slowdown : float, optional
+        With ``sampling="paper"``: the speech may become at most this many
+        times longer than the engine's own timing (what is then still too fast
+        is blurred). None: no cap, as in the paper.
     backend : SpeechBackend, optional
         The engine for a ``str`` text (default Festival).
     table : VisemeTable, optional
         Phone-to-viseme table (default: the paper's).
     progress : bool
         Draw a progress bar on stderr.
+    overwrite : bool
+        Replace a ``NAME.json`` that is not a miketalk timeline.
 
     Returns
     -------
-    (Utterance, Timeline)
-        The audio actually used (re-synthesized if oversampling lengthened
-        phones) and the timeline of the frames.
+    Spoken
+        The audio actually used, the timeline of the frames, the measures of
+        the motion and the files written.
+
+    Raises
+    ------
+    MiketalkError
+        A bad setting or output (before anything runs), nothing speakable, a
+        failing engine or model.
     """
-    if isinstance(text, PendingSpeech):
-        speech = text
-    else:
-        speech = (backend or get_backend("festival")).start(text)
+    started = time.perf_counter()
+    speech: PendingSpeech | None = text if isinstance(text, PendingSpeech) else None
+    try:
+        check_settings(
+            fps=fps, max_px_per_frame=max_px_per_frame, sampling=sampling,
+            max_slowdown=max_slowdown,
+        )  # fmt: skip
+        output = check_output(output, overwrite=overwrite)
+        if speech is None:
+            speech = (backend or get_backend("festival")).start(str(text))
+    except BaseException:
+        if speech is not None:
+            speech.close()
+        raise
     planned: list[tuple[Phone, ...]] = []
     with speech:
-        output = Path(output)
-        if output.suffix.lower() != ".mp4":
-            raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
         utterance, timeline = speak_in_sync(
             speech,
             table or default_table(),
             fps=fps,
             displacement=model.displacement,
             max_px_per_frame=max_px_per_frame,
+            sampling=sampling,
+            max_slowdown=max_slowdown,
             on_planned=planned.append,
         )
-    planned_phones = planned[-1] if planned else utterance.phones
-    write_utterance(
+    # A voice that sets its own durations (HTS) speaks other times than it planned:
+    # unless the paper's mode dictated them, the phones as spoken are the natural ones.
+    lengthened = sampling == "paper" and max_px_per_frame is not None
+    planned_phones = planned[-1] if planned and lengthened else utterance.phones
+    planned_duration = round(planned_phones[-1].end * utterance.rate) / utterance.rate
+    log.info(
+        "speech: %.2f s (%.2f s at its own timing), %d phones; %d frames, %d morphs",
+        utterance.duration, planned_duration, len(utterance.phones), len(timeline.frames),
+        timeline.morph_count,
+    )  # fmt: skip
+    motion = write_utterance(
         output,
         model=model,
         timeline=timeline,
         samples=utterance.samples,
         rate=utterance.rate,
+        natural_duration=planned_duration,
         extra={
             "text": utterance.text,
-            "largest_step_px": largest_step(timeline, model.displacement),
+            "sampling": sampling if max_px_per_frame is not None else "none",
             "max_px_per_frame": max_px_per_frame,
+            "max_slowdown": max_slowdown,
             "planned_phones": [asdict(p) for p in planned_phones],
             # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
-            "planned_duration": round(planned_phones[-1].end * utterance.rate) / utterance.rate,
+            "planned_duration": planned_duration,
         },
         progress=progress,
+        overwrite=overwrite,
     )
-    return utterance, timeline
+    log.info("speak took %.2f s", time.perf_counter() - started)
+    return Spoken(utterance, timeline, motion, output, output.with_suffix(".json"))
 
 
 def write_utterance(
@@ -139,31 +254,60 @@ def write_utterance(
     timeline: Timeline,
     samples: np.ndarray,
     rate: int,
+    natural_duration: float,
     extra: dict,
     progress: bool = False,
-) -> None:
+    overwrite: bool = False,
+) -> Motion:
     """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
 
-    The JSON is :meth:`Timeline.to_dict` plus ``extra``. Both files are written
-    atomically; when the JSON cannot be written the new mp4 is removed, so no
-    mp4 is left without its timeline.
+    The JSON is :meth:`Timeline.to_dict` plus ``format``, ``extra``,
+    ``largest_step_px`` and ``motion``. The two files replace any older pair
+    together or not at all (see the module docstring); what killed runs left
+    beside ``output`` is tidied first.
+
+    Returns
+    -------
+    Motion
+        The measures of the utterance's motion.
     """
+    output = check_output(output, overwrite=overwrite)
+    sweep_beside(output)
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
-    frames = model.render(timeline)
+    started = time.perf_counter()
+    jerk = JerkMeter()
+    rendered = model.render(timeline)
+    frames = jerk.watch(rendered)
     if progress:
         from tqdm import tqdm
 
         frames = tqdm(frames, total=len(timeline.frames), desc="rendering", unit="frame")
-    write_mp4(
-        output, frames, fps=timeline.fps, audio=samples, rate=rate, n_frames=len(timeline.frames)
-    )
-    doc = timeline.to_dict() | extra
-    try:
-        write_text_atomic(output.with_suffix(".json"), json.dumps(doc, indent=1))
-    except BaseException:
-        output.unlink(missing_ok=True)
-        raise
+    json_path = output.with_suffix(".json")
+    with closing(rendered), atomic_paths([output, json_path]) as (video_tmp, json_tmp):
+        write_mp4(
+            video_tmp, frames, fps=timeline.fps, audio=samples, rate=rate,
+            n_frames=len(timeline.frames),
+        )  # fmt: skip
+        motion = measure(timeline, model.displacement, natural_duration=natural_duration, jerk=jerk)
+        doc = (
+            {"format": TIMELINE_FORMAT}
+            | timeline.to_dict()
+            | extra
+            | {"largest_step_px": motion.largest_step_px, "motion": motion.to_dict()}
+        )
+        try:
+            text = json.dumps(doc, indent=1, allow_nan=False)
+        except ValueError as err:
+            raise MiketalkError(
+                f"the timeline of {output} holds a value JSON cannot: {err}"
+            ) from None
+        json_tmp.write_text(text, encoding="utf-8")
+    log.info(
+        "rendered %d frames (%d morphs) and wrote %s in %.2f s",
+        len(timeline.frames), timeline.morph_count, output, time.perf_counter() - started,
+    )  # fmt: skip
+    return motion
 
 
 @dataclass(frozen=True)
@@ -177,11 +321,17 @@ class Said:
     timeline : Timeline
         The timeline of the mp4's frames (``Model.render(timeline)`` made them).
     planned_phones : tuple of Phone
-        The phones the engine predicted, before oversampling lengthened any.
+        The phones at the engine's own timing, before the paper's mode
+        lengthened any.
     planned_duration : float
-        Seconds of audio the predicted phones would have made.
+        Seconds of audio the planned phones make.
     max_px_per_frame : float or None
-        The oversampling limit ``say`` was given.
+        The limit ``say`` was given.
+    sampling : str
+        ``"blur"``, ``"paper"`` or ``"none"`` (``"paper"`` for a JSON from
+        before sampling was recorded, ``"none"`` when there was no limit).
+    max_slowdown : float or None
+        The paper mode's cap on lengthening.
     """
 
     text: str
@@ -189,6 +339,8 @@ class Said:
     planned_phones: tuple[Phone, ...]
     planned_duration: float
     max_px_per_frame: float | None
+    sampling: str = "paper"
+    max_slowdown: float | None = None
 
 
 def read_said(path: str | os.PathLike[str]) -> Said:
@@ -202,11 +354,13 @@ def read_said(path: str | os.PathLike[str]) -> Said:
     """
     path = Path(path)
     try:
-        doc = json.loads(path.read_text())
+        doc = strict_json(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise MiketalkError(f"no timeline at {path}") from None
-    except (OSError, json.JSONDecodeError) as err:
+    except (OSError, UnicodeDecodeError, ValueError) as err:
         raise MiketalkError(f"cannot read the timeline {path}: {err}") from None
+    if not isinstance(doc, dict):
+        raise MiketalkError(f"{path} is not a timeline (not a JSON object)")
     missing = [k for k in ("text", "planned_phones", "planned_duration") if k not in doc]
     if missing:
         raise MiketalkError(f"{path} has no {', '.join(missing)}: make the utterance again")
@@ -218,10 +372,13 @@ def read_said(path: str | os.PathLike[str]) -> Said:
         timeline = Timeline.from_dict(doc)
     except MiketalkError as err:
         raise MiketalkError(f"{path}: {err}") from None
+    max_px = doc.get("max_px_per_frame")
     return Said(
         text=doc["text"],
         timeline=timeline,
         planned_phones=planned,
         planned_duration=doc["planned_duration"],
-        max_px_per_frame=doc.get("max_px_per_frame"),
+        max_px_per_frame=max_px,
+        sampling=doc.get("sampling", "paper" if max_px is not None else "none"),
+        max_slowdown=doc.get("max_slowdown"),
     )
