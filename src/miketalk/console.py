@@ -1,0 +1,150 @@
+"""What the command line needs around its work: clean standard streams and signals.
+
+``stdout`` carries the result only (``miketalk phones --json | jq`` must parse).
+Libraries print behind the command's back: OpenEXR's Python module writes
+``Warning: ...`` lines on ``sys.stdout`` and its C library error details on
+descriptor 2, OpenCV and libpng on descriptor 2. :func:`native_output_logged`
+points descriptors 1 and 2 at a pipe for the duration of a command (so
+``sys.stdout``, which writes on descriptor 1, goes there too), gives
+``sys.stderr`` the real stderr, hands the command the real stdout for its
+result, and turns every line that comes through the pipe into a warning of
+the ``miketalk.native`` logger (on stderr).
+
+:func:`handle_termination` makes SIGTERM and SIGHUP behave like Ctrl-C: they
+raise :class:`Terminated` (a :class:`KeyboardInterrupt`), so every clean-up
+that runs on Ctrl-C (the Festival run, the scratch directories, temporary
+files) runs on them too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import io
+import logging
+import os
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from types import FrameType
+from typing import TextIO
+
+native_log = logging.getLogger("miketalk.native")
+
+
+class Terminated(KeyboardInterrupt):
+    """The process was asked to stop by a signal (SIGTERM, SIGHUP); ``signum`` says which."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def handle_termination() -> Iterator[None]:
+    """Raise :class:`Terminated` on SIGTERM and SIGHUP while the body runs (main thread only).
+
+    A second signal while the first one's clean-up runs is ignored, so the
+    clean-up is not itself cut short.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    names = ("SIGTERM", "SIGHUP")
+    numbers = [getattr(signal, n) for n in names if hasattr(signal, n)]
+    fired = []
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        if fired:
+            return
+        fired.append(signum)
+        raise Terminated(signum)
+
+    old = {n: signal.signal(n, handler) for n in numbers}
+    try:
+        yield
+    finally:
+        for n, previous in old.items():
+            signal.signal(n, previous)
+
+
+def _real_fileno(stream: object) -> int | None:
+    try:
+        return stream.fileno()  # type: ignore[attr-defined]
+    except (AttributeError, OSError, ValueError, io.UnsupportedOperation):
+        return None
+
+
+@contextlib.contextmanager
+def native_output_logged() -> Iterator[TextIO]:
+    """Route what libraries print on stdout and stderr to logging (see the module docstring).
+
+    Yields
+    ------
+    TextIO
+        The real stdout: where the command writes its result. Logging and
+        ``sys.stderr`` keep writing to the real stderr. When ``sys.stdout`` or
+        ``sys.stderr`` is not a real file (a test capturing them), nothing is
+        redirected and ``sys.stdout`` is yielded.
+    """
+    out_fd, err_fd = _real_fileno(sys.stdout), _real_fileno(sys.stderr)
+    if out_fd != 1 or err_fd != 2:
+        yield sys.stdout
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    keep_out, keep_err = os.dup(1), os.dup(2)
+    read_end, write_end = os.pipe()
+    os.dup2(write_end, 1)
+    os.dup2(write_end, 2)
+    os.close(write_end)
+    old_out, old_err = sys.stdout, sys.stderr
+    result = io.TextIOWrapper(
+        io.FileIO(keep_out, "w", closefd=False),
+        encoding=old_out.encoding or "utf-8",
+        line_buffering=True,
+    )
+    sys.stderr = io.TextIOWrapper(
+        io.FileIO(keep_err, "w", closefd=False),
+        encoding=old_err.encoding or "utf-8",
+        errors="backslashreplace",
+        line_buffering=True,
+    )
+    handlers = [h for h in logging.getLogger().handlers if isinstance(h, logging.StreamHandler)]
+    retarget = [h for h in handlers if getattr(h, "stream", None) is old_err]
+    for h in retarget:
+        h.setStream(sys.stderr)
+    reader = threading.Thread(target=_relay, args=(read_end,), name="miketalk-native", daemon=True)
+    reader.start()
+    try:
+        yield result
+    finally:
+        with contextlib.suppress(Exception):
+            result.flush()
+            sys.stdout.flush()
+            sys.stderr.flush()
+        _flush_c_stdio()  # what native code left in the C library's buffers goes to the pipe
+        os.dup2(keep_out, 1)
+        os.dup2(keep_err, 2)
+        reader.join(timeout=2.0)
+        for h in retarget:
+            h.setStream(old_err)
+        sys.stderr = old_err
+        os.close(keep_out)
+        os.close(keep_err)
+
+
+def _flush_c_stdio() -> None:
+    """``fflush(NULL)``: the C library's stdout buffer (where C++'s ``std::cout`` writes)."""
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None).fflush(None)
+
+
+def _relay(fd: int) -> None:
+    """Log each line read from ``fd`` until its end (the thread of native_output_logged)."""
+    with open(fd, "rb") as pipe:
+        for raw in pipe:
+            line = raw.decode("utf-8", "replace").rstrip()
+            if line:
+                native_log.warning("%s", line)
