@@ -20,6 +20,7 @@ include: "workflow/rules/flows.smk"
 include: "workflow/rules/model.smk"
 include: "workflow/rules/utterances.smk"
 include: "workflow/rules/metrics.smk"
+include: "workflow/rules/evaluation.smk"
 include: "workflow/rules/figures.smk"
 
 

@@ -73,9 +73,36 @@ def test_outputs_exist(run: Path) -> None:
         "figures/sync_vs_max_px.png",
         "figures/lipsync_diagram.png",
         "figures/morph_strip.png",
+        "corpus/s1/corpus.mp4",
+        "visemes/s1/contact_sheet.png",
+        "model/s1/manifest.json",
+        "utterances/s1/hello.mp4",
+        "metrics/heldout/s1/summary.csv",
+        "heldout/s1/bbas3a.mp4",
+        "heldout/s1/srau3s.mp4",
     ]:
         assert (results / path).stat().st_size > 0, path
-    assert len(list((results / "visemes/synthetic/images").glob("*.png"))) == 16
+    for face in ("synthetic", "s1"):
+        assert len(list((results / f"visemes/{face}/images").glob("*.png"))) == 16
+
+
+def test_a_real_face_from_four_clips(run: Path) -> None:
+    """s1's model: whole stabilized frames, every class an image (its own or a named fallback)."""
+    import json
+
+    results = run / "results"
+    clips = pd.read_csv(results / "corpus/s1/clips.tsv", sep="\t")
+    assert list(clips["clip"]) == ["bbaf2n", "lgwg2n", "pric4p", "swih9a"]
+    assert clips["frames"].sum() == len(list((results / "corpus/s1/frames").glob("*.png")))
+    visemes = pd.read_csv(results / "visemes/s1/visemes.tsv", sep="\t", keep_default_na=False)
+    manifest = json.loads((results / "model/s1/manifest.json").read_text())
+    assert manifest["size"] == [288, 360]  # the whole frame, not a mouth crop
+    fallbacks = {v: f for v, f in zip(visemes["viseme"], visemes["fallback"], strict=True) if f}
+    assert manifest.get("fallbacks", {}) == fallbacks
+    assert set(visemes["clip"]) <= set(clips["clip"])  # test clips never reach the model
+    summary = pd.read_csv(results / "metrics/heldout/s1/summary.csv")
+    assert set(summary["renderer"]) == {"morph", "still", "flipbook", "dissolve"}
+    assert (summary["clips"] == 2).all()
 
 
 def test_metrics_within_bounds(run: Path) -> None:
@@ -169,9 +196,9 @@ def test_a_persons_video_takes_the_corpus_place(run: Path, tmp_path: Path) -> No
     import yaml
 
     config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
-    config["face"] = "person"
-    config["corpus"]["source"] = "video"
-    config["corpus"]["video"] = str(run / "results/corpus/synthetic/corpus.mp4")
+    words = config["faces"]["synthetic"]["corpus"]["words"]
+    video = str(run / "results/corpus/synthetic/corpus.mp4")
+    config["faces"] = {"person": {"corpus": {"source": "video", "video": video, "words": words}}}
     (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
     snakemake(tmp_path)
     results = tmp_path / "results"

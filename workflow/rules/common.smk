@@ -1,20 +1,85 @@
 # Names, paths and lookups shared by the rules.
 import json
+import re
+from types import SimpleNamespace
+from pathlib import Path
 
 from miketalk import defaults
 from miketalk.flow.strategies import STRATEGIES, get_strategy
 
-FACE = config["face"]
-SYNTHETIC = config["corpus"]["source"] == "synthetic"
-CORPUS = str(defaults.corpus_dir(FACE))
-VISEMES = str(defaults.visemes_dir(FACE))
-FLOWS = str(defaults.flows_dir(FACE))
-MODEL = str(defaults.model_dir(FACE))
-TRUTH = str(defaults.truth_dir(FACE))
+ROOT = Path(workflow.basedir)
+FACES = config["faces"]
+
+
+def source_of(face):
+    return FACES[face]["corpus"]["source"]
+
+
+#: Faces recorded speaking the paper's corpus words (synthetic, or a person's video of them).
+CORPUS_WORD_FACES = [f for f in FACES if source_of(f) in ("synthetic", "video")]
+#: Faces built from clips of ordinary speech.
+CLIP_FACES = [f for f in FACES if source_of(f) == "clips"]
+#: The face every measurement against ground truth uses: the first synthetic one.
+TRUTH_FACE = next((f for f in FACES if source_of(f) == "synthetic"), None)
+#: The face of the figures drawn from a model (the lip-sync diagram, the morph strip).
+FIGURE_FACE = TRUTH_FACE or next(iter(FACES))
+
+# per-face paths: {face} is a wildcard
+CORPUS = str(defaults.corpus_dir("{face}"))
+VISEMES = str(defaults.visemes_dir("{face}"))
+FLOWS = str(defaults.flows_dir("{face}"))
+MODEL = str(defaults.model_dir("{face}"))
+UTTERANCES = str(defaults.RESULTS / "utterances" / "{face}")
+VARIANTS = str(defaults.RESULTS / "model_variants" / "{face}")
 METRICS = str(defaults.metrics_dir())
 FIGURES = str(defaults.figures_dir())
-# an unknown strategy fails here, naming the known ones
-get_strategy(config["flow"]["strategy"])
+# the truth face's paths
+TRUTH = str(defaults.truth_dir(TRUTH_FACE or "none"))
+
+
+def at(path, face):
+    """``path`` with the {face} wildcard filled in."""
+    return path.replace("{face}", face)
+
+
+def one_of(names):
+    """A wildcard constraint matching exactly these names (nothing when there are none)."""
+    return "|".join(re.escape(n) for n in names) or "(?!)"
+
+
+def project_path(path):
+    """A path from the config: relative ones are relative to the project directory."""
+    if path is None:
+        return None
+    return str(path) if Path(path).is_absolute() else str(ROOT / path)
+
+
+def corpus_settings(face):
+    """A face's corpus settings with its paths made absolute (clips: patterns keep {id})."""
+    corpus = dict(FACES[face]["corpus"])
+    for key in ("video", "media", "transcripts", "timings"):
+        corpus[key] = project_path(corpus.get(key))
+    return corpus
+
+
+def model_flow(face):
+    """The flow method and strategy of a face's model."""
+    own = FACES[face].get("flow", {})
+    return (
+        own.get("method", config["flow"]["method"]),
+        own.get("strategy", config["flow"]["strategy"]),
+    )
+
+
+# an unknown method or strategy fails here, naming the known ones
+for _face in FACES:
+    _method, _strategy = model_flow(_face)
+    get_strategy(_strategy)
+    if _method not in config["flow"]["methods"]:
+        raise ValueError(
+            f"faces.{_face}: flow method {_method!r} is not in flow.methods "
+            f"({', '.join(config['flow']['methods'])})"
+        )
 
 
 def sweep_methods():
@@ -52,34 +117,67 @@ def mixed_flows(wildcards):
     refines = STRATEGIES[wildcards.strategy].refines
     if refines is None:
         return {}
-    return {"mixed": f"{FLOWS}/{wildcards.method}/{refines}"}
+    return {"mixed": f"{at(FLOWS, wildcards.face)}/{wildcards.method}/{refines}"}
+
+
+def clip_regions(wildcards):
+    """A clips face's flows are estimated around the mouth (the corpus's regions.json)."""
+    if wildcards.face not in CLIP_FACES:
+        return {}
+    return {"regions": f"{at(CORPUS, wildcards.face)}/regions.json"}
+
+
+def model_flows(wildcards):
+    """The flow database of a face's model."""
+    method, strategy = model_flow(wildcards.face)
+    return f"{at(FLOWS, wildcards.face)}/{method}/{strategy}"
+
+
+def heldout_models(wildcards):
+    """The models a held-out evaluation measures: the face's own and evaluation.models."""
+    face = wildcards.face
+    own = "/".join(model_flow(face))
+    models = {f"model:{own}": at(MODEL, face)}
+    for name in config["evaluation"]["models"]:
+        if name != own:
+            models[f"model:{name}"] = f"{at(VARIANTS, face)}/{name}"
+    return models
+
+
+def heldout_tables():
+    """The held-out summary of every face with test clips."""
+    return [
+        f"{METRICS}/heldout/{face}/summary.csv"
+        for face in CLIP_FACES
+        if FACES[face]["corpus"]["test"]
+    ]
 
 
 def epe_tables():
-    """Per-method, per-strategy EPE tables (configured methods: all strategies)."""
-    if not SYNTHETIC:
+    """Per-method, per-strategy EPE tables of the truth face (configured methods: all strategies)."""
+    if TRUTH_FACE is None:
         return []
     tables = [
-        f"{METRICS}/epe/{FACE}/{m}/{s}.csv"
+        f"{METRICS}/epe/{TRUTH_FACE}/{m}/{s}.csv"
         for m in config["flow"]["methods"]
         for s in STRATEGIES
     ]
-    tables += [f"{METRICS}/epe/{FACE}/{m}/direct.csv" for m in sweep_methods()]
+    tables += [f"{METRICS}/epe/{TRUTH_FACE}/{m}/direct.csv" for m in sweep_methods()]
     return tables
 
 
-#: Each sentence's mp4 and timeline JSON; the sync sweep's under sweep/.
-UTTERANCES = f"results/utterances/{FACE}"
-
-
 def utterance_videos():
-    """The mp4 of every configured sentence."""
-    return [f"{UTTERANCES}/{name}.mp4" for name in config["sentences"]]
+    """The mp4 of every configured sentence, for every face."""
+    return [
+        f"{at(UTTERANCES, face)}/{name}.mp4"
+        for face in FACES
+        for name in config["sentences"]
+    ]
 
 
 def sync_tables():
-    """The sync table of every configured sentence."""
-    return [f"{METRICS}/sync/{FACE}/{name}.csv" for name in config["sentences"]]
+    """The sync table of every configured sentence (truth face)."""
+    return [f"{METRICS}/sync/{TRUTH_FACE}/{name}.csv" for name in config["sentences"]]
 
 
 #: A sweep setting in a path (px{px}_fps{fps}): a plain decimal number.
@@ -97,9 +195,9 @@ def sync_sweep_tables():
     return sorted(
         {
             (
-                f"{METRICS}/sync/{FACE}/{s['sentence']}.csv"
+                f"{METRICS}/sync/{TRUTH_FACE}/{s['sentence']}.csv"
                 if (px, fps) == default
-                else f"{METRICS}/sync_sweep/{FACE}/px{px}_fps{fps}.csv"
+                else f"{METRICS}/sync_sweep/{TRUTH_FACE}/px{px}_fps{fps}.csv"
             )
             for px, fps in points
         }
@@ -107,14 +205,12 @@ def sync_sweep_tables():
 
 
 def all_outputs():
-    out = [
-        f"{VISEMES}/contact_sheet.png",
-        MODEL,
-        *utterance_videos(),
-        f"{FIGURES}/lipsync_diagram.png",
-        f"{FIGURES}/morph_strip.png",
-    ]
-    if SYNTHETIC:
+    out = [f"{at(VISEMES, face)}/contact_sheet.png" for face in FACES]
+    out += [at(MODEL, face) for face in FACES]
+    out += utterance_videos()
+    out += heldout_tables()
+    out += [f"{FIGURES}/lipsync_diagram.png", f"{FIGURES}/morph_strip.png"]
+    if TRUTH_FACE is not None:
         out += [
             f"{METRICS}/flow_epe.csv",
             f"{METRICS}/morph_fidelity.csv",

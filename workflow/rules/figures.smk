@@ -60,7 +60,7 @@ rule figure_sync_sweep:
 
 rule figure_lipsync_diagram:
     input:
-        model_dir=rules.model.output[0],
+        model_dir=at(rules.model.output[0], FIGURE_FACE),
     output:
         report(
             f"{FIGURES}/lipsync_diagram.png",
@@ -82,7 +82,7 @@ rule figure_lipsync_diagram:
 
 rule figure_morph_strip:
     input:
-        model_dir=rules.model.output[0],
+        model_dir=at(rules.model.output[0], FIGURE_FACE),
     output:
         report(
             f"{FIGURES}/morph_strip.png",

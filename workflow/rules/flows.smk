@@ -5,6 +5,7 @@
 rule flows:
     input:
         unpack(mixed_flows),
+        unpack(clip_regions),
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
         frames=rules.corpus.output.frames,
@@ -12,11 +13,12 @@ rule flows:
         flows=directory(f"{FLOWS}/{{method}}/{{strategy}}"),
         choices=f"{FLOWS}/{{method}}/{{strategy}}.tsv",
     log:
-        f"results/logs/flows/{FACE}/{{method}}/{{strategy}}.log",
+        "results/logs/flows/{face}/{method}/{strategy}.log",
     benchmark:
-        f"results/benchmarks/flows/{FACE}/{{method}}/{{strategy}}.tsv"
+        "results/benchmarks/flows/{face}/{method}/{strategy}.tsv"
     wildcard_constraints:
         strategy="|".join(STRATEGIES),
+        face=one_of(FACES),
     conda:
         "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]
@@ -32,34 +34,34 @@ rule flows:
 
 rule true_flows:
     input:
-        visemes=rules.visemes.output.visemes,
-        table=rules.corpus.output.table,
+        visemes=at(rules.visemes.output.visemes, TRUTH_FACE or "none"),
+        table=at(rules.corpus.output.table, TRUTH_FACE or "none"),
     output:
         flows=directory(f"{TRUTH}/flows"),
         mouth=f"{TRUTH}/mouth_mask.png",
     log:
-        f"results/logs/true_flows/{FACE}.log",
+        f"results/logs/true_flows/{TRUTH_FACE}.log",
     benchmark:
-        f"results/benchmarks/true_flows/{FACE}.tsv"
+        f"results/benchmarks/true_flows/{TRUTH_FACE}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:
-        size=config["corpus"]["size"],
+        size=FACES[TRUTH_FACE]["corpus"]["size"] if TRUTH_FACE else None,
     script:
         "../scripts/true_flows.py"
 
 
 rule flow_epe:
     input:
-        flows=f"{FLOWS}/{{method}}/{{strategy}}",
+        flows=f"{at(FLOWS, TRUTH_FACE or 'none')}/{{method}}/{{strategy}}",
         truth=rules.true_flows.output.flows,
         mouth=rules.true_flows.output.mouth,
     output:
-        f"{METRICS}/epe/{FACE}/{{method}}/{{strategy}}.csv",
+        f"{METRICS}/epe/{TRUTH_FACE}/{{method}}/{{strategy}}.csv",
     log:
-        f"results/logs/flow_epe/{FACE}/{{method}}/{{strategy}}.log",
+        f"results/logs/flow_epe/{TRUTH_FACE}/{{method}}/{{strategy}}.log",
     benchmark:
-        f"results/benchmarks/flow_epe/{FACE}/{{method}}/{{strategy}}.tsv"
+        f"results/benchmarks/flow_epe/{TRUTH_FACE}/{{method}}/{{strategy}}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:

@@ -3,12 +3,12 @@
 
 rule morph_fidelity:
     input:
-        visemes=rules.visemes.output.visemes,
-        images=rules.visemes.output.images,
-        flows=rules.model.input.flows,
+        visemes=at(rules.visemes.output.visemes, TRUTH_FACE or "none"),
+        images=at(rules.visemes.output.images, TRUTH_FACE or "none"),
+        flows=model_flows(SimpleNamespace(face=TRUTH_FACE or "none")),
         truth=rules.true_flows.output.flows,
         mouth=rules.true_flows.output.mouth,
-        table=rules.corpus.output.table,
+        table=at(rules.corpus.output.table, TRUTH_FACE or "none"),
     output:
         table=report(
             f"{METRICS}/morph_fidelity.csv",
@@ -17,9 +17,9 @@ rule morph_fidelity:
         ),
         summary=f"{METRICS}/morph_fidelity_summary.csv",
     log:
-        f"results/logs/morph_fidelity/{FACE}.log",
+        f"results/logs/morph_fidelity/{TRUTH_FACE}.log",
     benchmark:
-        f"results/benchmarks/morph_fidelity/{FACE}.tsv"
+        f"results/benchmarks/morph_fidelity/{TRUTH_FACE}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -31,16 +31,16 @@ rule morph_fidelity:
 
 rule sync:
     input:
-        model=rules.model.output[0],
+        model=at(rules.model.output[0], TRUTH_FACE or "none"),
         mouth=rules.true_flows.output.mouth,
-        video=rules.utterance.output.video,
-        timeline=rules.utterance.output.timeline,
+        video=at(rules.utterance.output.video, TRUTH_FACE or "none"),
+        timeline=at(rules.utterance.output.timeline, TRUTH_FACE or "none"),
     output:
-        f"{METRICS}/sync/{FACE}/{{sentence}}.csv",
+        f"{METRICS}/sync/{TRUTH_FACE}/{{sentence}}.csv",
     log:
-        f"results/logs/sync/{FACE}/{{sentence}}.log",
+        f"results/logs/sync/{TRUTH_FACE}/{{sentence}}.log",
     benchmark:
-        f"results/benchmarks/sync/{FACE}/{{sentence}}.tsv"
+        f"results/benchmarks/sync/{TRUTH_FACE}/{{sentence}}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -53,16 +53,16 @@ rule sync:
 
 rule sync_sweep_point:
     input:
-        model=rules.model.output[0],
+        model=at(rules.model.output[0], TRUTH_FACE or "none"),
         mouth=rules.true_flows.output.mouth,
-        video=rules.sweep_utterance.output.video,
-        timeline=rules.sweep_utterance.output.timeline,
+        video=at(rules.sweep_utterance.output.video, TRUTH_FACE or "none"),
+        timeline=at(rules.sweep_utterance.output.timeline, TRUTH_FACE or "none"),
     output:
-        f"{METRICS}/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.csv",
+        f"{METRICS}/sync_sweep/{TRUTH_FACE}/px{{px}}_fps{{fps}}.csv",
     log:
-        f"results/logs/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.log",
+        f"results/logs/sync_sweep/{TRUTH_FACE}/px{{px}}_fps{{fps}}.log",
     benchmark:
-        f"results/benchmarks/sync_sweep/{FACE}/px{{px}}_fps{{fps}}.tsv"
+        f"results/benchmarks/sync_sweep/{TRUTH_FACE}/px{{px}}_fps{{fps}}.tsv"
     conda:
         "../envs/miketalk.yaml"
     params:

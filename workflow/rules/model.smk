@@ -1,19 +1,21 @@
-# The talking-face model: viseme images + the chosen flow database + a manifest.
+# The talking-face model of each face: viseme images + the chosen flow database + a manifest.
 
 
 rule model:
     input:
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
-        flows=f"{FLOWS}/{config['flow']['method']}/{config['flow']['strategy']}",
+        flows=model_flows,
     output:
         directory(MODEL),
     log:
-        f"results/logs/model/{FACE}.log",
+        "results/logs/model/{face}.log",
+    wildcard_constraints:
+        face=one_of(FACES),
     conda:
         "../envs/miketalk.yaml"
     params:
-        spec=method_json(config["flow"]["method"]),
-        strategy=config["flow"]["strategy"],
+        spec=lambda wildcards: method_json(model_flow(wildcards.face)[0]),
+        strategy=lambda wildcards: model_flow(wildcards.face)[1],
     script:
         "../scripts/model.py"

@@ -13,11 +13,12 @@ rule utterance:
         ),
         timeline=f"{UTTERANCES}/{{sentence}}.json",
     log:
-        f"results/logs/utterances/{FACE}/{{sentence}}.log",
+        "results/logs/utterances/{face}/{sentence}.log",
     benchmark:
-        f"results/benchmarks/utterances/{FACE}/{{sentence}}.tsv"
+        "results/benchmarks/utterances/{face}/{sentence}.tsv"
     wildcard_constraints:
         sentence="[^/]+",
+        face=one_of(FACES),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -37,10 +38,11 @@ rule sweep_utterance:
         video=f"{UTTERANCES}/sweep/px{{px}}_fps{{fps}}.mp4",
         timeline=f"{UTTERANCES}/sweep/px{{px}}_fps{{fps}}.json",
     log:
-        f"results/logs/utterances/{FACE}/sweep/px{{px}}_fps{{fps}}.log",
+        "results/logs/utterances/{face}/sweep/px{px}_fps{fps}.log",
     benchmark:
-        f"results/benchmarks/utterances/{FACE}/sweep/px{{px}}_fps{{fps}}.tsv"
+        "results/benchmarks/utterances/{face}/sweep/px{px}_fps{fps}.tsv"
     wildcard_constraints:
+        face=one_of(FACES),
         px=NUMBER,
         fps=NUMBER,
     conda:

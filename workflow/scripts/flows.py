@@ -9,10 +9,12 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
+    from miketalk.corpus.clips import flow_region
     from miketalk.flow.build import build_flow_database
     from miketalk.media.atomic import write_text_atomic
 
     spec = json.loads(snakemake.params.spec)
+    regions = snakemake.input.get("regions")  # a face from clips: flows around the mouth only
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
     choices = build_flow_database(
         snakemake.output.flows,
@@ -24,6 +26,7 @@ def main() -> None:
         strategy=snakemake.wildcards.strategy,
         window=snakemake.params.window,
         mixed=snakemake.input.get("mixed"),
+        region=flow_region(Path(regions).parent) if regions else None,
         workers=snakemake.threads,
     )
     write_text_atomic(snakemake.output.choices, choices.to_csv(sep="\t", index=False))

@@ -166,6 +166,10 @@ def clip_sources(
         For a pattern without ``{id}``, an id the table lacks, a repeated id,
         or a media file that does not exist.
     """
+    if not media or not transcripts:
+        raise MiketalkError("a corpus of clips needs its media pattern and its transcript table")
+    if not ids:
+        raise MiketalkError("no clips named: list the clip ids to use")
     for name, pattern in (("media", media), ("timings", timings)):
         if pattern is not None and "{id}" not in pattern:
             raise MiketalkError(f"clips.{name} must contain {{id}}, got {pattern!r}")
@@ -485,12 +489,13 @@ def _write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[obje
 def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
     """The box flows are estimated in: the mouth box widened to hold the jaw and cheeks.
 
-    One mouth-box width each side, half its height above (to the nose) and one
-    and a half below (the chin, which follows the jaw), clipped to the frame.
+    One mouth-box width each side and one and a half of its height below (the
+    chin, which follows the jaw), from the box's top (below the eyes, which
+    blink), clipped to the frame.
     """
     regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
     x, y, w, h = regions["mouth_box"]
     height, width = regions["size"]
-    x0, y0 = max(0, x - w), max(0, y - h // 2)
+    x0, y0 = max(0, x - w), max(0, y)
     x1, y1 = min(width, x + 2 * w), min(height, y + h + (3 * h) // 2)
     return x0, y0, x1 - x0, y1 - y0

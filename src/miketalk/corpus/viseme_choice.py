@@ -24,6 +24,13 @@ distance to its class against the mean over all candidates (how much the rule
 gains over taking any instance) and its distance to the nearest other class's
 image (whether the 16 images are distinct).
 
+**One face around the mouths.** Each image is the chosen frame's lower face
+(the box flows are estimated in, :func:`miketalk.corpus.clips.flow_region`)
+laid onto the corpus's reference frame with a feathered edge: the frames are
+stabilized, so the two meet without a seam, and the rest of the face (eyes
+that blink, brows) is the same in all 16 images, as it is in the paper's
+recording of a subject told to keep still. The morph then moves only the mouth.
+
 **Fallbacks.** A class with no candidate in the training clips takes the
 image of the first class named for it in ``data/viseme_fallbacks.tsv`` that has
 one (or, when none has, of the first that their own fallbacks reach), with a
@@ -244,6 +251,19 @@ def _donor(viseme: str, fallbacks: dict[str, tuple[str, ...]], chosen: dict) -> 
     return None
 
 
+def composite(
+    frame: np.ndarray, reference: np.ndarray, box: tuple[int, int, int, int], *, feather: float
+) -> np.ndarray:
+    """``frame`` inside ``box``, ``reference`` outside, over a Gaussian edge of ``feather`` px."""
+    x, y, w, h = box
+    weight = np.zeros(frame.shape[:2], np.float32)
+    inset = round(feather)
+    weight[y + inset : y + h - inset, x + inset : x + w - inset] = 1.0
+    weight = cv2.GaussianBlur(weight, (0, 0), max(feather / 2, 0.5))[..., None]
+    out = weight * frame.astype(np.float32) + (1 - weight) * reference.astype(np.float32)
+    return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+
+
 def separation(choices: list[Choice], features: np.ndarray) -> dict[str, float]:
     """Distance from each class's image to the nearest other class's image (0: a fallback)."""
     frames = np.array([c.frame for c in choices])
@@ -266,11 +286,17 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     """
     import json
 
-    from miketalk.corpus.clips import CLIPS_TABLE, PHONES_TABLE, REGIONS
+    from miketalk.corpus.clips import (
+        CLIPS_TABLE,
+        PHONES_TABLE,
+        REFERENCE,
+        REGIONS,
+        flow_region,
+    )
     from miketalk.corpus.folder import FRAMES_TABLE, open_corpus
     from miketalk.figures.sheets import grid
     from miketalk.media.atomic import write_text_atomic
-    from miketalk.media.images import write_png
+    from miketalk.media.images import read_image, write_png
     from miketalk.visemes import viseme_slug
 
     corpus_dir = Path(corpus_dir)
@@ -296,11 +322,13 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     frames = pd.read_csv(corpus_dir / FRAMES_TABLE, sep="\t", dtype={"clip": str})
     write_text_atomic(out.targets, scored.to_csv(sep="\t", index=False, float_format="%.5f"))
 
+    reference = read_image(corpus_dir / REFERENCE)
+    region = flow_region(corpus_dir)
     images_dir = Path(out.images)
     images_dir.mkdir(parents=True, exist_ok=True)
     rows, images, labels = [], [], []
     for c in choices:
-        image = video.frame(c.frame)
+        image = composite(video.frame(c.frame), reference, region, feather=0.1 * w)
         name = f"{viseme_slug(c.viseme)}.png"
         write_png(images_dir / name, image)
         where = frames.iloc[c.frame]
@@ -316,7 +344,7 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
             }
         )  # fmt: skip
         cx, cy = x + w // 2, y + h // 2
-        half_w, half_h = max(w, 2 * h), max(h, w)
+        half_w, half_h = int(1.3 * w), int(w)
         crop = image[max(0, cy - half_h) : cy + half_h, max(0, cx - half_w) : cx + half_w]
         images.append(np.ascontiguousarray(crop))
         source = f"= {c.fallback}" if c.fallback else f"{phone} n={c.candidates}"
@@ -324,5 +352,5 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     write_text_atomic(
         out.visemes, pd.DataFrame(rows).to_csv(sep="\t", index=False, float_format="%.5f")
     )
-    write_png(out.sheet, grid(images, labels, cols=4, scale=min(1.0, 200 / images[0].shape[1])))
+    write_png(out.sheet, grid(images, labels, cols=4, scale=200 / images[0].shape[1]))
     return choices

@@ -303,3 +303,82 @@ def summarize(table: pd.DataFrame) -> pd.DataFrame:
     out = pd.concat([mean, spread], axis=1)
     out.insert(0, "clips", grouped.size())
     return out.reset_index()
+
+
+def heldout_stage(
+    *,
+    corpus_dir,
+    models: dict[str, str],
+    default_model: str,
+    clips: list,
+    grouping: dict,
+    frames_csv,
+    clips_csv,
+    summary_csv,
+    videos_dir,
+) -> pd.DataFrame:
+    """The held-out evaluation of a face built from clips (the ``heldout`` rule).
+
+    Parameters
+    ----------
+    corpus_dir : path
+        The face's corpus folder (the training frames the eigenlips are fitted
+        on, the stabilizer's reference, the mouth box).
+    models : dict
+        ``name -> model directory``: each is measured with the morph.
+    default_model : str
+        The name in ``models`` of the face's own model: the baselines use its
+        images and the side-by-side videos show it.
+    clips : list of Clip
+        The test clips (never read while building the model).
+    grouping : dict
+        Viseme grouping overrides.
+    frames_csv, clips_csv, summary_csv : path
+        Per-frame measures, per-clip summaries, and their mean and spread.
+    videos_dir : path
+        One side-by-side mp4 per test clip: real | synthesized | difference x3.
+
+    Returns
+    -------
+    DataFrame
+        The summary.
+    """
+    from pathlib import Path
+
+    from miketalk.corpus.clips import corpus_stabilizer, mouth_box
+    from miketalk.corpus.folder import open_corpus
+    from miketalk.media.atomic import write_text_atomic
+    from miketalk.media.video import write_mp4
+    from miketalk.visemes import VisemeTable
+
+    box = mouth_box(corpus_dir)
+    video = open_corpus(corpus_dir)
+    train = np.stack([grey_mouths(video.frame(k)[None], box)[0] for k in range(video.n_frames)])
+    eigenlips = Eigenlips(train)
+    stabilizer = corpus_stabilizer(corpus_dir)
+    table = VisemeTable(grouping=grouping)
+    opened = {name: Model(path) for name, path in models.items()}
+    videos = Path(videos_dir)
+    videos.mkdir(parents=True, exist_ok=True)
+    summaries, frames = [], []
+    for clip in clips:
+        heldout = prepare_heldout(clip, stabilizer=stabilizer, table=table)
+        rows, per_frame, renders = evaluate_clip(
+            heldout, opened, mouth_box=box, eigenlips=eigenlips, baselines_of=default_model
+        )
+        summaries += rows
+        frames.append(per_frame)
+        synth = renders[f"morph:{default_model}"]
+        write_mp4(
+            videos / f"{clip.id}.mp4",
+            side_by_side(heldout.real, synth),
+            fps=heldout.fps,
+            audio=heldout.samples,
+            rate=heldout.rate,
+        )
+    per_clip = pd.DataFrame(summaries)
+    summary = summarize(per_clip)
+    write_text_atomic(frames_csv, pd.concat(frames).to_csv(index=False, float_format="%.5f"))
+    write_text_atomic(clips_csv, per_clip.to_csv(index=False, float_format="%.5f"))
+    write_text_atomic(summary_csv, summary.to_csv(index=False, float_format="%.4f"))
+    return summary

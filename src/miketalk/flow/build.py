@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import os
 import tempfile
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from itertools import combinations
 from pathlib import Path
@@ -56,8 +57,9 @@ def _consecutive_job(steps: list[int]) -> None:
     recording: Recording = _WORKER["recording"]
     forward, backward = recording.consecutive
     for k in steps:
-        forward[k] = recording.estimate(recording.frame(k), recording.frame(k + 1))
-        backward[k] = recording.estimate(recording.frame(k + 1), recording.frame(k))
+        slot = recording.slots[k]
+        forward[slot] = recording.estimate(recording.frame(k), recording.frame(k + 1))
+        backward[slot] = recording.estimate(recording.frame(k + 1), recording.frame(k))
     forward.flush()
     backward.flush()
 
@@ -160,8 +162,7 @@ def build_flow_database(
     if chosen.needs_rest:
         if rest_viseme not in frame_of:
             raise MiketalkError(f"the {strategy} strategy needs the rest viseme {rest_viseme!r}")
-        recording_frames = [read_image(frame_path(frames_dir, k)) for k in range(n_frames)]
-        rest = rest_frames(recording_frames, frame_of[rest_viseme])
+        rest = rest_frames(_FrameFiles(Path(frames_dir), n_frames), frame_of[rest_viseme])
     steps = chosen.steps(list(frame_of.values()), n_frames, rest)
     if rest is not None:
         log.info("%s: %d rest frames, %d consecutive flows", strategy, len(rest), len(steps))
@@ -181,9 +182,10 @@ def build_flow_database(
             paths = tuple(str(Path(tmp) / f"{d}.npy") for d in ("forward", "backward"))
             for path in paths:
                 np.lib.format.open_memmap(
-                    path, mode="w+", dtype=np.float32, shape=(max(n_frames - 1, 1), h, w, 2)
+                    path, mode="w+", dtype=np.float32, shape=(len(steps), h, w, 2)
                 )
             recording.consecutive = paths
+            recording.slots = {k: i for i, k in enumerate(steps)}
         # OpenCV's worker threads must not exist across the fork: a child inherits
         # their pool without the threads, and hangs on its first cv2.setNumThreads
         threads = cv2.getNumThreads()
@@ -207,6 +209,24 @@ def build_flow_database(
         finally:
             cv2.setNumThreads(threads)
     return pd.DataFrame(rows)
+
+
+class _FrameFiles(Sequence):
+    """The recording's frames, read one at a time: a long recording need not fit in memory."""
+
+    def __init__(self, frames_dir: Path, n: int) -> None:
+        self._dir, self._n = frames_dir, n
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, index):  # type: ignore[override]
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(self._n))]
+        index = int(index)
+        if not -self._n <= index < self._n:
+            raise IndexError(index)
+        return read_image(frame_path(self._dir, index % self._n))
 
 
 def _chunksize(strategy: Strategy, pairs: list[Pair], workers: int) -> int:

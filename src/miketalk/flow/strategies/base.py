@@ -60,8 +60,10 @@ class Recording:
     mask : (H, W) bool, optional
         Where the mixed and bridge strategies measure their residual.
     consecutive : (forward, backward), optional
-        ``forward[k]`` is the flow from frame k to k+1, ``backward[k]`` from
-        k+1 to k (only the entries a strategy asked for are filled).
+        ``forward[slots[k]]`` is the flow from frame k to k+1,
+        ``backward[slots[k]]`` from k+1 to k, for the ``k`` a strategy asked for.
+    slots : dict
+        ``k -> row`` of ``consecutive``.
     rest : ndarray of int, optional
         The rest frames (bridge).
     mixed : FlowDatabase, optional
@@ -76,12 +78,14 @@ class Recording:
     window: int = 6
     mask: np.ndarray | None = None
     consecutive: tuple[np.ndarray, np.ndarray] | None = None
+    slots: dict[int, int] = field(default_factory=dict)
     rest: np.ndarray | None = None
     mixed: FlowDatabase | None = None
     viseme_frames: tuple[int, ...] = ()
     _frames: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
     _chains: dict[int, list[np.ndarray]] = field(default_factory=dict, repr=False)
     _folds: dict[int, dict[int, np.ndarray]] = field(default_factory=dict, repr=False)
+    _prefixes: dict[tuple[int, int], np.ndarray] = field(default_factory=dict, repr=False)
 
     def frame(self, index: int) -> np.ndarray:
         """Frame ``index`` of the recording (read once, then cached)."""
@@ -93,16 +97,33 @@ class Recording:
 
     def steps(self, start: int, end: int) -> list[np.ndarray]:
         """The consecutive flows of the recording from frame ``start`` to frame ``end``."""
-        forward, backward = self.consecutive
         if end >= start:
-            return [forward[k] for k in range(start, end)]
-        return [backward[k - 1] for k in range(start, end, -1)]
+            return [self.step(k, 1) for k in range(start, end)]
+        return [self.step(k, -1) for k in range(start, end, -1)]
+
+    def step(self, k: int, sign: int) -> np.ndarray:
+        """The consecutive flow from frame ``k`` to ``k + sign`` (sign 1 or -1)."""
+        forward, backward = self.consecutive
+        return forward[self.slots[k]] if sign > 0 else backward[self.slots[k - 1]]
 
     def chain(self, flows: Sequence[np.ndarray], like: int) -> np.ndarray:
         """CONCATENATION-UP of ``flows``; zero flow (frame ``like``'s size) when empty."""
         if not flows:
             return np.zeros((*self.frame(like).shape[:2], 2), np.float32)
         return concatenate_up_flows(list(flows))
+
+    def fold_of_steps(self, start: int, end: int) -> np.ndarray | None:
+        """The chain of consecutive flows from frame ``start`` to ``end`` (None: the same frame).
+
+        Cached by ``(start, end)``: a start frame meets the same rest frame in
+        every pair it is in.
+        """
+        if start == end:
+            return None
+        key = (start, end)
+        if key not in self._prefixes:
+            self._prefixes[key] = concatenate_up_flows(self.steps(start, end))
+        return self._prefixes[key]
 
     def fold_from(self, start: int) -> dict[int, np.ndarray]:
         """Chains from frame ``start`` to every other viseme frame, in one pass each way.
@@ -116,7 +137,6 @@ class Recording:
         """
         if start in self._folds:
             return self._folds[start]
-        forward, backward = self.consecutive
         out: dict[int, np.ndarray] = {}
         later = sorted(e for e in set(self.viseme_frames) if e > start)
         earlier = sorted((e for e in set(self.viseme_frames) if e < start), reverse=True)
@@ -124,7 +144,7 @@ class Recording:
             total, k = None, start
             for end in targets:
                 while k != end:
-                    step = np.asarray(forward[k] if sign > 0 else backward[k - 1])
+                    step = np.asarray(self.step(k, sign))
                     total = step.copy() if total is None else concat_flows(total, step)
                     k += sign
                 out[end] = total

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from miketalk.flow.concat import concatenate_up_flows
 from miketalk.flow.mixed import warp_residual
 from miketalk.flow.rest import nearest_rest
 from miketalk.flow.strategies.base import Pair, PairFlows, Recording, Strategy
@@ -25,12 +26,20 @@ from miketalk.flow.strategies.mixed import mixed_flows
 
 
 def bridge_flow(recording: Recording, start: int, rest_start: int, rest_end: int, end: int):
-    """``C_{start,end}`` through the rest frames ``rest_start`` and ``rest_end``."""
-    flows = recording.steps(start, rest_start)
+    """``C_{start,end}`` through the rest frames ``rest_start`` and ``rest_end``.
+
+    CONCATENATION-UP is a left fold, so the fold of the first leg,
+    ``C_{start, rest_start}``, is computed once per start frame and continued
+    from there: the same numbers as folding the whole chain.
+    """
+    flows = []
     if rest_start != rest_end:
         flows.append(recording.estimate(recording.frame(rest_start), recording.frame(rest_end)))
     flows += recording.steps(rest_end, end)
-    return recording.chain(flows, start)
+    first = recording.fold_of_steps(start, rest_start)
+    if first is None:
+        return recording.chain(flows, start)
+    return concatenate_up_flows([first, *flows]) if flows else first.copy()
 
 
 def bridge_flows(pair: Pair, recording: Recording) -> PairFlows:

@@ -1,0 +1,54 @@
+# Measured against a real person: each face built from clips re-synthesizes its held-out
+# clips from their own audio and is compared frame by frame with their real video.
+
+
+rule model_variant:
+    input:
+        visemes=rules.visemes.output.visemes,
+        images=rules.visemes.output.images,
+        flows=f"{FLOWS}/{{method}}/{{strategy}}",
+    output:
+        directory(f"{VARIANTS}/{{method}}/{{strategy}}"),
+    log:
+        "results/logs/model_variant/{face}/{method}/{strategy}.log",
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        spec=method_spec,
+        strategy=lambda wildcards: wildcards.strategy,
+    script:
+        "../scripts/model.py"
+
+
+rule heldout:
+    input:
+        unpack(heldout_models),
+        words=rules.corpus_clips.output.words,
+        regions=rules.corpus_clips.output.regions,
+        reference=rules.corpus_clips.output.reference,
+        registration_mask=rules.corpus_clips.output.registration_mask,
+    output:
+        frames=f"{METRICS}/heldout/{{face}}/frames.csv",
+        clips=f"{METRICS}/heldout/{{face}}/clips.csv",
+        summary=report(
+            f"{METRICS}/heldout/{{face}}/summary.csv",
+            caption="../report/heldout.rst",
+            category="Real person",
+        ),
+        videos=directory("results/heldout/{face}"),
+    log:
+        "results/logs/heldout/{face}.log",
+    benchmark:
+        "results/benchmarks/heldout/{face}.tsv"
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        corpus=lambda wildcards: corpus_settings(wildcards.face),
+        default_model=lambda wildcards: "/".join(model_flow(wildcards.face)),
+        grouping=config["visemes"]["grouping"],
+    script:
+        "../scripts/heldout.py"

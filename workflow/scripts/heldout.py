@@ -1,0 +1,37 @@
+"""Rule heldout: re-synthesize a face's held-out clips and compare them with their real video."""
+
+from pathlib import Path
+
+from miketalk.stage import run_stage
+
+
+def main() -> None:
+    from miketalk.corpus.clips import clip_sources
+    from miketalk.evaluation.heldout import heldout_stage
+
+    corpus = snakemake.params.corpus
+    clips = clip_sources(
+        corpus["test"],
+        media=corpus["media"],
+        transcripts=corpus["transcripts"],
+        timings=corpus["timings"],
+    )
+    models = {
+        name.removeprefix("model:"): path
+        for name, path in snakemake.input.items()
+        if name.startswith("model:")
+    }
+    heldout_stage(
+        corpus_dir=Path(snakemake.input.words).parent,
+        models=models,
+        default_model=snakemake.params.default_model,
+        clips=clips,
+        grouping=snakemake.params.grouping,
+        frames_csv=snakemake.output.frames,
+        clips_csv=snakemake.output.clips,
+        summary_csv=snakemake.output.summary,
+        videos_dir=snakemake.output.videos,
+    )
+
+
+run_stage(snakemake, main)
