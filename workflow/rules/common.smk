@@ -8,7 +8,28 @@ from miketalk import defaults
 from miketalk.flow.strategies import STRATEGIES, get_strategy
 
 ROOT = Path(workflow.basedir)
-FACES = config["faces"]
+
+
+def training_sweep_faces():
+    """For each face from clips: the same face from its first N training clips, N in the sweep.
+
+    Named '<face>-n<N>'; they share the face's test clips. Only N smaller than
+    the face's own number of training clips.
+    """
+    out = {}
+    for face, settings in config["faces"].items():
+        corpus = settings["corpus"]
+        if corpus["source"] != "clips" or not corpus["test"]:
+            continue
+        for n in config["sweeps"]["training_clips"]:
+            if n < len(corpus["train"]):
+                train = corpus["train"][:n]
+                out[f"{face}-n{n}"] = {**settings, "corpus": {**corpus, "train": train}}
+    return out
+
+
+#: The configured faces, and the faces of the training-clips sweep.
+FACES = {**config["faces"], **training_sweep_faces()}
 
 
 def source_of(face):
@@ -145,11 +166,39 @@ def heldout_models(wildcards):
 
 
 def heldout_tables():
-    """The held-out summary of every face with test clips."""
+    """The held-out summary and figures of every configured face with test clips; its sweep."""
+    out = []
+    for face, settings in config["faces"].items():
+        if settings["corpus"]["source"] != "clips" or not settings["corpus"]["test"]:
+            continue
+        out += [
+            f"{METRICS}/heldout/{face}/summary.csv",
+            f"{FIGURES}/heldout/{face}/trajectory.png",
+            f"{FIGURES}/heldout/{face}/psnr.png",
+        ]
+        if sweep_of(face):
+            out += [
+                f"{METRICS}/heldout/{face}/training_clips.csv",
+                f"{FIGURES}/heldout/{face}/training_clips.png",
+            ]
+    return out
+
+
+def sweep_of(face):
+    """A face's training-clips sweep, {number of clips: face}, the face itself last (or {})."""
+    sweep = {}
+    for n in config["sweeps"]["training_clips"]:
+        if f"{face}-n{n}" in FACES:
+            sweep[n] = f"{face}-n{n}"
+    if not sweep:
+        return {}
+    return {**sweep, len(FACES[face]["corpus"]["train"]): face}
+
+
+def training_clip_summaries(wildcards):
+    """The held-out summaries of a face's training-clips sweep."""
     return [
-        f"{METRICS}/heldout/{face}/summary.csv"
-        for face in CLIP_FACES
-        if FACES[face]["corpus"]["test"]
+        f"{METRICS}/heldout/{f}/summary.csv" for f in sweep_of(wildcards.face).values()
     ]
 
 
@@ -170,7 +219,7 @@ def utterance_videos():
     """The mp4 of every configured sentence, for every face."""
     return [
         f"{at(UTTERANCES, face)}/{name}.mp4"
-        for face in FACES
+        for face in config["faces"]
         for name in config["sentences"]
     ]
 
@@ -205,8 +254,8 @@ def sync_sweep_tables():
 
 
 def all_outputs():
-    out = [f"{at(VISEMES, face)}/contact_sheet.png" for face in FACES]
-    out += [at(MODEL, face) for face in FACES]
+    out = [f"{at(VISEMES, face)}/contact_sheet.png" for face in config["faces"]]
+    out += [at(MODEL, face) for face in config["faces"]]
     out += utterance_videos()
     out += heldout_tables()
     out += [f"{FIGURES}/lipsync_diagram.png", f"{FIGURES}/morph_strip.png"]

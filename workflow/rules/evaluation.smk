@@ -52,3 +52,69 @@ rule heldout:
         grouping=config["visemes"]["grouping"],
     script:
         "../scripts/heldout.py"
+
+
+rule training_clips_table:
+    input:
+        training_clip_summaries,
+    output:
+        f"{METRICS}/heldout/{{face}}/training_clips.csv",
+    log:
+        "results/logs/training_clips_table/{face}.log",
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        training_clips=lambda wildcards: list(sweep_of(wildcards.face)),
+    script:
+        "../scripts/training_clips_table.py"
+
+
+rule figure_heldout:
+    input:
+        frames_csv=rules.heldout.output.frames,
+        videos=rules.heldout.output.videos,
+    output:
+        trajectory=report(
+            f"{FIGURES}/heldout/{{face}}/trajectory.png",
+            caption="../report/heldout_trajectory.rst",
+            category="Real person",
+        ),
+        psnr=report(
+            f"{FIGURES}/heldout/{{face}}/psnr.png",
+            caption="../report/heldout_psnr.rst",
+            category="Real person",
+        ),
+    log:
+        "results/logs/figures/heldout/{face}.log",
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        clip=lambda wildcards: FACES[wildcards.face]["corpus"]["test"][0],
+        model=lambda wildcards: "/".join(model_flow(wildcards.face)),
+    script:
+        "../scripts/heldout_figures.py"
+
+
+rule figure_training_clips:
+    input:
+        sweep_csv=rules.training_clips_table.output[0],
+    output:
+        report(
+            f"{FIGURES}/heldout/{{face}}/training_clips.png",
+            caption="../report/training_clips.rst",
+            category="Real person",
+        ),
+    log:
+        "results/logs/figures/training_clips/{face}.log",
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        figure="training_clips",
+    script:
+        "../scripts/figures.py"

@@ -79,8 +79,17 @@ class Eigenlips:
 
 
 def _flat(mouths: np.ndarray) -> np.ndarray:
-    mouths = np.asarray(mouths)
-    return mouths.reshape(len(mouths), -1).astype(np.float64) / 255.0
+    """Each mouth box as a vector, normalized to zero mean and unit variance.
+
+    The normalization removes what differs between recordings rather than
+    between mouth shapes (exposure, white balance, light on the face), which
+    otherwise is the first principal component of clips recorded on
+    different days (Bregler & Konig normalize the same way).
+    """
+    flat = np.asarray(mouths).reshape(len(mouths), -1).astype(np.float64)
+    flat -= flat.mean(axis=1, keepdims=True)
+    spread = flat.std(axis=1, keepdims=True)
+    return flat / np.where(spread > 0, spread, 1.0)
 
 
 def grey_mouths(frames: np.ndarray, box: Box) -> np.ndarray:
@@ -336,13 +345,15 @@ def heldout_stage(
     frames_csv, clips_csv, summary_csv : path
         Per-frame measures, per-clip summaries, and their mean and spread.
     videos_dir : path
-        One side-by-side mp4 per test clip: real | synthesized | difference x3.
+        One side-by-side mp4 per test clip, real | synthesized | difference x3,
+        and its timeline (``<clip>.json``: the aligned phones and the frames).
 
     Returns
     -------
     DataFrame
         The summary.
     """
+    import json
     from pathlib import Path
 
     from miketalk.corpus.clips import corpus_stabilizer, mouth_box
@@ -369,6 +380,9 @@ def heldout_stage(
         summaries += rows
         frames.append(per_frame)
         synth = renders[f"morph:{default_model}"]
+        write_text_atomic(
+            videos / f"{clip.id}.json", json.dumps(heldout.timeline.to_dict(), indent=1)
+        )
         write_mp4(
             videos / f"{clip.id}.mp4",
             side_by_side(heldout.real, synth),
@@ -382,3 +396,9 @@ def heldout_stage(
     write_text_atomic(clips_csv, per_clip.to_csv(index=False, float_format="%.5f"))
     write_text_atomic(summary_csv, summary.to_csv(index=False, float_format="%.4f"))
     return summary
+
+
+def sweep_table(summaries: dict[int, str]) -> pd.DataFrame:
+    """Held-out summaries (``training clips -> summary.csv``) in one table (``training_clips``)."""
+    parts = [pd.read_csv(path).assign(training_clips=n) for n, path in sorted(summaries.items())]
+    return pd.concat(parts, ignore_index=True)

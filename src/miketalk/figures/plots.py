@@ -148,12 +148,84 @@ def morph_strip(
 
 
 #: Every figure by name: ``draw(name, out, **inputs)`` calls ``FIGURES[name](out=out, **inputs)``.
+def heldout_trajectory(
+    frames_csv: Path_, phones_json: Path_, out: Path_, *, clip: str, model: str
+) -> None:
+    """The first eigenlip coefficient over one held-out clip, real vs synthesized, phones marked."""
+    import json
+
+    table = pd.read_csv(frames_csv)
+    part = table[(table["clip"] == clip) & (table["model"] == model)]
+    morph = part[part["renderer"] == "morph"]
+    fig, ax = plt.subplots(figsize=(10, 3.6))
+    ax.plot(morph["frame"], morph["eigenlip1_real"], color="k", lw=2, label="real")
+    for renderer, style in (("morph", "-"), ("dissolve", ":"), ("flipbook", "--")):
+        rows = part[part["renderer"] == renderer]
+        if len(rows):
+            ax.plot(rows["frame"], rows["eigenlip1_synth"], style, label=renderer)
+    with open(phones_json, encoding="utf-8") as f:
+        said = json.load(f)
+    fps = said["fps"]
+    for phone in said["phones"]:
+        if phone["name"] != "pau":
+            mid = (phone["start"] + phone["end"]) / 2 * fps
+            ax.axvline(phone["start"] * fps, color="0.85", lw=0.8, zorder=0)
+            ax.text(mid, 1.01, phone["name"], transform=ax.get_xaxis_transform(), ha="center",
+                    fontsize=7)  # fmt: skip
+    ax.set_xlabel(f"frame ({fps:g} fps)")
+    ax.set_ylabel("eigenlip 1")
+    ax.set_title(f"held-out clip {clip}: first eigenlip coefficient, real vs synthesized", pad=14)
+    ax.legend(fontsize=8, loc="lower right")
+    _save(fig, out)
+
+
+def heldout_psnr(frames_csv: Path_, out: Path_, *, clip: str, model: str) -> None:
+    """Mouth PSNR per frame of one held-out clip, for the morph and the baselines."""
+    table = pd.read_csv(frames_csv)
+    part = table[(table["clip"] == clip) & (table["model"] == model)]
+    fig, ax = plt.subplots(figsize=(10, 3.2))
+    for renderer, rows in part.groupby("renderer", sort=False):
+        ax.plot(
+            rows["frame"], rows["psnr_mouth"], label=renderer, lw=1.5 if renderer == "morph" else 1
+        )
+    ax.set_xlabel("frame")
+    ax.set_ylabel("mouth PSNR (dB)")
+    ax.set_title(f"held-out clip {clip}: mouth PSNR per frame")
+    ax.legend(fontsize=8)
+    _save(fig, out)
+
+
+def training_clips(sweep_csv: Path_, out: Path_) -> None:
+    """Held-out measures of the morph against the number of training clips."""
+    table = pd.read_csv(sweep_csv)
+    morph = table[table["renderer"] == "morph"].sort_values("training_clips")
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4))
+    for ax, (column, label) in zip(
+        axes,
+        (("psnr_mouth", "mouth PSNR (dB)"), ("eigenlip1_corr", "eigenlip 1 correlation"),
+         ("opening_corr", "mouth opening correlation")),
+        strict=True,
+    ):  # fmt: skip
+        for model, rows in morph.groupby("model"):
+            ax.errorbar(rows["training_clips"], rows[f"{column}_mean"], yerr=rows[f"{column}_sd"],
+                        marker="o", capsize=3, label=model)  # fmt: skip
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("training clips")
+        ax.set_ylabel(label)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("held-out clips: how much video must a user record (mean and sd over clips)")
+    _save(fig, out)
+
+
 FIGURES: dict[str, Callable[..., None]] = {
     "epe_vs_levels": epe_vs_levels,
     "morph_psnr_vs_alpha": morph_psnr_vs_alpha,
     "sync_vs_max_px": sync_vs_max_px,
     "lipsync_diagram": lipsync_diagram,
     "morph_strip": morph_strip,
+    "heldout_trajectory": heldout_trajectory,
+    "heldout_psnr": heldout_psnr,
+    "training_clips": training_clips,
 }
 
 
