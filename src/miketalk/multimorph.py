@@ -1,0 +1,235 @@
+"""A morph between more than two visemes (beyond the paper), the paper's morph as its special case.
+
+The learned coarticulation (:mod:`miketalk.talk.coarticulation`) puts the mouth
+at points between several visemes: weights ``w_V`` summing to 1. A frame is
+drawn from them as follows (:meth:`MultiMorpher.frame`):
+
+one viseme
+    its image;
+two visemes ``A`` then ``B``
+    the paper's two-image morph (:class:`miketalk.morph.Morpher`, through
+    :meth:`miketalk.talk.model.Model.frame`) at ``alpha = w_B / (w_A + w_B)``,
+    byte for byte what the paper's renderer draws at that alpha;
+three or more
+    the viseme of the largest weight is the reference ``R``. Each other viseme
+    ``V_j`` is brought into ``R``'s geometry by backward-warping it along the
+    flow ``F_j = flow(R -> V_j)`` (:func:`miketalk.flow.warp.backward_warp`:
+    ``R(p) ~ V_j(p + F_j(p))``); the appearance is the weighted blend
+    ``A = w_R R + sum_j w_j V_j(p + F_j(p))`` in ``R``'s geometry, and the
+    blended shape moves pixel ``p`` of ``R`` to ``p + S(p)``,
+    ``S = sum_j w_j F_j``. The frame is ``A`` moved to that shape by a
+    backward warp: ``out(q) = A(P(q))`` with ``P`` the inverse of
+    ``p -> p + S(p)``, found by the fixed-point iteration ``P <- q - S(P)``
+    (``inverse_iterations`` steps; 0 is the first-order ``P = q - S(q)``).
+    With two visemes this path is the two-image morph made by backward warps
+    (no holes to fill); it is measured against the paper's forward-warp morph
+    in ``tests/test_coarticulation.py``. The model's ``median`` setting applies
+    as in the paper's morph (3x3 median).
+
+All warps are ``cv2.remap`` in float32. :func:`render_learned` draws a timeline
+with the learned weights.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import cv2
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.talk.coarticulation import CoarticulationParams, frame_weights
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.model import RENDER_WORKERS, Model
+
+__all__ = ["MultiMorpher", "render_learned"]
+
+#: Weights (viseme, weight) of one frame.
+Weights = Sequence[tuple[str, float]]
+
+
+class MultiMorpher:
+    """Frames at any weighted point between a model's visemes (see the module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        The talking-face model: its images, flows and morph settings.
+    inverse_iterations : int
+        Fixed-point steps inverting the blended shape (0: first order).
+    flow_cache : int
+        Flow fields kept in memory (each ``H x W x 2`` float32).
+
+    Notes
+    -----
+    Thread-safe: the flows are read through the model's reading thread and
+    shared read-only; the work of a frame uses no shared buffer.
+    """
+
+    def __init__(self, model: Model, *, inverse_iterations: int = 2, flow_cache: int = 48) -> None:
+        if inverse_iterations < 0:
+            raise MiketalkError(f"inverse_iterations must be >= 0, not {inverse_iterations}")
+        self.model = model
+        self.inverse_iterations = int(inverse_iterations)
+        self.median = bool(model.morph_options.get("median", True))
+        h, w = model.size
+        xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
+        self._grid = np.ascontiguousarray(np.stack([xs, ys], axis=-1))
+        self._flows: OrderedDict[tuple[str, str], np.ndarray] = OrderedDict()
+        self._cache_size = max(2, int(flow_cache))
+        self._lock = threading.Lock()
+
+    def flow(self, a: str, b: str) -> np.ndarray:
+        """The flow ``a -> b`` (``a(p) ~ b(p + flow(p))``), float32, read once and cached."""
+        key = (a, b)
+        with self._lock:
+            if key in self._flows:
+                self._flows.move_to_end(key)
+                return self._flows[key]
+        forward, backward = _read_pair(self.model, a, b)
+        with self._lock:
+            self._flows[(a, b)] = forward
+            self._flows[(b, a)] = backward
+            while len(self._flows) > self._cache_size:
+                self._flows.popitem(last=False)
+        return forward
+
+    def frame(self, weights: Weights) -> np.ndarray:
+        """The frame at the weighted point ``weights`` (``(viseme, weight)``, weights >= 0).
+
+        Visemes of zero weight are ignored; the others are renormalized. Two
+        visemes are the paper's morph from the first to the second.
+
+        Raises
+        ------
+        MiketalkError
+            For no positive weight, a negative or non-finite weight, a viseme
+            named twice or unknown to the model.
+        """
+        items = [(str(v), float(w)) for v, w in weights]
+        if any(not np.isfinite(w) or w < 0 for _, w in items):
+            raise MiketalkError(f"weights must be finite and >= 0, got {items}")
+        items = [(v, w) for v, w in items if w > 0]
+        names = [v for v, _ in items]
+        if len(set(names)) != len(names):
+            raise MiketalkError(f"a viseme is named twice in {items}")
+        if not items:
+            raise MiketalkError("no viseme has a positive weight")
+        if len(items) == 1:
+            return self.model.image(items[0][0])
+        if len(items) == 2:
+            (a, wa), (b, wb) = items
+            return self.model.frame(a, b, wb / (wa + wb))
+        return self.blend(items)
+
+    def blend(self, weights: Weights) -> np.ndarray:
+        """The backward-warp blend of the module docstring, for any number of visemes."""
+        total = sum(w for _, w in weights)
+        items = [(v, w / total) for v, w in weights]
+        reference, w_ref = max(items, key=lambda item: item[1])
+        image = self.model.image(reference)
+        appearance = image.astype(np.float32) * np.float32(w_ref)
+        shape = np.zeros((*self.model.size, 2), np.float32)
+        for viseme, w in items:
+            if viseme == reference:
+                continue
+            flow = self.flow(reference, viseme)
+            warped = _remap(self.model.image(viseme), self._grid + flow)
+            cv2.scaleAdd(warped.astype(np.float32), float(w), appearance, dst=appearance)
+            cv2.scaleAdd(flow, float(w), shape, dst=shape)
+        # P(q) = q - S(P(q)): start at q - S(q), iterate
+        where = self._grid - shape
+        for _ in range(self.inverse_iterations):
+            where = self._grid - _remap(shape, where)
+        out = _remap(appearance, where)
+        out = np.clip(np.floor(out + 0.5), 0, 255).astype(np.uint8)
+        return cv2.medianBlur(out, 3) if self.median else out
+
+
+def _remap(image: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """Bilinear ``image(where(q))`` with replicated borders (``where`` absolute, float32)."""
+    return cv2.remap(image, where, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(
+        image.shape
+    )
+
+
+def _read_pair(model: Model, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
+    """Flows ``a -> b`` and ``b -> a`` through the model's one reading thread.
+
+    The model's :class:`~miketalk.flow.FlowDatabase` is read by one thread
+    only (it is not thread-safe); its reading future is dropped once
+    collected, as :meth:`Model.morpher` does.
+    """
+    future = model._read(a, b)
+    try:
+        forward, backward = future.result()
+    finally:
+        with model._lock:
+            if model._reads.get((a, b)) is future:
+                model._reads.pop((a, b))
+    for flow in (forward, backward):
+        if flow.shape[:2] != model.size:
+            raise MiketalkError(f"flow {a} -> {b} is not of the model's size {model.size}")
+    return (
+        np.ascontiguousarray(forward, np.float32),
+        np.ascontiguousarray(backward, np.float32),
+    )
+
+
+def render_learned(
+    model: Model,
+    timeline: Timeline,
+    params: CoarticulationParams,
+    *,
+    workers: int | None = None,
+    morpher: MultiMorpher | None = None,
+) -> Iterator[np.ndarray]:
+    """The frames of ``timeline`` with the learned coarticulation, in order.
+
+    Each frame's weights come from :func:`miketalk.talk.coarticulation.frame_weights`
+    (the timeline's keyframes and frame times; its transitions and alphas are
+    not used) and are drawn by :meth:`MultiMorpher.frame`.
+
+    Parameters
+    ----------
+    model : Model
+    timeline : Timeline
+    params : CoarticulationParams
+        E.g. :func:`miketalk.talk.coarticulation.read_params` of the model's directory.
+    workers : int, optional
+        Threads drawing frames (default the model's :data:`RENDER_WORKERS`);
+        the frames do not depend on it.
+    morpher : MultiMorpher, optional
+        Reused between calls (keeps its flows).
+    """
+    weights = frame_weights(timeline, params)
+    morpher = morpher or MultiMorpher(model)
+    workers = RENDER_WORKERS if workers is None else max(1, int(workers))
+    # read the flows the frames need, in the order they are needed
+    needed: list[tuple[str, str]] = []
+    for row in weights:
+        if len(row) == 2:
+            needed.append((row[0][0], row[1][0]))
+        elif len(row) > 2:
+            reference = max(row, key=lambda item: item[1])[0]
+            needed += [(reference, v) for v, _ in row if v != reference]
+    model.prefetch(dict.fromkeys(needed))
+    if workers == 1:
+        for row in weights:
+            yield morpher.frame(row)
+        return
+    pending: list[Future] = []
+    with ThreadPoolExecutor(workers, thread_name_prefix="miketalk-multimorph") as pool:
+        try:
+            for row in weights:
+                pending.append(pool.submit(morpher.frame, row))
+                if len(pending) > 2 * workers:
+                    yield pending.pop(0).result()
+            while pending:
+                yield pending.pop(0).result()
+        finally:
+            for future in pending:
+                future.cancel()

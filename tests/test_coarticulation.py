@@ -1,0 +1,239 @@
+"""Learned coarticulation (dominance fit, weights) and the N-way morph that draws it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.flow import pair_path, write_flow_pair
+from miketalk.media.images import write_png
+from miketalk.morph import Morpher
+from miketalk.multimorph import MultiMorpher, render_learned
+from miketalk.speech import Phone
+from miketalk.talk.coarticulation import (
+    CoarticulationParams,
+    TrainingClip,
+    dominance_weights,
+    fit,
+    frame_weights,
+    predict_trajectory,
+    read_params,
+    write_params,
+)
+from miketalk.talk.lipsync import Keyframe, keyframes, plan
+from miketalk.talk.model import Model, build_model
+from miketalk.visemes import VISEMES, VisemeTable
+
+# ---------------------------------------------------------------------------
+# the dominance model and its fit
+# ---------------------------------------------------------------------------
+
+TRUE_MAGNITUDE = {"p": 3.0, "aa": 1.0, "t": 0.4, "#": 1.5}
+TRUE_RATE = {"p": 30.0, "aa": 10.0, "t": 20.0, "#": 6.0}
+TARGETS = {
+    "p": np.array([-4.0, 1.0, 0.5]),
+    "aa": np.array([6.0, -1.0, 2.0]),
+    "t": np.array([1.0, 3.0, -2.0]),
+    "#": np.array([-1.0, -2.0, -1.0]),
+}
+
+
+def synthetic_clips(
+    params: CoarticulationParams, *, n_clips: int, seed: int, noise: float
+) -> list[TrainingClip]:
+    """Random phone sequences whose 'real' trajectory is the model's own plus noise."""
+    rng = np.random.default_rng(seed)
+    names = list(TARGETS)
+    clips = []
+    for c in range(n_clips):
+        t, keys = 0.0, []
+        for i in range(14):
+            duration = rng.uniform(0.04, 0.2)
+            keys.append(Keyframe(names[rng.integers(len(names))], t + duration / 2, i, 0.5))
+            t += duration
+        times = np.arange(int(t * 25)) / 25.0
+        real = predict_trajectory(keys, times, params, TARGETS)
+        real = real + rng.normal(0.0, noise, real.shape) + rng.normal(0, 5.0, 3)  # clip offset
+        clips.append(TrainingClip(f"c{c}", (), tuple(keys), 25.0, real))
+    return clips
+
+
+def test_fit_recovers_known_magnitudes_rates_and_lead() -> None:
+    truth = CoarticulationParams(TRUE_MAGNITUDE, TRUE_RATE, lead=0.04)
+    clips = synthetic_clips(truth, n_clips=30, seed=1, noise=0.05)
+    fitted = fit(clips, TARGETS, leads=(0.0, 0.02, 0.04, 0.06), prior_strength=1e-6)
+    assert fitted.lead == pytest.approx(0.04)
+    # the magnitudes are known up to a common factor (the weights are normalized)
+    scale = fitted.magnitude["aa"] / TRUE_MAGNITUDE["aa"]
+    for v in TARGETS:
+        assert fitted.magnitude[v] / scale == pytest.approx(TRUE_MAGNITUDE[v], rel=0.1), v
+        assert fitted.rate[v] == pytest.approx(TRUE_RATE[v], rel=0.1), v
+    assert fitted.fit["loss"] < 0.01 < fitted.fit["loss_prior"]
+
+
+def test_fit_is_better_than_the_prior_and_keeps_unseen_visemes_at_the_prior() -> None:
+    truth = CoarticulationParams(TRUE_MAGNITUDE, TRUE_RATE)
+    clips = synthetic_clips(truth, n_clips=6, seed=2, noise=0.3)
+    targets = {**TARGETS, "k": np.zeros(3)}
+    fitted = fit(clips, targets, leads=(0.0,), prior_rate=12.0)
+    assert fitted.fit["loss"] < fitted.fit["loss_prior"]
+    assert fitted.magnitude["k"] == 1.0
+    assert fitted.rate["k"] == pytest.approx(12.0)
+    assert fitted.fit["frames_per_viseme"]["k"] == 0
+
+
+def test_weights_sum_to_one_and_rendered_weights_are_truncated() -> None:
+    table = VisemeTable()
+    names = ["pau", "hh", "ax", "l", "ow", "w", "er", "l", "d", "pau"]
+    t, phones = 0.0, []
+    for i, name in enumerate(names):
+        duration = 0.3 if name == "pau" else 0.05 + 0.02 * (i % 3)
+        phones.append(Phone(name, t, t + duration))
+        t += duration
+    timeline = plan(phones, table, fps=30, duration=t)
+    params = CoarticulationParams.prior(table.visemes, max_visemes=3, min_weight=0.1)
+    _, weights = dominance_weights(timeline.keyframes, [f.time for f in timeline.frames], params)
+    assert np.allclose(weights.sum(axis=1), 1.0)
+    assert (weights >= 0).all()
+    rows = frame_weights(timeline, params)
+    assert len(rows) == len(timeline.frames)
+    assert any(len(row) == 3 for row in rows) and any(len(row) == 1 for row in rows)
+    for row in rows:
+        assert 1 <= len(row) <= 3
+        assert sum(w for _, w in row) == pytest.approx(1.0)
+        assert all(w >= 0.1 for _, w in row)
+        assert len({v for v, _ in row}) == len(row)
+
+
+def test_a_short_phone_is_undershot_and_a_long_one_reached() -> None:
+    params = CoarticulationParams.prior(["p", "aa"], rate=15.0)
+    short = [Keyframe("aa", 0.1, 0, 0.5), Keyframe("p", 0.14, 1, 0.5), Keyframe("aa", 0.18, 2, 0.5)]
+    long = [Keyframe("aa", 0.1, 0, 0.5), Keyframe("p", 0.4, 1, 0.5), Keyframe("aa", 0.7, 2, 0.5)]
+    _, w_short = dominance_weights(short, [0.14], params)
+    _, w_long = dominance_weights(long, [0.4], params)
+    assert w_short[0, 1] < 0.5  # p (second viseme) never dominates a 40 ms phone
+    assert w_long[0, 1] > 0.95
+
+
+def test_params_round_trip_and_a_model_without_them_is_named(tmp_path: Path) -> None:
+    params = CoarticulationParams(
+        TRUE_MAGNITUDE, TRUE_RATE, lead=0.02, fit={"loss": 1.5, "clips": 3}
+    )
+    write_params(params, tmp_path)
+    assert read_params(tmp_path) == params
+    doc = json.loads((tmp_path / "coarticulation.json").read_text())
+    doc["rate"]["p"] = -1
+    (tmp_path / "coarticulation.json").write_text(json.dumps(doc))
+    with pytest.raises(MiketalkError, match="rate must be positive"):
+        read_params(tmp_path)
+    with pytest.raises(MiketalkError, match="no learned coarticulation"):
+        read_params(tmp_path / "elsewhere")
+
+
+# ---------------------------------------------------------------------------
+# the N-way morph
+# ---------------------------------------------------------------------------
+
+SIZE = 64
+
+
+def smooth_texture(seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    noise = rng.random((SIZE // 8, SIZE // 8, 3))
+    image = cv2.resize(noise, (SIZE * 2, SIZE * 2), interpolation=cv2.INTER_CUBIC)
+    return np.clip(image * 255, 0, 255).astype(np.float32)
+
+
+def shifts() -> dict[str, np.ndarray]:
+    """Each viseme: the texture moved by a known sub-pixel displacement."""
+    rng = np.random.default_rng(5)
+    return {v: rng.uniform(-3.0, 3.0, 2).astype(np.float32) for v in VISEMES}
+
+
+def shifted(base: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """``base(p - d)`` cut to SIZE x SIZE from the middle."""
+    m = np.float32([[1, 0, d[0] - SIZE / 2], [0, 1, d[1] - SIZE / 2]])
+    out = cv2.warpAffine(base, m, (SIZE, SIZE), flags=cv2.INTER_CUBIC)
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+
+
+@pytest.fixture(scope="module")
+def exact_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """16 visemes, each the texture shifted; the true (constant) flows between them."""
+    root = tmp_path_factory.mktemp("exact")
+    base, d = smooth_texture(0), shifts()
+    paths = {}
+    for i, v in enumerate(VISEMES):
+        paths[v] = root / "src" / f"{i}.png"
+        paths[v].parent.mkdir(exist_ok=True)
+        write_png(paths[v], shifted(base, d[v]))
+    flows = root / "flows"
+    flows.mkdir()
+    for i, a in enumerate(VISEMES):
+        for b in VISEMES[i + 1 :]:
+            # a(p) = base(p - d_a) = b(p + d_b - d_a)
+            forward = np.broadcast_to(d[b] - d[a], (SIZE, SIZE, 2)).copy()
+            write_flow_pair(
+                pair_path(flows, a, b), forward, -forward, source=a, target=b, estimator="true"
+            )
+    return build_model(root / "model", images=paths, flows_dir=flows, estimator="true", settings={})
+
+
+def test_two_weights_are_the_papers_morph_byte_for_byte(exact_model: Path) -> None:
+    with Model(exact_model) as model:
+        morpher = MultiMorpher(model)
+        a, b = "p", "aa"
+        forward, backward = model.flows.flow(a, b), model.flows.flow(b, a)
+        paper = Morpher(model.image(a), model.image(b), forward, backward)
+        for wa, wb in ((0.7, 0.3), (0.25, 0.75), (0.5, 0.5), (0.9, 0.1)):
+            alpha = wb / (wa + wb)
+            assert np.array_equal(morpher.frame([(a, wa), (b, wb), ("t", 0.0)]), paper.frame(alpha))
+        assert np.array_equal(morpher.frame([(a, 1.0), (b, 0.0)]), model.image(a))
+
+
+def test_three_visemes_reach_the_blended_shape(exact_model: Path) -> None:
+    base, d = smooth_texture(0), shifts()
+    with Model(exact_model) as model:
+        morpher = MultiMorpher(model)
+        weights = [("p", 0.5), ("aa", 0.3), ("t", 0.2)]
+        frame = morpher.frame(weights)
+        target = shifted(base, sum(w * d[v] for v, w in weights))
+        first_order = MultiMorpher(model, inverse_iterations=0).frame(weights)
+    inner = (slice(6, -6), slice(6, -6))
+    error = np.abs(frame.astype(float) - target)[inner]
+    # a 1-pixel miss on this texture costs far more than this
+    assert error.mean() < 1.5
+    wrong = shifted(base, d["p"])  # the reference viseme alone
+    assert np.abs(wrong.astype(float) - target)[inner].mean() > 3 * error.mean()
+    # constant flows: the first-order inverse is already exact
+    assert np.abs(first_order.astype(float) - frame).max() <= 1
+
+
+def test_bad_weights_are_refused(exact_model: Path) -> None:
+    with Model(exact_model) as model:
+        morpher = MultiMorpher(model)
+        for bad in ([], [("p", 0.0)], [("p", -0.1), ("aa", 1.1)], [("p", 0.5), ("p", 0.5)]):
+            with pytest.raises(MiketalkError):
+                morpher.frame(bad)
+        with pytest.raises(MiketalkError, match="no viseme"):
+            morpher.frame([("nope", 1.0), ("p", 1.0)])
+
+
+def test_render_learned_draws_every_frame_the_same_with_any_workers(exact_model: Path) -> None:
+    table = VisemeTable()
+    names = ["pau", "b", "ih", "n", "b", "l", "uw", "pau"]
+    phones = [Phone(n, 0.08 * i, 0.08 * (i + 1)) for i, n in enumerate(names)]
+    timeline = plan(phones, table, fps=25, duration=0.64)
+    params = CoarticulationParams.prior(table.visemes)
+    assert len(keyframes(phones, table)) == len(timeline.keyframes)
+    with Model(exact_model) as model:
+        one = list(render_learned(model, timeline, params, workers=1))
+        two = list(render_learned(model, timeline, params, workers=2))
+    assert len(one) == len(timeline.frames)
+    assert all(np.array_equal(x, y) for x, y in zip(one, two, strict=True))
+    assert any(not np.array_equal(one[0], frame) for frame in one)
