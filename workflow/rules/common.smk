@@ -84,8 +84,8 @@ def corpus_settings(face):
 
 
 def model_flow(face):
-    """The flow method and strategy of a face's model."""
-    own = FACES[face].get("flow", {})
+    """The flow method and strategy of a face's model (the configured ones for no face)."""
+    own = FACES[face].get("flow", {}) if face in FACES else {}
     return (
         own.get("method", config["flow"]["method"]),
         own.get("strategy", config["flow"]["strategy"]),
@@ -159,6 +159,8 @@ def heldout_models(wildcards):
     face = wildcards.face
     own = "/".join(model_flow(face))
     models = {f"model:{own}": at(MODEL, face)}
+    if face not in config["faces"]:  # a face of the training-clips sweep: its own model only
+        return models
     for name in config["evaluation"]["models"]:
         if name != own:
             models[f"model:{name}"] = f"{at(VARIANTS, face)}/{name}"

@@ -1,0 +1,113 @@
+"""The real face on a bigger pool: aligner, stabilization, model build, held-out evaluation, say.
+
+``run(out_dir)`` reads ``.bench/config.yaml`` (the workflow's configuration for
+``make bench``: GRID talker s1's 40 training clips and 40 held-out clips from
+the pool it names), then
+
+1. the forced aligner against the pool's word timings (:mod:`miketalk.bench.aligner`);
+2. the stabilization's residual motion (:mod:`miketalk.bench.stabilization`);
+3. the workflow on that configuration (``snakemake --directory .bench``): the s1
+   model from 40 clips, the training-clips sweep and the held-out evaluation,
+   with each rule's time from its benchmark file;
+4. ``miketalk say`` of a 10-word sentence on the s1 model, warm.
+
+It returns the figures the issues set targets for.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import pathlib
+import subprocess
+import sys
+import tempfile
+import time
+
+import pandas as pd
+import yaml
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+CONFIG = ROOT / ".bench" / "config.yaml"
+SENTENCE = "Bin blue at F two now and lay green by G soon."
+
+
+def _seconds(benchmark: pathlib.Path) -> float:
+    with benchmark.open() as f:
+        return float(next(csv.DictReader(f, delimiter="\t"))["s"])
+
+
+def run(out_dir: pathlib.Path) -> dict[str, float]:
+    """Run every real-face benchmark; write their tables under ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    config = yaml.safe_load(CONFIG.read_text())
+    corpus = config["faces"]["s1"]["corpus"]
+    pool = (ROOT / corpus["transcripts"]).resolve().parent
+    figures: dict[str, float] = {}
+
+    from miketalk.bench import aligner
+
+    aligner.main(["--pool", str(pool), "--out", str(out_dir / "aligner")])
+    boundaries = pd.read_csv(out_dir / "aligner" / "boundaries.csv")
+    error = boundaries["error_ms"].abs()
+    figures["aligner_median_ms"] = float(error.median())
+    figures["aligner_p90_ms"] = float(error.quantile(0.9))
+
+    try:
+        from miketalk.bench import stabilization
+    except ImportError:  # pragma: no cover - the module is part of the package
+        stabilization = None
+    if stabilization is not None:
+        stabilization.main(["--pool", str(pool), "--out", str(out_dir / "stabilization")])
+        table = pd.read_csv(out_dir / "stabilization" / "residual.csv")
+        figures["stabilization_median_px"] = float(table["after_px"].median())
+        figures["stabilization_p95_px"] = float(table["after_px"].quantile(0.95))
+
+    workdir = ROOT / ".bench"
+    start = time.monotonic()
+    subprocess.run(
+        [sys.executable, "-m", "snakemake", "--snakefile", str(ROOT / "Snakefile"),
+         "--directory", str(workdir), "--cores", "2", "--rerun-incomplete"],
+        check=True,
+    )  # fmt: skip
+    figures["workflow_seconds"] = time.monotonic() - start
+    bench = workdir / "results" / "benchmarks"
+    build = [
+        bench / "corpus" / "s1.tsv",
+        bench / "visemes" / "s1.tsv",
+        bench / "flows" / "s1" / "bergen" / "mixed.tsv",
+        bench / "flows" / "s1" / "bergen" / "bridge.tsv",
+    ]
+    figures["s1_model_build_seconds"] = sum(_seconds(b) for b in build if b.exists())
+    figures["heldout_seconds"] = _seconds(bench / "heldout" / "s1.tsv")
+
+    summary = pd.read_csv(workdir / "results" / "metrics" / "heldout" / "s1" / "summary.csv")
+    clips = pd.read_csv(workdir / "results" / "metrics" / "heldout" / "s1" / "clips.csv")
+    own = "bergen/bridge"
+    morph = clips[(clips["renderer"] == "morph") & (clips["model"] == own)].set_index("clip")
+    figures["heldout_clips"] = float(len(morph))
+    figures["eigenlip1_corr_mean"] = float(morph["eigenlip1_corr"].mean())
+    figures["eigenlip1_lag_max_abs"] = float(morph["eigenlip1_lag"].abs().max())
+    figures["psnr_mouth_mean"] = float(morph["psnr_mouth"].mean())
+    for baseline in ("flipbook", "dissolve", "still"):
+        other = clips[clips["renderer"] == baseline].set_index("clip")
+        for measure in ("psnr_mouth", "eigenlip1_corr"):
+            margin = morph[measure] - other[measure]
+            figures[f"morph_minus_{baseline}_{measure}_mean"] = float(margin.mean())
+            figures[f"morph_minus_{baseline}_{measure}_sd"] = float(margin.std(ddof=1))
+    summary.to_csv(out_dir / "heldout_summary.csv", index=False)
+
+    model = workdir / "results" / "model" / "s1"
+    with tempfile.TemporaryDirectory() as tmp:
+        times = []
+        for i in range(4):
+            t0 = time.monotonic()
+            subprocess.run(
+                [str(pathlib.Path(sys.executable).parent / "miketalk"), "say", SENTENCE,
+                 "--model", str(model), "-o", os.path.join(tmp, f"s{i}.mp4")],
+                check=True, capture_output=True,
+            )  # fmt: skip
+            times.append(time.monotonic() - t0)
+    figures["s1_say_10_words_first_seconds"] = times[0]
+    figures["s1_say_10_words_warm_seconds"] = min(times[1:])
+    return figures
