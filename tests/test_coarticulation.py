@@ -13,7 +13,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import pair_path, write_flow_pair
 from miketalk.media.images import write_png
 from miketalk.morph import Morpher
-from miketalk.multimorph import MultiMorpher, render_learned
+from miketalk.multimorph import MultiMorpher, render_learned, render_model_learned
 from miketalk.speech import Phone
 from miketalk.talk.coarticulation import (
     CoarticulationParams,
@@ -237,3 +237,23 @@ def test_render_learned_draws_every_frame_the_same_with_any_workers(exact_model:
     assert len(one) == len(timeline.frames)
     assert all(np.array_equal(x, y) for x, y in zip(one, two, strict=True))
     assert any(not np.array_equal(one[0], frame) for frame in one)
+
+
+def test_the_evaluation_renderer_reads_the_models_own_parameters(
+    exact_model: Path, tmp_path: Path
+) -> None:
+    import shutil
+
+    directory = tmp_path / "model"
+    shutil.copytree(exact_model, directory)
+    table = VisemeTable()
+    phones = [Phone(n, 0.1 * i, 0.1 * (i + 1)) for i, n in enumerate(["pau", "m", "aa", "pau"])]
+    timeline = plan(phones, table, fps=25, duration=0.4)
+    params = CoarticulationParams.prior(table.visemes, rate=25.0, lead=0.02)
+    with Model(directory) as model:
+        with pytest.raises(MiketalkError, match="no learned coarticulation"):
+            list(render_model_learned(model, timeline))
+        write_params(params, directory)
+        got = list(render_model_learned(model, timeline))
+        want = list(render_learned(model, timeline, params))
+    assert all(np.array_equal(x, y) for x, y in zip(got, want, strict=True))

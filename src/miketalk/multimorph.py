@@ -41,11 +41,11 @@ import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.talk.coarticulation import CoarticulationParams, frame_weights
+from miketalk.talk.coarticulation import CoarticulationParams, frame_weights, read_params
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import RENDER_WORKERS, Model
 
-__all__ = ["MultiMorpher", "render_learned"]
+__all__ = ["MultiMorpher", "render_learned", "render_model_learned"]
 
 #: Weights (viseme, weight) of one frame.
 Weights = Sequence[tuple[str, float]]
@@ -233,3 +233,14 @@ def render_learned(
         finally:
             for future in pending:
                 future.cancel()
+
+
+def render_model_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """:func:`render_learned` with the parameters fitted into the model's directory.
+
+    The ``(model, timeline)`` signature of
+    :data:`miketalk.evaluation.heldout.RENDERERS`; raises
+    :class:`~miketalk.errors.MiketalkError` for a model without
+    ``coarticulation.json`` (:func:`miketalk.talk.coarticulation.read_params`).
+    """
+    return render_learned(model, timeline, read_params(model.directory))

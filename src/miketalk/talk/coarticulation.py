@@ -31,12 +31,15 @@ Fitting
 coordinates (:class:`miketalk.evaluation.heldout.Eigenlips`) of their real
 frames and of the viseme images, and chooses ``log a``, ``log theta`` and
 ``ell`` minimizing the squared distance between the predicted trajectory
-``sum_V w_V(t) E(V)`` and the real one, each clip's trajectories centred (a
-clip's mean, which follows lighting and head pose rather than the mouth, is
-not the model's to predict). ``ell`` is chosen on a grid; for each grid value
-``log a`` and ``log theta`` are found by Levenberg-Marquardt with a
-finite-difference Jacobian (numpy only), with a weak pull towards the prior
-``a = 1``, ``theta = prior_rate`` so that a viseme seen rarely keeps the prior.
+``sum_V w_V(t) E(V)`` and the real one, each clip's trajectories with their
+moving average over ``detrend`` seconds removed (:func:`detrender`): what
+moves slower than that follows lighting and the head pose the stabilization
+left rather than the mouth, and is not the model's to predict (fitted
+without it, broad dominances of seconds fitted those drifts). ``ell`` is
+chosen on a grid; for each grid value ``log a`` and ``log theta`` are found by
+Levenberg-Marquardt with a finite-difference Jacobian (numpy only), kept in
+plausible bounds, with a weak pull towards the prior ``a = 1``,
+``theta = prior_rate`` so that a viseme seen rarely keeps the prior.
 The training loss of the paper's own timeline (the same frames through
 :func:`miketalk.talk.lipsync.plan`) is stored beside the fitted one.
 
@@ -418,8 +421,22 @@ def paper_trajectory(timeline: Timeline, targets: Mapping[str, np.ndarray]) -> n
     return np.array(rows)
 
 
-def _centred(x: np.ndarray) -> np.ndarray:
-    return x - x.mean(axis=0, keepdims=True)
+def detrender(n: int, fps: float, seconds: float) -> np.ndarray:
+    """``(n, n)`` matrix removing a trajectory's slow part: ``x - moving_average(x)``.
+
+    The moving average is a box of ``seconds`` (an odd number of frames, edges
+    replicated); ``seconds <= 0`` removes the mean only. What moves slower
+    than the window (head pose and light the stabilization left, not the
+    mouth) is then not fitted.
+    """
+    if seconds <= 0:
+        return np.eye(n) - np.full((n, n), 1.0 / n)
+    half = max(1, round(seconds * fps)) // 2
+    average = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i - half, i + half + 1):
+            average[i, min(max(j, 0), n - 1)] += 1.0 / (2 * half + 1)
+    return np.eye(n) - average
 
 
 def fit(
@@ -430,6 +447,9 @@ def fit(
     leads: Sequence[float] = LEAD_GRID,
     prior_rate: float = PRIOR_RATE,
     prior_strength: float = 1e-3,
+    detrend: float = 0.6,
+    rate_bounds: tuple[float, float] = (4.0, 80.0),
+    magnitude_bounds: tuple[float, float] = (0.05, 20.0),
     window: float = 0.35,
     max_visemes: int = 3,
     min_weight: float = 0.05,
@@ -453,6 +473,13 @@ def fit(
     prior_strength : float
         Weight of the pull towards the prior, relative to the mean squared
         residual per frame and coefficient.
+    detrend : float
+        Seconds: real and predicted trajectories are compared after removing
+        their moving average over this window (:func:`detrender`; 0: each
+        clip's mean only).
+    rate_bounds, magnitude_bounds : (float, float)
+        The range ``theta`` (1/s) and ``a`` are kept in: a dominance that
+        lasts for seconds is a drift, not coarticulation.
     window, max_visemes, min_weight
         Stored in the parameters (see :class:`CoarticulationParams`).
     iterations : int
@@ -471,7 +498,7 @@ def fit(
         raise MiketalkError(f"cannot fit: no clips or no targets for {missing}")
     index = {v: i for i, v in enumerate(visemes)}
     e = np.stack([np.asarray(targets[v], float) for v in visemes])
-    parts, offsets, real = [], [0], []
+    parts, offsets, real, filters = [], [0], [], []
     for clip in clips:
         for k in clip.keys:
             if k.viseme not in index:
@@ -484,7 +511,8 @@ def fit(
         )
         parts.append(pairs)
         offsets.append(offsets[-1] + pairs.n_times)
-        real.append(_centred(np.asarray(clip.real, float)))
+        filters.append(detrender(pairs.n_times, clip.fps, detrend))
+        real.append(filters[-1] @ np.asarray(clip.real, float))
     # all clips as one set of pairs; a clip's times are numbered after the previous clip's
     pairs = _Pairs(
         np.concatenate([p.time + o for p, o in zip(parts, offsets, strict=False)]),
@@ -499,13 +527,18 @@ def fit(
     free = np.concatenate([used, used])  # log a, log theta of the visemes seen
     x0 = np.concatenate([np.zeros(len(visemes)), np.full(len(visemes), math.log(prior_rate))])
     reg = math.sqrt(prior_strength * n_res)
+    n = len(visemes)
+    low = np.log([magnitude_bounds[0]] * n + [rate_bounds[0]] * n)
+    high = np.log([magnitude_bounds[1]] * n + [rate_bounds[1]] * n)
+    if not (low <= x0).all() or not (x0 <= high).all():
+        raise MiketalkError(f"the prior rate {prior_rate} or a = 1 is outside the bounds")
 
     def predicted(x: np.ndarray, lead: float) -> np.ndarray:
         weights = _weights_of_pairs(pairs, x[: len(visemes)], x[len(visemes) :], lead, len(e))
         p = weights @ e
-        # centre each clip (the same centring as the real trajectories)
-        for lo, hi in pairwise(bounds):
-            p[lo:hi] -= p[lo:hi].mean(axis=0)
+        # each clip filtered as its real trajectory is
+        for (lo, hi), m in zip(pairwise(bounds), filters, strict=True):
+            p[lo:hi] = m @ p[lo:hi]
         return p
 
     def residual(x: np.ndarray, lead: float) -> np.ndarray:
@@ -517,7 +550,9 @@ def fit(
 
     best: tuple[float, np.ndarray, float] | None = None
     for lead in leads:
-        x = _levenberg_marquardt(lambda x, lead=lead: residual(x, lead), x0, free, iterations)
+        x = _levenberg_marquardt(
+            lambda x, lead=lead: residual(x, lead), x0, free, iterations, low=low, high=high
+        )
         value = loss(x, lead)
         log.info("coarticulation fit: lead %.3f s, loss %.4f", lead, value)
         if best is None or value < best[0]:
@@ -526,6 +561,7 @@ def fit(
     value, x, lead = best
     n = len(visemes)
     info: dict[str, Any] = {
+        "detrend": detrend,
         "clips": len(clips),
         "frames": int(offsets[-1]),
         "coefficients": int(e.shape[1]),
@@ -547,9 +583,19 @@ def fit(
 
 
 def _levenberg_marquardt(
-    residual: Any, x0: np.ndarray, free: np.ndarray, iterations: int, *, step: float = 1e-5
+    residual: Any,
+    x0: np.ndarray,
+    free: np.ndarray,
+    iterations: int,
+    *,
+    low: np.ndarray,
+    high: np.ndarray,
+    step: float = 1e-5,
 ) -> np.ndarray:
-    """Minimize ``|residual(x)|^2`` over ``x[free]`` (forward-difference Jacobian)."""
+    """Minimize ``|residual(x)|^2`` over ``x[free]`` within ``[low, high]``.
+
+    Forward-difference Jacobian; each step is projected into the bounds.
+    """
     x = x0.copy()
     r = residual(x)
     cost = float(r @ r)
@@ -559,8 +605,8 @@ def _levenberg_marquardt(
         jac = np.empty((r.size, idx.size))
         for j, i in enumerate(idx):
             xi = x.copy()
-            xi[i] += step
-            jac[:, j] = (residual(xi) - r) / step
+            xi[i] += step if x[i] + step <= high[i] else -step
+            jac[:, j] = (residual(xi) - r) / (xi[i] - x[i])
         g = jac.T @ r
         h = jac.T @ jac
         improved = False
@@ -568,6 +614,7 @@ def _levenberg_marquardt(
             delta = np.linalg.solve(h + damping * np.diag(np.diag(h) + 1e-12), -g)
             trial = x.copy()
             trial[idx] += np.clip(delta, -2.0, 2.0)
+            trial = np.clip(trial, low, high)
             r_trial = residual(trial)
             c_trial = float(r_trial @ r_trial)
             if c_trial < cost:
@@ -689,8 +736,10 @@ def fit_coarticulation(
     targets = dict(zip(model.visemes, coords, strict=True))
     clips = training_clips(corpus_dir, eigenlips.project(mouths), table=table)
     params = fit(clips, targets, visemes=model.visemes, **settings)
+    detrend = float(params.fit["detrend"])
     paper = [
-        _centred(paper_trajectory(clip.paper_timeline(table), targets)) - _centred(clip.real)
+        detrender(len(clip.real), clip.fps, detrend)
+        @ (paper_trajectory(clip.paper_timeline(table), targets) - clip.real)
         for clip in clips
     ]
     info = dict(params.fit)
