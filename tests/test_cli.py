@@ -577,6 +577,16 @@ def test_cues_in_rhubarb_json_tsv_and_a_textgrid(dirs: tuple[Path, Path]) -> Non
     assert {c["value"] for c in json.loads(basic.stdout)["mouthCues"]} <= set("ABCDEF")
 
 
+def test_cues_into_a_read_only_directory_is_one_line(
+    dirs: tuple[Path, Path], read_only: Path
+) -> None:
+    work, scratch = dirs
+    proc = run("cues", "Hello", "-o", read_only / "h.json", "-v", cwd=work, scratch=scratch)
+    assert_user_error(proc, "cannot write", "h.json")
+    wav = run("cues", "Hello", "--wav", read_only / "h.wav", cwd=work, scratch=scratch)
+    assert_user_error(wav, "cannot write", "h.wav")
+
+
 def test_cues_of_a_recording(dirs: tuple[Path, Path]) -> None:
     work, scratch = dirs
     made = run("cues", "Bob feeds Pat.", "--wav", "bob.wav", "-o", "tts.json", cwd=work,

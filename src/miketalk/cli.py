@@ -333,6 +333,10 @@ def cmd_cues(args: argparse.Namespace) -> int:
         raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
     if args.wav is not None and Path(args.wav).suffix.lower() != ".wav":
         raise MiketalkError(f"--wav must name a .wav file, not {Path(args.wav).name!r}")
+    from miketalk.media.atomic import check_writable
+
+    for path in [*outputs, *([Path(args.wav)] if args.wav is not None else [])]:
+        check_writable(path)  # before Festival runs
     table = default_table()
     if args.audio is not None:
         from miketalk.talk.recorded import align_recording
