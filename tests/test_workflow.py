@@ -101,7 +101,7 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert manifest.get("fallbacks", {}) == fallbacks
     assert set(visemes["clip"]) <= set(clips["clip"])  # test clips never reach the model
     summary = pd.read_csv(results / "metrics/heldout/s1/summary.csv")
-    assert set(summary["renderer"]) == {"morph", "still", "flipbook", "dissolve"}
+    assert set(summary["renderer"]) == {"morph", "still", "flipbook", "dissolve", "learned"}
     assert (summary["clips"] == 2).all()
 
 

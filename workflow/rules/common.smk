@@ -148,6 +148,16 @@ def clip_regions(wildcards):
     return {"regions": f"{at(CORPUS, wildcards.face)}/regions.json"}
 
 
+def clip_corpus(wildcards):
+    """A face from clips also learns its coarticulation from its corpus's aligned frames."""
+    if wildcards.face not in CLIP_FACES:
+        return {}
+    return {
+        "phones": f"{at(CORPUS, wildcards.face)}/phones.tsv",
+        "regions": f"{at(CORPUS, wildcards.face)}/regions.json",
+    }
+
+
 def model_flows(wildcards):
     """The flow database of a face's model."""
     method, strategy = model_flow(wildcards.face)

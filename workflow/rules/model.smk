@@ -3,6 +3,7 @@
 
 rule model:
     input:
+        unpack(clip_corpus),
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
         flows=model_flows,
@@ -17,5 +18,6 @@ rule model:
     params:
         spec=lambda wildcards: method_json(model_flow(wildcards.face)[0]),
         strategy=lambda wildcards: model_flow(wildcards.face)[1],
+        grouping=config["visemes"]["grouping"],
     script:
         "../scripts/model.py"

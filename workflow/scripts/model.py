@@ -25,6 +25,12 @@ def main() -> None:
         settings={**spec["settings"], "strategy": snakemake.params.strategy},
         fallbacks=fallbacks_of(visemes),
     )
+    if phones := snakemake.input.get("phones"):  # a face from clips: learn its coarticulation
+        from miketalk.talk.coarticulation import fit_coarticulation
+
+        fit_coarticulation(
+            Path(phones).parent, snakemake.output[0], grouping=snakemake.params.grouping
+        )
 
 
 run_stage(snakemake, main)

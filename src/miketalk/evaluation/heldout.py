@@ -19,7 +19,8 @@ same moment, ``k / fps``. Every measure compares the two on the mouth region:
 Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
 the same timeline and so the same frames: the silence viseme held (a still
 face), the nearest viseme held (a flip-book, no morph), and a cross-dissolve
-with the morph's alpha.
+with the morph's alpha; and, for a model that has learned its person's
+coarticulation (``coarticulation.json``), that model (``learned``).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import pandas as pd
 
 from miketalk.errors import MiketalkError
 from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr, ssim
+from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
 from miketalk.visemes import SILENCE
@@ -134,12 +136,20 @@ def render_morph(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
     return model.render(timeline)
 
 
+def render_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """Learned coarticulation (:mod:`miketalk.talk.coarticulation`) drawn by the N-way morph."""
+    from miketalk.multimorph import render_model_learned
+
+    return render_model_learned(model, timeline)
+
+
 #: Renderers of a timeline, by the name the tables use.
 RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
     "still": render_still,
     "flipbook": render_flipbook,
     "dissolve": render_dissolve,
     "morph": render_morph,
+    "learned": render_learned,
 }
 
 
@@ -286,6 +296,8 @@ def evaluate_clip(
     jobs = [("morph", name) for name in models]
     if baselines_of is not None:
         jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
+        if (models[baselines_of].directory / COARTICULATION).exists():
+            jobs.append(("learned", baselines_of))
     summaries, tables, renders = [], [], {}
     for renderer, name in jobs:
         frames = np.stack(list(RENDERERS[renderer](models[name], heldout.timeline)))
