@@ -83,6 +83,12 @@ def corpus_settings(face):
     return corpus
 
 
+def morph_options(face):
+    """The morph settings of a face: morph, with the face's own overrides."""
+    own = FACES[face].get("morph", {}) if face in FACES else {}
+    return {**config["morph"], **own}
+
+
 def model_flow(face):
     """The flow method and strategy of a face's model (the configured ones for no face)."""
     own = FACES[face].get("flow", {}) if face in FACES else {}

@@ -50,6 +50,7 @@ rule heldout:
         corpus=lambda wildcards: corpus_settings(wildcards.face),
         default_model=lambda wildcards: "/".join(model_flow(wildcards.face)),
         grouping=config["visemes"]["grouping"],
+        morph=lambda wildcards: morph_options(wildcards.face),
     script:
         "../scripts/heldout.py"
 

@@ -25,7 +25,7 @@ rule utterance:
         text=lambda wildcards: config["sentences"][wildcards.sentence],
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
-        morph=config["morph"],
+        morph=lambda wildcards: morph_options(wildcards.face),
         grouping=config["visemes"]["grouping"],
     script:
         "../scripts/utterance.py"
@@ -51,7 +51,7 @@ rule sweep_utterance:
         text=config["sentences"][config["sweeps"]["sentence"]],
         fps=lambda wildcards: float(wildcards.fps),
         max_px=lambda wildcards: float(wildcards.px),
-        morph=config["morph"],
+        morph=lambda wildcards: morph_options(wildcards.face),
         grouping=config["visemes"]["grouping"],
     script:
         "../scripts/utterance.py"

@@ -27,6 +27,7 @@ def main() -> None:
         default_model=snakemake.params.default_model,
         clips=clips,
         grouping=snakemake.params.grouping,
+        morph=snakemake.params.morph,
         frames_csv=snakemake.output.frames,
         clips_csv=snakemake.output.clips,
         summary_csv=snakemake.output.summary,

@@ -333,6 +333,7 @@ def heldout_stage(
     default_model: str,
     clips: list,
     grouping: dict,
+    morph: dict | None = None,
     frames_csv,
     clips_csv,
     summary_csv,
@@ -354,6 +355,8 @@ def heldout_stage(
         The test clips (never read while building the model).
     grouping : dict
         Viseme grouping overrides.
+    morph : dict, optional
+        The face's morph settings (:class:`miketalk.morph.Morpher` keywords).
     frames_csv, clips_csv, summary_csv : path
         Per-frame measures, per-clip summaries, and their mean and spread.
     videos_dir : path
@@ -380,7 +383,7 @@ def heldout_stage(
     eigenlips = Eigenlips(train)
     stabilizer = corpus_stabilizer(corpus_dir)
     table = VisemeTable(grouping=grouping)
-    opened = {name: Model(path) for name, path in models.items()}
+    opened = {name: Model(path, morph_options=morph) for name, path in models.items()}
     videos = Path(videos_dir)
     videos.mkdir(parents=True, exist_ok=True)
     summaries, frames = [], []
