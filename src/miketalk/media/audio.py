@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numbers
 import os
+import struct
 import wave
 from pathlib import Path
 
@@ -61,11 +62,17 @@ def write_wav(path: str | os.PathLike[str], samples: np.ndarray, rate: int) -> N
     """
     samples = check_samples(samples)
     rate = check_rate(rate)
-    with atomic_path(path) as tmp, wave.open(str(tmp), "wb") as out:
-        out.setnchannels(1)
-        out.setsampwidth(_SAMPLE_WIDTH)
-        out.setframerate(rate)
-        out.writeframes(samples.astype("<i2", copy=False).tobytes())
+    data = samples.astype("<i2", copy=False).tobytes()
+    # the 44-byte RIFF/WAVE header of mono 16-bit PCM, written with the data in one call
+    # (the wave module's writer, interrupted by a signal while it opens, complains from
+    # its __del__ on stderr)
+    header = struct.pack(
+        "<4sI4s4sIHHIIHH4sI",
+        b"RIFF", 36 + len(data), b"WAVE", b"fmt ", 16, 1, 1, rate,
+        rate * _SAMPLE_WIDTH, _SAMPLE_WIDTH, 8 * _SAMPLE_WIDTH, b"data", len(data),
+    )  # fmt: skip
+    with atomic_path(path) as tmp:
+        Path(tmp).write_bytes(header + data)
 
 
 def read_wav(path: str | os.PathLike[str]) -> tuple[np.ndarray, int]:
