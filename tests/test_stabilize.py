@@ -1,0 +1,238 @@
+"""Tests of miketalk.corpus.media_video (decoding) and miketalk.corpus.stabilize.
+
+Everything is built here: a seeded synthetic head (a textured ellipse on a
+plain background, a neck and shoulders, a dark mouth blob that opens and
+closes) moved by known similarity transforms, and tiny videos written with the
+bundled ffmpeg. Nothing reads /work/shared.
+"""
+
+from __future__ import annotations
+
+import subprocess
+from fractions import Fraction
+
+import cv2
+import imageio_ffmpeg
+import numpy as np
+import pytest
+
+from miketalk.corpus.media_video import read_video
+from miketalk.corpus.stabilize import (
+    Stabilizer,
+    choose_reference,
+    locate_face,
+    locate_head,
+    locate_mouth,
+    registration_mask,
+    residual_motion,
+)
+from miketalk.errors import MiketalkError
+
+H, W = 144, 176
+MOUTH = (88, 104)  # centre (x, y) of the synthetic mouth
+
+
+def _texture(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """Smooth noise in [-1, 1] (detail at 2.5 and 6 px): any interpolation resamples it well."""
+    fine = cv2.GaussianBlur(rng.standard_normal(shape).astype(np.float32), (0, 0), 2.5)
+    coarse = cv2.GaussianBlur(rng.standard_normal(shape).astype(np.float32), (0, 0), 6.0)
+    tex = fine / fine.std() + 0.7 * coarse / coarse.std()
+    return np.clip(tex / 3, -1, 1)
+
+
+def _head(opening: float, seed: int = 7) -> np.ndarray:
+    """The synthetic head, mouth ``opening`` px tall: (H, W, 3) uint8 RGB."""
+    rng = np.random.default_rng(seed)
+    img = np.empty((H, W, 3), np.float32)
+    img[:] = (40, 120, 200)  # plain blue background
+    yy, xx = np.mgrid[0:H, 0:W]
+    body = np.zeros((H, W), bool)
+    body |= ((xx - 88) / 40) ** 2 + ((yy - 70) / 52) ** 2 <= 1  # head
+    body |= (abs(xx - 88) <= 20) & (yy >= 110)  # neck
+    body |= (abs(xx - 88) <= 80) & (yy >= 132)  # shoulders
+    tex = _texture(rng, (H, W))
+    skin = np.array([200, 150, 120], np.float32)
+    img[body] = skin + 60 * tex[body, None]
+    mouth = ((xx - MOUTH[0]) / 14) ** 2 + ((yy - MOUTH[1]) / max(opening, 0.5)) ** 2 <= 1
+    img[mouth] = np.array([150, 60, 70], np.float32) * (1 - 0.1 * opening)  # darker as it opens
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def _similarity(k: int) -> np.ndarray:
+    """Frame ``k``'s known motion: a small shift, rotation and scale about the head."""
+    angle = 2.0 * np.sin(0.7 * k)  # degrees
+    scale = 1 + 0.02 * np.cos(0.5 * k)
+    m = cv2.getRotationMatrix2D((88.0, 70.0), angle, scale)
+    m[:, 2] += (2.5 * np.sin(0.9 * k + 1), 1.5 * np.cos(1.1 * k))
+    return m
+
+
+def _clip(n: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """Frames whose head is the synthetic head moved by ``_similarity(k)`` (frame 0 unmoved)."""
+    frames, truth = [], []
+    for k in range(n):
+        m = np.eye(2, 3) if k == 0 else _similarity(k)
+        head = _head(2 + 5 * abs(np.sin(0.8 * k)))
+        frames.append(
+            cv2.warpAffine(head, m, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE)
+        )
+        truth.append(m)
+    return np.stack(frames), np.stack(truth)
+
+
+# --- read_video --------------------------------------------------------------------------
+
+
+def _write_video(path, frames: np.ndarray, rate: str) -> None:
+    """Write RGB frames losslessly (FFV1 in Matroska) with one-thread, bit-exact ffmpeg."""
+    _, h, w, _ = frames.shape
+    args = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-y", "-threads", "1",
+        "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}", "-r", rate, "-i", "pipe:0",
+        "-c:v", "ffv1", "-pix_fmt", "bgr0", "-threads", "1", "-bitexact", str(path),
+    ]  # fmt: skip
+    subprocess.run(args, input=frames.tobytes(), check=True, capture_output=True)
+
+
+def test_read_video_returns_the_frames_and_the_exact_rate(tmp_path):
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 256, (7, 24, 32, 3), dtype=np.uint8)
+    path = tmp_path / "clip.mkv"
+    _write_video(path, frames, "30000/1001")
+    got, fps = read_video(path)
+    assert got.dtype == np.uint8 and got.shape == frames.shape
+    np.testing.assert_array_equal(got, frames)
+    assert fps == float(Fraction(30000, 1001))
+    again, _ = read_video(str(path))
+    assert again.tobytes() == got.tobytes()
+
+
+def test_read_video_decodes_mpeg1_at_25_fps_deterministically(tmp_path):
+    path = tmp_path / "grid_like.mpg"
+    args = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-y", "-threads", "1",
+        "-f", "lavfi", "-i", "testsrc=size=64x48:rate=25:duration=0.4",
+        "-c:v", "mpeg1video", "-threads", "1", "-bitexact", str(path),
+    ]  # fmt: skip
+    subprocess.run(args, check=True, capture_output=True)
+    first, fps = read_video(path)
+    second, _ = read_video(path)
+    assert first.shape == (10, 48, 64, 3) and fps == 25.0
+    assert first.tobytes() == second.tobytes()
+
+
+def test_read_video_names_a_missing_or_unreadable_file(tmp_path):
+    with pytest.raises(MiketalkError, match=r"nothere\.mpg"):
+        read_video(tmp_path / "nothere.mpg")
+    junk = tmp_path / "junk.mpg"
+    junk.write_bytes(b"not a video at all" * 10)
+    with pytest.raises(MiketalkError, match=r"junk\.mpg"):
+        read_video(junk)
+
+
+def test_read_video_rejects_a_file_without_video(tmp_path):
+    path = tmp_path / "tone.wav"
+    args = [
+        imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-y",
+        "-f", "lavfi", "-i", "sine=duration=0.2", str(path),
+    ]  # fmt: skip
+    subprocess.run(args, check=True, capture_output=True)
+    with pytest.raises(MiketalkError, match=r"tone\.wav has no video stream"):
+        read_video(path)
+
+
+# --- where the face and the mouth are --------------------------------------------------------
+
+
+def test_locate_head_and_face_find_the_head_above_the_neck():
+    frame = _head(4.0)
+    head = locate_head(frame)
+    face = locate_face(frame)
+    assert head[70, 88] and face[70, 88] and face[MOUTH[1], MOUTH[0]]
+    assert not head[5, 5] and not head[140, 88]  # background; shoulders below the neck
+    assert not face[125, 88]  # neck
+    assert (face & ~head).sum() == 0
+
+
+def test_locate_mouth_finds_the_moving_blob():
+    frames = np.stack([_head(2 + 5 * abs(np.sin(0.8 * k))) for k in range(12)])
+    x, y, w, h = locate_mouth(frames, locate_face(frames[0]))
+    assert x <= MOUTH[0] < x + w and y <= MOUTH[1] < y + h
+    assert w <= 40 and h <= 24  # the mouth, not the face
+
+
+def test_registration_mask_is_the_face_outside_the_mouth():
+    frame = _head(4.0)
+    face = locate_face(frame)
+    box = (74, 97, 29, 15)
+    masks = {r: registration_mask(face, box, region=r) for r in ("face", "central", "rigid")}
+    for mask in masks.values():
+        assert mask.any() and not (mask & ~face).any()
+        assert not mask[97:112, 74:103].any()  # the mouth box
+        assert not mask[112:, 74:103].any()  # and the chin below it
+    assert not (masks["central"] & ~masks["face"]).any()
+    assert not (masks["rigid"] & ~masks["central"]).any()
+    with pytest.raises(MiketalkError, match="unknown region"):
+        registration_mask(face, box, region="eyes")  # type: ignore[arg-type]
+
+
+def test_choose_reference_skips_an_odd_frame():
+    frames = np.stack([_head(2.0), _head(2.0), _head(9.0), _head(2.0)])
+    frames[2, 40:60] = 0  # a frame unlike the others
+    assert choose_reference(frames) != 2
+
+
+# --- registration --------------------------------------------------------------------------
+
+
+def _face_points(mask: np.ndarray) -> np.ndarray:
+    ys, xs = np.nonzero(mask)
+    return np.stack([xs, ys, np.ones_like(xs)]).astype(float)
+
+
+def test_register_recovers_known_similarities():
+    frames, truth = _clip()
+    stab = Stabilizer.from_reference(frames[0], sample=frames)
+    transforms = stab.register(frames, clip="synthetic")
+    assert transforms.shape == (len(frames), 2, 3)
+    points = _face_points(stab.mask)
+    for k in range(len(frames)):
+        error = np.hypot(*((transforms[k] - truth[k]) @ points))
+        assert error.max() < 0.1, f"frame {k}: {error.max():.3f} px"
+    assert (stab.correlations > 0.95).all()
+
+
+def test_stabilize_brings_every_frame_onto_the_reference():
+    frames, _ = _clip()
+    stab = Stabilizer.from_reference(frames[0], sample=frames)
+    result = stab.stabilize(frames, clip="synthetic")
+    assert result.frames.shape == frames.shape and result.frames.dtype == np.uint8
+    assert result.field is not None
+    assert np.abs(result.field[stab.mask]).max() < 0.2  # nothing left for the field to do
+    before = residual_motion(frames, frames[0], stab.mask)
+    after = residual_motion(result.frames, frames[0], stab.mask)
+    assert before.max() > 1.0 and after.max() < 0.15
+
+
+def test_a_frame_of_noise_does_not_register():
+    frames, _ = _clip(3)
+    stab = Stabilizer.from_reference(frames[0], mouth_box=(74, 97, 29, 15))
+    noise = np.random.default_rng(5).integers(0, 256, frames[0].shape, dtype=np.uint8)
+    with pytest.raises(MiketalkError, match=r"clip7 frame 1 does not register"):
+        stab.register(np.stack([frames[1], noise, frames[2]]), clip="clip7")
+    transforms = stab.register(np.stack([frames[1], noise, frames[2]]), on_failure="nan")
+    assert np.isnan(transforms[1]).all() and np.isfinite(transforms[[0, 2]]).all()
+
+
+def test_from_reference_needs_a_mouth_or_frames_to_find_it_in():
+    with pytest.raises(MiketalkError, match="mouth_box"):
+        Stabilizer.from_reference(_head(3.0))
+
+
+def test_residual_motion_measures_a_shift():
+    frame = _head(3.0)
+    mask = locate_face(frame)
+    shifted = cv2.warpAffine(frame, np.float64([[1, 0, 1.5], [0, 1, 0]]), (W, H),
+                             borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
+    motion = residual_motion(np.stack([frame, shifted]), frame, mask)
+    assert motion[0] < 0.01 and abs(motion[1] - 1.5) < 0.2
