@@ -65,7 +65,8 @@ speech within the clip are left as they are.
 Checks (a frame that will not register raises :class:`MiketalkError` naming
 the clip and frame): ECC stops without converging (OpenCV raises), or the
 final correlation coefficient over the mask is below ``min_correlation``
-(0.8; see :mod:`miketalk.bench.stabilization` for GRID's). A clip whose
+(0.8: on GRID's 200 clips every real frame scores 0.93 or more; the 48 that
+fail, the corrupt first 12 frames of 4 clips, 0.64 or less). A clip whose
 conform field exceeds ``max_conform`` widths of its mask does not show the
 reference's face (raises as well).
 
@@ -937,7 +938,6 @@ class Stabilizer:
         coef = pinv @ flow.reshape(-1, 2)[self.conform_mask.ravel()]
         field = (basis @ coef).reshape(*self.mask.shape, 2) * fade[..., None]
         largest = float(np.sqrt((field[self.conform_mask] ** 2).sum(axis=1)).max())
-        self.last_conform = largest
         if largest > self.max_conform * bw:
             raise MiketalkError(
                 f"{clip} does not register to the reference: its face differs by {largest:.1f} "
