@@ -262,13 +262,7 @@ def ingest_clips(
     MiketalkError
         When no clip can be used, or the clips differ in size or frame rate.
     """
-    from miketalk.corpus.stabilize import (
-        Stabilizer,
-        choose_reference,
-        locate_face,
-        locate_mouth,
-        registration_mask,
-    )
+    from miketalk.corpus.stabilize import Stabilizer, choose_reference
     from miketalk.media.video import write_mp4
 
     if not clips:
@@ -292,10 +286,13 @@ def ingest_clips(
         if size is None:
             size, fps = item.frames.shape[1:3], item.fps
             reference = int(choose_reference(item.frames))
-            face = locate_face(item.frames[reference])
-            mouth = tuple(int(v) for v in locate_mouth(item.frames, face))
-            mask = registration_mask(face, mouth)
-            stabilizer = Stabilizer(item.frames[reference], mask)
+            try:
+                stabilizer = Stabilizer.from_reference(item.frames[reference], sample=item.frames)
+            except MiketalkError as err:
+                raise MiketalkError(
+                    f"clip {clip.id}, the reference clip: its face cannot be found ({err})"
+                ) from err
+            face, mouth, mask = stabilizer.face, stabilizer.mouth_box, stabilizer.mask
             regions = {
                 "reference": {"clip": clip.id, "frame": reference},
                 "mouth_box": list(mouth),
@@ -312,12 +309,15 @@ def ingest_clips(
                 "one corpus must share size and frame rate"
             )
         try:
-            transforms = stabilizer.register(item.frames, clip=f"clip {clip.id}")
-            scores = stabilizer.correlations
+            stabilized = stabilizer.stabilize(item.frames, clip=f"clip {clip.id}")
         except MiketalkError as err:
             _skip(skipped, clip.id, str(err))
             continue
-        steady = stabilizer.apply(item.frames, transforms)
+        steady, transforms, scores = (
+            stabilized.frames,
+            stabilized.transforms,
+            stabilized.correlations,
+        )
         first, n = n_total, len(steady)
         for k, frame in enumerate(steady):
             write_png(frame_path(frames_dir, first + k), frame)
@@ -394,14 +394,33 @@ def corpus_stabilizer(corpus_dir: str | Path):
     from miketalk.media.images import read_image
 
     corpus_dir = Path(corpus_dir)
-    mask = read_image(corpus_dir / REGISTRATION_MASK) > 127
-    return Stabilizer(read_image(corpus_dir / REFERENCE), mask if mask.ndim == 2 else mask[..., 0])
+    face = read_image(corpus_dir / FACE_MASK)
+    face = (face if face.ndim == 2 else face[..., 0]) > 127
+    return Stabilizer.from_reference(
+        read_image(corpus_dir / REFERENCE), face=face, mouth_box=mouth_box(corpus_dir)
+    )
 
 
 def mouth_box(corpus_dir: str | Path) -> tuple[int, int, int, int]:
-    """The mouth box ``(x, y, w, h)`` the corpus stage found."""
+    """The mouth box ``(x, y, w, h)`` the corpus stage found (where the lips move most)."""
     regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
     return tuple(int(v) for v in regions["mouth_box"])
+
+
+def mouth_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
+    """The mouth region measures and viseme choices look at: lips, teeth and the opening.
+
+    The mouth box marks where the lips move most (often a thin band at the
+    lips' meeting line); the region is centred on it, 1.3 mouth widths wide
+    and one high, so that it holds both lips and the open mouth between them.
+    """
+    regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
+    x, y, w, h = regions["mouth_box"]
+    height, width = regions["size"]
+    cx, cy = x + w / 2, y + h / 2
+    x0, x1 = max(0, round(cx - 0.65 * w)), min(width, round(cx + 0.65 * w))
+    y0, y1 = max(0, round(cy - 0.45 * w)), min(height, round(cy + 0.55 * w))
+    return x0, y0, x1 - x0, y1 - y0
 
 
 def _decoded(
@@ -487,15 +506,16 @@ def _write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[obje
 
 
 def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
-    """The box flows are estimated in: the mouth box widened to hold the jaw and cheeks.
+    """The box flows are estimated in: the mouth and what moves with it, jaw and cheeks.
 
-    One mouth-box width each side and one and a half of its height below (the
-    chin, which follows the jaw), from the box's top (below the eyes, which
-    blink), clipped to the frame.
+    In mouth widths ``w`` about the mouth box's centre: one each side, 0.6
+    above (to the nose, below the eyes, which blink) and 1.3 below (the chin,
+    which follows the jaw), clipped to the frame.
     """
     regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
     x, y, w, h = regions["mouth_box"]
     height, width = regions["size"]
-    x0, y0 = max(0, x - w), max(0, y)
-    x1, y1 = min(width, x + 2 * w), min(height, y + h + (3 * h) // 2)
+    cx, cy = x + w / 2, y + h / 2
+    x0, x1 = max(0, round(cx - 1.5 * w)), min(width, round(cx + 1.5 * w))
+    y0, y1 = max(0, round(cy - 0.6 * w)), min(height, round(cy + 1.3 * w))
     return x0, y0, x1 - x0, y1 - y0

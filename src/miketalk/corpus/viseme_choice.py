@@ -284,14 +284,13 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     ``clip_frame``, ``phone``, ``candidates``, the distances and ``fallback``),
     ``images`` and ``sheet``.
     """
-    import json
 
     from miketalk.corpus.clips import (
         CLIPS_TABLE,
         PHONES_TABLE,
         REFERENCE,
-        REGIONS,
         flow_region,
+        mouth_region,
     )
     from miketalk.corpus.folder import FRAMES_TABLE, open_corpus
     from miketalk.figures.sheets import grid
@@ -302,8 +301,7 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     corpus_dir = Path(corpus_dir)
     table = VisemeTable(grouping=grouping)
     video = open_corpus(corpus_dir)
-    regions = json.loads((corpus_dir / REGIONS).read_text())
-    x, y, w, h = regions["mouth_box"]
+    x, y, w, h = mouth_region(corpus_dir)
     mouths = np.stack(
         [
             cv2.cvtColor(

@@ -256,8 +256,7 @@ def prepare_heldout(clip, *, stabilizer, table, decode=None) -> HeldoutClip:
     from miketalk.talk.lipsync import plan
 
     decoded = (decode or decode_clip)(clip)
-    transforms = stabilizer.register(decoded.frames, clip=f"clip {clip.id}")
-    real = stabilizer.apply(decoded.frames, transforms)
+    real = stabilizer.stabilize(decoded.frames, clip=f"clip {clip.id}").frames
     timeline = plan(decoded.phones, table, fps=decoded.fps, duration=len(real) / decoded.fps)
     if len(timeline.frames) != len(real):  # round(n / fps * fps) is n
         raise MiketalkError(
@@ -371,13 +370,13 @@ def heldout_stage(
     import json
     from pathlib import Path
 
-    from miketalk.corpus.clips import corpus_stabilizer, mouth_box
+    from miketalk.corpus.clips import corpus_stabilizer, mouth_region
     from miketalk.corpus.folder import open_corpus
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.visemes import VisemeTable
 
-    box = mouth_box(corpus_dir)
+    box = mouth_region(corpus_dir)
     video = open_corpus(corpus_dir)
     train = np.stack([grey_mouths(video.frame(k)[None], box)[0] for k in range(video.n_frames)])
     eigenlips = Eigenlips(train)

@@ -710,14 +710,14 @@ def fit_coarticulation(
     CoarticulationParams
         The fitted parameters; ``fit`` also holds the paper timeline's training loss.
     """
-    from miketalk.corpus.clips import mouth_box
+    from miketalk.corpus.clips import mouth_region
     from miketalk.corpus.folder import count_frames, frame_path
     from miketalk.evaluation.heldout import Eigenlips, grey_mouths
     from miketalk.media.images import read_image
     from miketalk.talk.model import Model
 
     table = VisemeTable(grouping=grouping)
-    box = mouth_box(corpus_dir)
+    box = mouth_region(corpus_dir)
 
     frames_dir = Path(corpus_dir) / "frames"
     mouths = np.stack(
