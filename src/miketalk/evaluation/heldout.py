@@ -222,7 +222,8 @@ def compare(
 def _corr(a: np.ndarray, b: np.ndarray) -> float:
     """Pearson correlation; 0 when either signal is constant (a still face correlates with none)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    if a.std() == 0 or b.std() == 0:
+    # a constant signal projected through floating point wobbles by ~1e-15: still constant
+    if a.std() <= 1e-9 * (1 + np.abs(a).max()) or b.std() <= 1e-9 * (1 + np.abs(b).max()):
         return 0.0
     return float(np.corrcoef(a, b)[0, 1])
 
