@@ -175,7 +175,8 @@ def heldout_models(wildcards):
     face = wildcards.face
     own = "/".join(model_flow(face))
     models = {f"model:{own}": at(MODEL, face)}
-    if face not in config["faces"]:  # a face of the training-clips sweep: its own model only
+    # a face of the training-clips sweep measures its own model only
+    if face not in config["faces"]:
         return models
     for name in config["evaluation"]["models"]:
         if name != own:
