@@ -269,7 +269,7 @@ class Model:
                 for sample in timeline.frames:
                     read_ahead(sample)
                     pending.append(pool.submit(self.draw, timeline, sample))
-                    if len(pending) > 2 * workers:
+                    if len(pending) > 8 * workers:
                         yield pending.popleft().result()
                 while pending:
                     yield pending.popleft().result()

@@ -17,6 +17,7 @@ import os
 import time
 from contextlib import closing
 from dataclasses import asdict, dataclass
+from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -26,7 +27,7 @@ from miketalk.media.atomic import atomic_paths, sweep_beside
 from miketalk.media.video import write_mp4
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone, Utterance
-from miketalk.talk.lipsync import Timeline, speak_in_sync
+from miketalk.talk.lipsync import Timeline, keyframes, speak_in_sync
 from miketalk.talk.model import Model, strict_json
 from miketalk.talk.motion import JerkMeter, Motion, measure
 from miketalk.talk.output import TIMELINE_FORMAT, check_output
@@ -203,16 +204,25 @@ def speak(
             speech.close()
         raise
     planned: list[tuple[Phone, ...]] = []
+    table = table or default_table()
+
+    def on_planned(phones: tuple[Phone, ...]) -> None:
+        # retiming changes when visemes are shown, never which: the flows the
+        # render needs are read while the engine makes the wave
+        planned.append(phones)
+        keys = keyframes(phones, table)
+        model.prefetch((a.viseme, b.viseme) for a, b in pairwise(keys))
+
     with speech:
         utterance, timeline = speak_in_sync(
             speech,
-            table or default_table(),
+            table,
             fps=fps,
             displacement=model.displacement,
             max_px_per_frame=max_px_per_frame,
             sampling=sampling,
             max_slowdown=max_slowdown,
-            on_planned=planned.append,
+            on_planned=on_planned,
         )
     # A voice that sets its own durations (HTS) speaks other times than it planned:
     # unless the paper's mode dictated them, the phones as spoken are the natural ones.
