@@ -624,3 +624,30 @@ def test_cues_mistakes(
     line = _main_error(capsys, "cues", "Hello", *args)
     assert message in line
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_termination_inside_a_finalizer_waits_for_it(tmp_path: Path) -> None:
+    code = """
+import os, signal, sys, time
+from miketalk.console import Terminated, handle_termination
+
+class Closes:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.05)  # the signal arrives while this finalizer runs
+        print("finalizer done", flush=True)
+
+with handle_termination():
+    try:
+        obj = Closes()
+        del obj
+        time.sleep(5)
+        print("not stopped")
+    except Terminated as err:
+        print("terminated by", signal.Signals(err.signum).name)
+"""
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=30, check=False
+    )
+    assert proc.stdout.split("\n")[:2] == ["finalizer done", "terminated by SIGTERM"]
+    assert proc.stderr == ""

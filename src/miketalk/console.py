@@ -13,7 +13,9 @@ the ``miketalk.native`` logger (on stderr).
 :func:`handle_termination` makes SIGTERM and SIGHUP behave like Ctrl-C: they
 raise :class:`Terminated` (a :class:`KeyboardInterrupt`), so every clean-up
 that runs on Ctrl-C (the Festival run, the scratch directories, temporary
-files) runs on them too.
+files) runs on them too. A signal that lands inside a ``__del__`` method is
+raised again once that method has finished, since Python would print and
+drop an exception raised there.
 """
 
 from __future__ import annotations
@@ -58,6 +60,11 @@ def handle_termination() -> Iterator[None]:
     def handler(signum: int, frame: FrameType | None) -> None:
         if fired:
             return
+        if _in_finalizer(frame):
+            # an exception raised in __del__ is printed and lost ("Exception ignored
+            # in ..."): ask again once the finalizer is done
+            threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
+            return
         fired.append(signum)
         raise Terminated(signum)
 
@@ -67,6 +74,15 @@ def handle_termination() -> Iterator[None]:
     finally:
         for n, previous in old.items():
             signal.signal(n, previous)
+
+
+def _in_finalizer(frame: FrameType | None) -> bool:
+    """Whether ``frame`` runs inside a ``__del__`` method (where an exception would be lost)."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _real_fileno(stream: object) -> int | None:
