@@ -651,3 +651,34 @@ with handle_termination():
     )
     assert proc.stdout.split("\n")[:2] == ["finalizer done", "terminated by SIGTERM"]
     assert proc.stderr == ""
+
+
+def test_a_signal_between_making_a_temporary_and_recording_it_leaves_nothing(
+    tmp_path: Path,
+) -> None:
+    code = f"""
+import os, signal
+from pathlib import Path
+from miketalk.console import Terminated, handle_termination
+from miketalk.media import atomic
+
+made = atomic._temporary
+
+def made_then_signalled(final, suffix):
+    tmp = made(final, suffix)
+    os.kill(os.getpid(), signal.SIGTERM)  # lands before atomic_paths has recorded tmp
+    return tmp
+
+atomic._temporary = made_then_signalled
+with handle_termination():
+    try:
+        with atomic.atomic_paths([Path({str(tmp_path)!r}) / "v.mp4"]) as (tmp,):
+            print("wrote into", tmp.name)
+    except Terminated:
+        print("terminated")
+"""
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=30, check=False
+    )
+    assert proc.stdout.strip() == "terminated" and proc.stderr == ""
+    assert list(tmp_path.iterdir()) == []

@@ -22,13 +22,12 @@ import json
 import logging
 import os
 import re
-import signal
 import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from miketalk.errors import MiketalkError
-from miketalk.media.scratch import owner_tag, tag_owner_alive
+from miketalk.media.scratch import deferred_signals, owner_tag, tag_owner_alive
 
 log = logging.getLogger(__name__)
 
@@ -36,9 +35,6 @@ _MARK = "miketalk-"
 #: ``.<name>.miketalk-<pid>.<start>.<rest>``: a temporary file or journal of ``<name>``.
 _BESIDE = re.compile(r"^\.(?P<name>.+)\.miketalk-(?P<tag>\d+\.\d+)\.(?P<rest>[^/]+)$")
 _JOURNAL_SUFFIX = ".commit"
-_SIGNALS = tuple(
-    s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None
-)
 
 
 def _temporary(final: Path, suffix: str) -> Path:
@@ -124,7 +120,8 @@ def atomic_paths(
     temps: list[Path] = []
     try:
         for final, suffix in zip(finals, suffixes, strict=True):
-            temps.append(_temporary(final, suffix))
+            with deferred_signals():  # made and recorded for clean-up, or neither
+                temps.append(_temporary(final, suffix))
         yield temps
         _commit(list(zip(temps, finals, strict=True)))
     except BaseException:
@@ -144,7 +141,8 @@ def check_writable(path: str | os.PathLike[str]) -> None:
         If the directory cannot be created or written in (read-only, not a
         directory, no space...), naming the file.
     """
-    _temporary(Path(path), ".probe").unlink()
+    with deferred_signals():
+        _temporary(Path(path), ".probe").unlink()
 
 
 def _commit(renames: list[tuple[Path, Path]]) -> None:
@@ -156,16 +154,13 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
     first = renames[0][1]
     journal = first.parent / f".{first.name}.{_MARK}{owner_tag()}{_JOURNAL_SUFFIX}"
     entries = [[tmp.name, final.name] for tmp, final in renames]
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
-    try:
+    with deferred_signals():
         staging = _temporary(journal, ".journal")
         staging.write_text(json.dumps(entries))
         os.replace(staging, journal)
         for tmp, final in renames:
             os.replace(tmp, final)
         journal.unlink()
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 def sweep_beside(path: str | os.PathLike[str]) -> list[Path]:

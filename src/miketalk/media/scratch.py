@@ -22,6 +22,7 @@ import logging
 import os
 import re
 import shutil
+import signal
 import tempfile
 from collections.abc import Iterator
 from functools import cache
@@ -81,6 +82,26 @@ def tag_owner_alive(tag: str) -> bool:
     return owner_alive(pid, start)
 
 
+#: The signals a run turns into exceptions (Ctrl-C, SIGTERM, SIGHUP).
+CAUGHT_SIGNALS = tuple(
+    s for s in (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None)) if s is not None
+)
+
+
+@contextlib.contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Hold back Ctrl-C, SIGTERM and SIGHUP while the body runs; they arrive after it.
+
+    For the few statements between creating a file and recording it for
+    clean-up: an exception raised between the two would leave the file behind.
+    """
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+
 @contextlib.contextmanager
 def scratch_dir(kind: str) -> Iterator[Path]:
     """A private directory in the temporary directory, removed on leaving (whatever happened).
@@ -96,11 +117,11 @@ def scratch_dir(kind: str) -> Iterator[Path]:
     if not re.fullmatch(r"[a-z0-9]+", kind):
         raise ValueError(f"scratch kind must be lower-case letters and digits, not {kind!r}")
     sweep_scratch()
-    path = Path(tempfile.mkdtemp(prefix=f"miketalk-{kind}-{owner_tag()}-"))
-    try:
+    with contextlib.ExitStack() as stack:
+        with deferred_signals():
+            path = Path(tempfile.mkdtemp(prefix=f"miketalk-{kind}-{owner_tag()}-"))
+            stack.callback(shutil.rmtree, path, ignore_errors=True)
         yield path
-    finally:
-        shutil.rmtree(path, ignore_errors=True)
 
 
 def sweep_scratch(directory: str | os.PathLike[str] | None = None) -> list[Path]:
