@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from miketalk import defaults
 from miketalk.corpus.media_video import read_video
 from miketalk.corpus.stabilize import (
     Stabilizer,
@@ -234,7 +235,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--pool", type=Path, required=True, help="a folder of clips (GRID-style)")
     parser.add_argument(
-        "--out", type=Path, default=Path("results/bench/stabilization"), help="output folder"
+        "--out",
+        type=Path,
+        default=defaults.RESULTS / "bench" / "stabilization",
+        help="output folder",
     )
     parser.add_argument("--limit", type=int, default=None, help="the first N clips only")
     args = parser.parse_args(argv)

@@ -414,13 +414,7 @@ def mouth_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
     lips' meeting line); the region is centred on it, 1.3 mouth widths wide
     and one high, so that it holds both lips and the open mouth between them.
     """
-    regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
-    x, y, w, h = regions["mouth_box"]
-    height, width = regions["size"]
-    cx, cy = x + w / 2, y + h / 2
-    x0, x1 = max(0, round(cx - 0.65 * w)), min(width, round(cx + 0.65 * w))
-    y0, y1 = max(0, round(cy - 0.45 * w)), min(height, round(cy + 0.55 * w))
-    return x0, y0, x1 - x0, y1 - y0
+    return _about_mouth(corpus_dir, side=0.65, above=0.45, below=0.55)
 
 
 def _decoded(
@@ -512,10 +506,17 @@ def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
     above (to the nose, below the eyes, which blink) and 1.3 below (the chin,
     which follows the jaw), clipped to the frame.
     """
+    return _about_mouth(corpus_dir, side=1.5, above=0.6, below=1.3)
+
+
+def _about_mouth(
+    corpus_dir: str | Path, *, side: float, above: float, below: float
+) -> tuple[int, int, int, int]:
+    """A box about the mouth box's centre, in mouth widths each way, clipped to the frame."""
     regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
     x, y, w, h = regions["mouth_box"]
     height, width = regions["size"]
     cx, cy = x + w / 2, y + h / 2
-    x0, x1 = max(0, round(cx - 1.5 * w)), min(width, round(cx + 1.5 * w))
-    y0, y1 = max(0, round(cy - 0.6 * w)), min(height, round(cy + 1.3 * w))
+    x0, x1 = max(0, round(cx - side * w)), min(width, round(cx + side * w))
+    y0, y1 = max(0, round(cy - above * w)), min(height, round(cy + below * w))
     return x0, y0, x1 - x0, y1 - y0
