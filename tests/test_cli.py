@@ -182,6 +182,51 @@ def test_paper_mode_lengthens_and_max_slowdown_caps_it(
     assert motion["morphs"] > motion["frames"]
 
 
+def test_learned_lipsync_draws_the_models_coarticulation(
+    model: Path, dirs: tuple[Path, Path]
+) -> None:
+    from miketalk.talk.coarticulation import CoarticulationParams, write_params
+    from miketalk.visemes import VisemeTable
+
+    work, scratch = dirs
+    learned_model = work.parent / "learned_model"
+    shutil.copytree(model, learned_model)
+    write_params(CoarticulationParams.prior(VisemeTable().visemes, lead=0.02), learned_model)
+    outputs = {}
+    for name, option in (("l1", "learned"), ("l2", "learned"), ("p", "paper")):
+        proc = run("say", "Hello world.", "-o", f"{name}.mp4", "--model", learned_model, "--json",
+                   "--lipsync-model", option, cwd=work, scratch=scratch)  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        outputs[name] = json.loads(proc.stdout)
+        assert outputs[name]["lipsync_model"] == option
+        timeline = json.loads((work / f"{name}.json").read_text())
+        assert timeline["lipsync_model"] == option
+    learned = outputs["l1"]["motion"]
+    # one state between visemes a frame, at the speech's own speed
+    assert learned["morphs"] == learned["frames"] == outputs["p"]["motion"]["frames"]
+    assert abs(learned["duration_ratio"] - 1.0) <= 0.1
+    # the learned path undershoots: it moves less per frame than the paper's full transitions
+    paper = outputs["p"]["motion"]
+    assert 0 < learned["largest_frame_motion_px"] < paper["largest_frame_motion_px"]
+    assert (work / "l1.mp4").read_bytes() == (work / "l2.mp4").read_bytes()
+    assert (work / "l1.mp4").read_bytes() != (work / "p.mp4").read_bytes()
+    assert list(scratch.iterdir()) == []
+
+
+def test_learned_lipsync_needs_a_model_that_learned_it(
+    model: Path, dirs: tuple[Path, Path]
+) -> None:
+    work, scratch = dirs
+    for extra in ((), ("--audio", "missing.wav")):
+        proc = run("say", "Hello world.", "-o", "v.mp4", "--model", model, "--lipsync-model",
+                   "learned", *extra, cwd=work, scratch=scratch)  # fmt: skip
+        assert_user_error(proc, "no learned coarticulation", "lipsync model 'paper'")
+    bad = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--lipsync-model", "dominance",
+              cwd=work, scratch=scratch)  # fmt: skip
+    assert_user_error(bad, "--lipsync-model")
+    assert list(work.iterdir()) == [] and list(scratch.iterdir()) == []
+
+
 def test_say_output_is_byte_identical_run_to_run(model: Path, dirs: tuple[Path, Path]) -> None:
     work, scratch = dirs
     for name in ("a.mp4", "b.mp4"):

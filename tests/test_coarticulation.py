@@ -257,3 +257,48 @@ def test_the_evaluation_renderer_reads_the_models_own_parameters(
         got = list(render_model_learned(model, timeline))
         want = list(render_learned(model, timeline, params))
     assert all(np.array_equal(x, y) for x, y in zip(got, want, strict=True))
+
+
+# ---------------------------------------------------------------------------
+# the motion of learned frames
+# ---------------------------------------------------------------------------
+
+
+def _cost(a: str, b: str) -> float:
+    return float(abs(ord(a[0]) - ord(b[0])) + len(a) * len(b))
+
+
+def test_weights_step_on_one_transition_is_the_papers_step() -> None:
+    from miketalk.talk.motion import weights_step
+
+    for before, after in ((0.2, 0.5), (0.9, 0.1), (0.0, 1.0)):
+        got = weights_step([("p", 1 - before), ("aa", before)], [("p", 1 - after), ("aa", after)],
+                           _cost)  # fmt: skip
+        assert got == pytest.approx(abs(after - before) * _cost("p", "aa"))
+    assert weights_step([("p", 0.3), ("aa", 0.7)], [("aa", 0.7), ("p", 0.3)], _cost) == 0.0
+
+
+def test_weights_step_is_the_least_transport_cost() -> None:
+    """Against a linear program over every split, for frames of up to three visemes each."""
+    from scipy.optimize import linprog
+
+    from miketalk.talk.motion import weights_step
+
+    rng = np.random.default_rng(3)
+    names = ["p", "aa", "t", "f", "ii", "w"]
+    for _ in range(300):
+        a = rng.choice(names, rng.integers(1, 4), replace=False)
+        b = rng.choice(names, rng.integers(1, 4), replace=False)
+        wa, wb = rng.dirichlet(np.ones(len(a))), rng.dirichlet(np.ones(len(b)))
+        cost = np.array([[_cost(u, v) if u != v else 0.0 for v in b] for u in a])
+        n, m = cost.shape
+        rows = np.zeros((n + m, n * m))
+        for i in range(n):
+            rows[i, i * m : (i + 1) * m] = 1
+        for j in range(m):
+            rows[n + j, j::m] = 1
+        want = linprog(cost.ravel(), A_eq=rows[:-1], b_eq=np.concatenate([wa, wb])[:-1],
+                       bounds=(0, None), method="highs").fun  # fmt: skip
+        got = weights_step(list(zip(a, wa, strict=True)), list(zip(b, wb, strict=True)),
+                           lambda u, v: 0.0 if u == v else _cost(u, v))  # fmt: skip
+        assert got == pytest.approx(want, abs=1e-9)

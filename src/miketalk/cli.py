@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 log = logging.getLogger("miketalk")
 
 _SAMPLINGS = ("blur", "paper", "none")
+_LIPSYNC_MODELS = ("paper", "learned")
 _VOICES = ("kal", "ked", "slt")
 
 
@@ -205,6 +206,7 @@ def cmd_say(args: argparse.Namespace) -> int:
         )
     text = _read_text(args)
     output = check_output(args.output, overwrite=args.force)
+    _check_lipsync_model(args)
     # Festival starts first and analyses the text while the rest loads
     with _backend(args).start(text) as speech:
         log.info("Festival started (%s voice)", voice.name)
@@ -221,6 +223,7 @@ def cmd_say(args: argparse.Namespace) -> int:
                 max_px_per_frame=max_px,
                 sampling=sampling,
                 max_slowdown=args.max_slowdown,
+                lipsync_model=args.lipsync_model,
                 progress=args.progress or (long_text and sys.stderr.isatty()),
                 overwrite=args.force,
             )
@@ -233,6 +236,7 @@ def cmd_say(args: argparse.Namespace) -> int:
             "sampling": sampling,
             "max_px_per_frame": max_px,
             "max_slowdown": args.max_slowdown,
+            "lipsync_model": args.lipsync_model,
             "voice": voice.name,
             "motion": motion.to_dict(),
         }
@@ -242,11 +246,21 @@ def cmd_say(args: argparse.Namespace) -> int:
             f"{spoken.video}: {motion.frames} frames at {args.fps:g} fps, "
             f"{motion.duration:.2f} s of audio ({motion.duration_ratio:.2f} x its own duration), "
             f"{motion.morphs} morphs, largest step {motion.largest_step_px:.2f} px "
-            f"({sampling}); timeline in {spoken.timeline_json}",
+            f"({sampling}, {args.lipsync_model} lip-sync); timeline in {spoken.timeline_json}",
             file=args.out,
         )
     log.info("say took %.2f s", _since(started))
     return 0
+
+
+def _check_lipsync_model(args: argparse.Namespace) -> None:
+    """``--lipsync-model learned`` needs a model with learned coarticulation: say so now."""
+    if args.lipsync_model != "learned":
+        return
+    from miketalk.talk.coarticulation import read_params
+    from miketalk.talk.say import default_model_dir
+
+    read_params(args.model if args.model is not None else default_model_dir())
 
 
 def _since(started: float) -> float:
@@ -268,6 +282,7 @@ def _say_recorded(
         raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
     text = _read_text(args) if _has_text(args) else None
     check_output(args.output, overwrite=args.force)
+    _check_lipsync_model(args)
     from miketalk.talk.recorded import say_recorded
     from miketalk.talk.say import open_model
 
@@ -281,6 +296,7 @@ def _say_recorded(
             fps=args.fps,
             max_px_per_frame=max_px,
             sampling=sampling,
+            lipsync_model=args.lipsync_model,
             progress=args.progress,
             overwrite=args.force,
         )
@@ -293,6 +309,7 @@ def _say_recorded(
             "fps": args.fps,
             "sampling": sampling,
             "max_px_per_frame": max_px,
+            "lipsync_model": args.lipsync_model,
             "motion": motion.to_dict(),
         }
         print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
@@ -300,7 +317,7 @@ def _say_recorded(
         print(
             f"{args.output}: {motion.frames} frames at {args.fps:g} fps, "
             f"{said.audio_seconds:.2f} s of recorded audio, {motion.morphs} morphs, largest "
-            f"step {said.largest_step_px:.2f} px ({sampling})",
+            f"step {said.largest_step_px:.2f} px ({sampling}, {args.lipsync_model} lip-sync)",
             file=args.out,
         )
     log.info("say took %.2f s", _since(started))
@@ -477,6 +494,14 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: as long as the limit needs); what is still too fast is blurred",
     )
     say.add_argument("--no-oversampling", action="store_true", help="the same as --sampling none")
+    say.add_argument(
+        "--lipsync-model",
+        choices=_LIPSYNC_MODELS,
+        default=defaults.LIPSYNC_MODEL,
+        help="how the mouth moves: paper (each transition from one viseme to the next; "
+        f"default {defaults.LIPSYNC_MODEL}) or learned (the coarticulation a model built from "
+        "recorded clips has learned)",
+    )
     _voice_option(say)
     say.add_argument(
         "--force", action="store_true", help="overwrite a .json that miketalk did not write"

@@ -25,6 +25,11 @@ FPS = 30.0
 #: oversampled (paper §7: 2.5-3.0 px).
 MAX_PX_PER_FRAME = 2.5
 
+#: How the mouth moves between visemes: ``"paper"`` (each transition from one
+#: viseme all the way to the next, paper §7) or ``"learned"`` (the model's
+#: fitted coarticulation, :mod:`miketalk.talk.coarticulation`).
+LIPSYNC_MODEL = "paper"
+
 #: The face whose model ``miketalk say`` uses when none is given.
 FACE = "synthetic"
 

@@ -186,6 +186,7 @@ def render_learned(
     *,
     workers: int | None = None,
     morpher: MultiMorpher | None = None,
+    weights: Sequence[Weights] | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames of ``timeline`` with the learned coarticulation, in order.
 
@@ -204,8 +205,11 @@ def render_learned(
         the frames do not depend on it.
     morpher : MultiMorpher, optional
         Reused between calls (keeps its flows).
+    weights : sequence of Weights, optional
+        ``frame_weights(timeline, params)`` when the caller has them already.
     """
-    weights = frame_weights(timeline, params)
+    if weights is None:
+        weights = frame_weights(timeline, params)
     morpher = morpher or MultiMorpher(model)
     workers = RENDER_WORKERS if workers is None else max(1, int(workers))
     # read the flows the frames need, in the order they are needed

@@ -221,8 +221,9 @@ def read_params(directory: str | os.PathLike[str]) -> CoarticulationParams:
     path = Path(directory) / FILENAME
     if not path.is_file():
         raise MiketalkError(
-            f"the model at {directory} has no learned coarticulation ({FILENAME}); "
-            "fit it (miketalk.talk.coarticulation.fit_coarticulation) or use lipsync model 'paper'"
+            f"the model at {directory} has no learned coarticulation ({FILENAME}): the "
+            "workflow fits one into a model built from recorded clips (e.g. results/model/s1); "
+            "or use lipsync model 'paper'"
         )
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))

@@ -17,12 +17,21 @@ JSON, under ``motion``):
   differs from the average of its two neighbours. Motion that proceeds evenly
   gives a small jerk; a jump between two frames that stand still gives a
   large one. Both the largest and the mean over frames are kept.
+
+With the learned lip-sync model a frame is not a point on one transition but
+weights over several visemes (:func:`miketalk.talk.coarticulation.frame_weights`).
+The step between two frames is then the least displacement that moves the
+first frame's weights into the second's (:func:`weights_step`, the earth
+mover's distance with the flows' displacement between two visemes as the cost):
+for two frames on one transition ``A -> B`` it is the paper's
+``D(A, B) * |alpha_2 - alpha_1|``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import asdict, dataclass
+from itertools import pairwise
 
 import cv2
 import numpy as np
@@ -98,22 +107,100 @@ class Motion:
         return asdict(self)
 
 
+#: A frame's visemes and their weights (summing to 1).
+Weights = Sequence[tuple[str, float]]
+
+
+def weights_step(a: Weights, b: Weights, displacement: Displacement) -> float:
+    """The displacement in pixels from a frame of weights ``a`` to one of weights ``b``.
+
+    The least cost of moving ``a``'s weight onto ``b``'s, moving weight ``m``
+    from viseme ``U`` to ``V`` costing ``m * displacement(U, V)``: a
+    transportation problem, solved exactly. Weight a viseme keeps costs
+    nothing; what is left usually leaves one or two visemes (solved in closed
+    form), rarely more (a linear program).
+    """
+    wa, wb = dict(a), dict(b)
+    for v in set(wa) & set(wb):
+        kept = min(wa[v], wb[v])
+        wa[v] -= kept
+        wb[v] -= kept
+    sources = [v for v, w in wa.items() if w > 1e-12]
+    targets = [v for v, w in wb.items() if w > 1e-12]
+    if not sources or not targets:
+        return 0.0
+    cost = np.array([[displacement(u, v) for v in targets] for u in sources], np.float64)
+    return _transport(cost, np.array([wa[u] for u in sources]), np.array([wb[v] for v in targets]))
+
+
+def _transport(cost: np.ndarray, supply: np.ndarray, demand: np.ndarray) -> float:
+    """The least cost of moving ``supply`` (n,) onto ``demand`` (m,) at ``cost`` (n, m) per unit."""
+    if len(supply) > len(demand):
+        cost, supply, demand = cost.T, demand, supply
+    if len(supply) == 1:
+        return float(cost[0] @ demand)
+    if len(supply) == 2:
+        # what the first source sends to target j is x_j, the second sends the rest:
+        # the cost is linear in x, sum x = supply[0], 0 <= x <= demand (a fractional knapsack)
+        sent, left = np.zeros_like(demand), supply[0]
+        for j in np.argsort(cost[0] - cost[1], kind="stable"):
+            sent[j] = min(demand[j], left)
+            left -= sent[j]
+        return float(cost[0] @ sent + cost[1] @ (demand - sent))
+    from scipy.optimize import linprog  # three visemes on each side: rare
+
+    n, m = cost.shape
+    rows = np.zeros((n + m, n * m))
+    for i in range(n):
+        rows[i, i * m : (i + 1) * m] = 1.0
+    for j in range(m):
+        rows[n + j, j::m] = 1.0
+    sums = np.concatenate([supply, demand])
+    # both sides move the same mass: one equation follows from the others
+    result = linprog(cost.ravel(), A_eq=rows[:-1], b_eq=sums[:-1], bounds=(0, None), method="highs")
+    return float(result.fun)
+
+
 def measure(
     timeline: Timeline,
     displacement: Displacement,
     *,
     natural_duration: float,
     jerk: JerkMeter | None = None,
+    weights: Sequence[Weights] | None = None,
 ) -> Motion:
-    """The :class:`Motion` of ``timeline`` (and of its frames, measured by ``jerk``)."""
+    """The :class:`Motion` of ``timeline`` (and of its frames, measured by ``jerk``).
+
+    Parameters
+    ----------
+    timeline : Timeline
+    displacement : callable
+        ``displacement(a, b)``: pixels the flow from viseme ``a`` to ``b`` moves.
+    natural_duration : float
+        Seconds of the speech at the engine's own timing.
+    jerk : JerkMeter, optional
+        The meter that watched the frames as written.
+    weights : sequence of Weights, optional
+        The frames' viseme weights when the learned model drew them: the steps
+        are then :func:`weights_step` between consecutive frames (one morph a
+        frame), not along the timeline's transitions.
+    """
+    if weights is None:
+        morphs = timeline.morph_count
+        step = largest_step(timeline, displacement)
+        frame_motion = largest_frame_motion(timeline, displacement)
+    else:
+        morphs = len(weights)
+        steps = [weights_step(a, b, displacement) for a, b in pairwise(weights)]
+        step = frame_motion = max(steps, default=0.0)
     return Motion(
         natural_duration=natural_duration,
         duration=timeline.duration,
         duration_ratio=timeline.duration / natural_duration,
         frames=len(timeline.frames),
-        morphs=timeline.morph_count,
-        largest_step_px=largest_step(timeline, displacement),
-        largest_frame_motion_px=largest_frame_motion(timeline, displacement),
+        morphs=morphs,
+        largest_step_px=step,
+        largest_frame_motion_px=frame_motion,
         largest_jerk=None if jerk is None else jerk.largest,
         mean_jerk=None if jerk is None else jerk.mean,
     )

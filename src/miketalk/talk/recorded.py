@@ -27,6 +27,7 @@ from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import Sampling, Timeline, motion_blur, plan
 from miketalk.talk.model import Model
 from miketalk.talk.motion import Motion
+from miketalk.talk.settings import LipsyncModel
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:
@@ -145,6 +146,7 @@ def say_recorded(
     fps: float = defaults.FPS,
     max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
     sampling: Sampling = "blur",
+    lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
@@ -169,6 +171,9 @@ def say_recorded(
     sampling : {"blur", "none"}
         ``"blur"`` renders more morphs than frames where the mouth moves fast;
         ``"paper"`` is refused (a recording cannot be lengthened).
+    lipsync_model : {"paper", "learned"}
+        The paper's transitions or the model's learned coarticulation (see
+        :func:`miketalk.talk.say.speak`).
     table : VisemeTable, optional
         Phone -> viseme (default: the paper's).
     progress : bool
@@ -183,7 +188,7 @@ def say_recorded(
         errors of :func:`align_recording`.
     """
     from miketalk.talk.output import check_output
-    from miketalk.talk.say import write_utterance
+    from miketalk.talk.say import learned_coarticulation, write_utterance
     from miketalk.talk.settings import check_settings
 
     if sampling == "paper":
@@ -191,7 +196,11 @@ def say_recorded(
             "sampling 'paper' lengthens the speech, and a recording cannot be lengthened: "
             "use blur (the default) or none"
         )
-    check_settings(fps=fps, max_px_per_frame=max_px_per_frame, sampling=sampling, max_slowdown=None)
+    check_settings(
+        fps=fps, max_px_per_frame=max_px_per_frame, sampling=sampling, max_slowdown=None,
+        lipsync_model=lipsync_model,
+    )  # fmt: skip
+    coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
     output = check_output(output, overwrite=overwrite)
     aligned = align_recording(audio, text=text, timings=timings)
     timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)
@@ -212,7 +221,9 @@ def say_recorded(
             "sampling": sampling if max_px_per_frame is not None else "none",
             "max_px_per_frame": max_px_per_frame,
             "max_slowdown": None,
+            "lipsync_model": lipsync_model,
         },
+        coarticulation=coarticulation,
         progress=progress,
         overwrite=overwrite,
     )

@@ -31,11 +31,13 @@ from miketalk.talk.lipsync import Timeline, keyframes, speak_in_sync
 from miketalk.talk.model import Model, strict_json
 from miketalk.talk.motion import JerkMeter, Motion, measure
 from miketalk.talk.output import TIMELINE_FORMAT, check_output
-from miketalk.talk.settings import Sampling, check_settings
+from miketalk.talk.settings import LipsyncModel, Sampling, check_settings
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
+
+    from miketalk.talk.coarticulation import CoarticulationParams
 
 log = logging.getLogger(__name__)
 
@@ -101,6 +103,7 @@ def say(
     max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
     sampling: Sampling = DEFAULT_SAMPLING,
     max_slowdown: float | None = None,
+    lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
     backend: SpeechBackend | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
@@ -112,8 +115,8 @@ def say(
     """
     spoken = speak(
         text, output, model=model, fps=fps, max_px_per_frame=max_px_per_frame,
-        sampling=sampling, max_slowdown=max_slowdown, backend=backend, table=table,
-        progress=progress, overwrite=overwrite,
+        sampling=sampling, max_slowdown=max_slowdown, lipsync_model=lipsync_model,
+        backend=backend, table=table, progress=progress, overwrite=overwrite,
     )  # fmt: skip
     return spoken.utterance, spoken.timeline
 
@@ -127,6 +130,7 @@ def speak(
     max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
     sampling: Sampling = DEFAULT_SAMPLING,
     max_slowdown: float | None = None,
+    lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
     backend: SpeechBackend | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
@@ -168,6 +172,15 @@ def speak(
         With ``sampling="paper"``: the speech may become at most this many
         times longer than the engine's own timing (what is then still too fast
         is blurred). None: no cap, as in the paper.
+    lipsync_model : {"paper", "learned"}
+        How the mouth moves (:data:`miketalk.defaults.LIPSYNC_MODEL`):
+        ``"paper"`` draws each frame on the transition from one viseme to the
+        next; ``"learned"`` draws each frame's point between several visemes
+        from the coarticulation fitted into the model
+        (:func:`miketalk.talk.coarticulation.frame_weights`, drawn by
+        :mod:`miketalk.multimorph`) at the frame's middle: ``sampling`` then
+        sets only the speech's duration (blur's extra morphs are not drawn;
+        the learned path is smooth of itself).
     backend : SpeechBackend, optional
         The engine for a ``str`` text (default Festival).
     table : VisemeTable, optional
@@ -186,16 +199,18 @@ def speak(
     Raises
     ------
     MiketalkError
-        A bad setting or output (before anything runs), nothing speakable, a
-        failing engine or model.
+        A bad setting or output (before anything runs), a model without the
+        learned coarticulation ``lipsync_model`` asks for, nothing speakable,
+        a failing engine or model.
     """
     started = time.perf_counter()
     speech: PendingSpeech | None = text if isinstance(text, PendingSpeech) else None
     try:
         check_settings(
             fps=fps, max_px_per_frame=max_px_per_frame, sampling=sampling,
-            max_slowdown=max_slowdown,
+            max_slowdown=max_slowdown, lipsync_model=lipsync_model,
         )  # fmt: skip
+        coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
         output = check_output(output, overwrite=overwrite)
         if speech is None:
             speech = (backend or get_backend("festival")).start(str(text))
@@ -246,15 +261,31 @@ def speak(
             "sampling": sampling if max_px_per_frame is not None else "none",
             "max_px_per_frame": max_px_per_frame,
             "max_slowdown": max_slowdown,
+            "lipsync_model": lipsync_model,
             "planned_phones": [asdict(p) for p in planned_phones],
             # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
             "planned_duration": planned_duration,
         },
+        coarticulation=coarticulation,
         progress=progress,
         overwrite=overwrite,
     )
     log.info("speak took %.2f s", time.perf_counter() - started)
     return Spoken(utterance, timeline, motion, output, output.with_suffix(".json"))
+
+
+def learned_coarticulation(model: Model) -> CoarticulationParams:
+    """The learned coarticulation fitted into ``model``'s directory.
+
+    Raises
+    ------
+    MiketalkError
+        One line, when the model has none (a model built from a synthetic
+        face, or before coarticulation was fitted): use the paper's lip-sync.
+    """
+    from miketalk.talk.coarticulation import read_params
+
+    return read_params(model.directory)
 
 
 def write_utterance(
@@ -266,6 +297,7 @@ def write_utterance(
     rate: int,
     natural_duration: float,
     extra: dict,
+    coarticulation: CoarticulationParams | None = None,
     progress: bool = False,
     overwrite: bool = False,
 ) -> Motion:
@@ -275,6 +307,13 @@ def write_utterance(
     ``largest_step_px`` and ``motion``. The two files replace any older pair
     together or not at all (see the module docstring); what killed runs left
     beside ``output`` is tidied first.
+
+    Parameters
+    ----------
+    coarticulation : CoarticulationParams, optional
+        Draw the frames with this learned coarticulation
+        (:func:`miketalk.multimorph.render_learned`) instead of the paper's
+        transitions; the motion is then measured on its weights.
 
     Returns
     -------
@@ -287,7 +326,15 @@ def write_utterance(
         model.displacement(t.source, t.target)
     started = time.perf_counter()
     jerk = JerkMeter()
-    rendered = model.render(timeline)
+    weights = None
+    if coarticulation is None:
+        rendered = model.render(timeline)
+    else:
+        from miketalk.multimorph import render_learned
+        from miketalk.talk.coarticulation import frame_weights
+
+        weights = frame_weights(timeline, coarticulation)
+        rendered = render_learned(model, timeline, coarticulation, weights=weights)
     frames = jerk.watch(rendered)
     if progress:
         from tqdm import tqdm
@@ -299,7 +346,10 @@ def write_utterance(
             video_tmp, frames, fps=timeline.fps, audio=samples, rate=rate,
             n_frames=len(timeline.frames),
         )  # fmt: skip
-        motion = measure(timeline, model.displacement, natural_duration=natural_duration, jerk=jerk)
+        motion = measure(
+            timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,
+            weights=weights,
+        )  # fmt: skip
         doc = (
             {"format": TIMELINE_FORMAT}
             | timeline.to_dict()
@@ -315,7 +365,7 @@ def write_utterance(
         json_tmp.write_text(text, encoding="utf-8")
     log.info(
         "rendered %d frames (%d morphs) and wrote %s in %.2f s",
-        len(timeline.frames), timeline.morph_count, output, time.perf_counter() - started,
+        len(timeline.frames), motion.morphs, output, time.perf_counter() - started,
     )  # fmt: skip
     return motion
 
@@ -342,6 +392,9 @@ class Said:
         before sampling was recorded, ``"none"`` when there was no limit).
     max_slowdown : float or None
         The paper mode's cap on lengthening.
+    lipsync_model : str
+        ``"paper"`` or ``"learned"`` (``"paper"`` for a JSON from before it
+        was recorded).
     """
 
     text: str
@@ -351,6 +404,7 @@ class Said:
     max_px_per_frame: float | None
     sampling: str = "paper"
     max_slowdown: float | None = None
+    lipsync_model: str = "paper"
 
 
 def read_said(path: str | os.PathLike[str]) -> Said:
@@ -391,4 +445,5 @@ def read_said(path: str | os.PathLike[str]) -> Said:
         max_px_per_frame=max_px,
         sampling=doc.get("sampling", "paper" if max_px is not None else "none"),
         max_slowdown=doc.get("max_slowdown"),
+        lipsync_model=doc.get("lipsync_model", "paper"),
     )

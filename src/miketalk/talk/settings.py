@@ -17,6 +17,10 @@ from miketalk.errors import MiketalkError
 Sampling = Literal["blur", "paper", "none"]
 SAMPLINGS: tuple[str, ...] = get_args(Sampling)
 
+#: How the mouth moves between visemes (:data:`miketalk.defaults.LIPSYNC_MODEL`).
+LipsyncModel = Literal["paper", "learned"]
+LIPSYNC_MODELS: tuple[str, ...] = get_args(LipsyncModel)
+
 #: The frame rates ``say`` accepts, frames per second (inclusive).
 FPS_RANGE = (1.0, 240.0)
 #: The ``max_px_per_frame`` values ``say`` accepts, pixels (inclusive). Below half a
@@ -46,6 +50,15 @@ def check_sampling(sampling: object) -> Sampling:
     if sampling not in SAMPLINGS:
         raise MiketalkError(f"sampling must be one of {', '.join(SAMPLINGS)}, not {sampling!r}")
     return sampling  # type: ignore[return-value]
+
+
+def check_lipsync_model(lipsync_model: object) -> LipsyncModel:
+    """``lipsync_model`` checked to be one of :data:`LIPSYNC_MODELS`."""
+    if lipsync_model not in LIPSYNC_MODELS:
+        raise MiketalkError(
+            f"lipsync model must be one of {', '.join(LIPSYNC_MODELS)}, not {lipsync_model!r}"
+        )
+    return lipsync_model  # type: ignore[return-value]
 
 
 def check_max_slowdown(max_slowdown: object) -> float | None:
@@ -80,6 +93,7 @@ def check_settings(
     max_px_per_frame: float | None,
     sampling: Sampling,
     max_slowdown: float | None,
+    lipsync_model: LipsyncModel,
 ) -> None:
     """Check ``say``'s settings together, before anything runs.
 
@@ -87,10 +101,11 @@ def check_settings(
     ------
     MiketalkError
         An fps or ``max_px_per_frame`` outside its range (the range is in the
-        message), an unknown sampling, a ``max_slowdown`` below 1 or given
-        without ``sampling="paper"``.
+        message), an unknown sampling or lipsync model, a ``max_slowdown``
+        below 1 or given without ``sampling="paper"``.
     """
     check_fps(fps)
+    check_lipsync_model(lipsync_model)
     if max_px_per_frame is not None:
         check_max_px(max_px_per_frame)
     check_sampling(sampling)
