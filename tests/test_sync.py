@@ -179,7 +179,7 @@ def test_the_frames_measured_are_the_frames_say_writes(
 def test_sync_table_of_an_utterance_reads_its_json_and_probes_its_mp4(
     model_dir: Path, tmp_path: Path
 ) -> None:
-    from miketalk.evaluation.sync import summarize_sync, sync_table
+    from miketalk.evaluation.sync import MOTION_QUANTITIES, summarize_sync, sync_table
     from miketalk.media.video import probe_durations
     from miketalk.talk.say import read_said, say
 
@@ -202,8 +202,14 @@ def test_sync_table_of_an_utterance_reads_its_json_and_probes_its_mp4(
         out
     )
     assert list(table["quantity"])[-2:] == ["mp4_video_seconds", "mp4_audio_seconds"]
+    assert set(table["sampling"]) == {"blur"}  # say's default, as its JSON records it
+    # the motion measured again on the frames is what say recorded in the JSON
+    recorded = json.loads(out.with_suffix(".json").read_text())["motion"]
+    for quantity in MOTION_QUANTITIES:
+        assert value[(quantity, "")] == pytest.approx(recorded[quantity], rel=1e-12), quantity
     summary = summarize_sync(table).iloc[0]
     assert summary["frames"] == n and summary["largest_step_px_oversampled"] <= 2.5
+    assert summary["sampling"] == "blur" and summary["morphs"] == recorded["morphs"]
 
 
 def test_psnr_of_mean_mse_averages_the_error_not_the_decibels() -> None:
@@ -216,7 +222,15 @@ def test_psnr_of_mean_mse_averages_the_error_not_the_decibels() -> None:
     assert psnr_of_mean_mse([math.inf, math.inf]) == math.inf
 
 
-def _tidy(sentence: str, fps: float, max_px: float | None, psnr: list[float]) -> pd.DataFrame:
+def _tidy(
+    sentence: str,
+    fps: float,
+    max_px: float | None,
+    psnr: list[float],
+    *,
+    sampling: str = "blur",
+    ratio: float = 1.0,
+) -> pd.DataFrame:
     rows = [("psnr_mouth", k, p - 3) for k, p in enumerate(psnr)]
     rows += [("psnr_full", k, p) for k, p in enumerate(psnr)]
     rows += [
@@ -226,15 +240,32 @@ def _tidy(sentence: str, fps: float, max_px: float | None, psnr: list[float]) ->
         ("viseme_offset_frames", "aa@0.300", 0.75),
         ("largest_step_px", "plain", 6.0),
         ("largest_step_px", "oversampled", 2.4),
-        ("audio_seconds", "", 0.5),
-        ("video_seconds", "", 0.5),
+        ("audio_seconds", "", 0.5 * ratio),
+        ("video_seconds", "", 0.5 * ratio),
         ("duration_diff_frames", "", 0.0),
-        ("lengthened_seconds", "", 0.1),
-        ("mp4_video_seconds", "", 0.5),
-        ("mp4_audio_seconds", "", 0.5),
+        ("lengthened_seconds", "", 0.5 * (ratio - 1)),
+        ("duration_ratio", "", ratio),
+        ("morphs", "", 3 * len(psnr) if sampling == "blur" else len(psnr)),
+        ("largest_frame_motion_px", "", 6.0 if sampling == "blur" else 2.4),
+        ("mean_jerk", "", 2.0 / ratio),
+        ("largest_jerk", "", 5.0 / ratio),
+        ("mp4_video_seconds", "", 0.5 * ratio),
+        ("mp4_audio_seconds", "", 0.5 * ratio),
     ]
-    keys = {"sentence": sentence, "fps": fps, "max_px_per_frame": max_px}
+    keys = {"sentence": sentence, "sampling": sampling, "fps": fps, "max_px_per_frame": max_px}
     return pd.DataFrame([keys | {"quantity": q, "key": k, "value": float(v)} for q, k, v in rows])
+
+
+def _through_csv(parts: list[pd.DataFrame]) -> pd.DataFrame:
+    """As the workflow does: each table through its CSV, then concatenated."""
+    return pd.concat(
+        [
+            pd.read_csv(
+                io.StringIO(p.to_csv(index=False, float_format="%.6g")), keep_default_na=False
+            )
+            for p in parts
+        ]
+    )
 
 
 def test_summarize_sync_one_row_per_utterance_and_setting() -> None:
@@ -245,16 +276,7 @@ def test_summarize_sync_one_row_per_utterance_and_setting() -> None:
         _tidy("hello", 30, 2.5, [25.0, 25.0]),
         _tidy("hello", 60, 2.5, [25.0]),
     ]
-    # as the workflow does: each table through its CSV, then concatenated
-    table = pd.concat(
-        [
-            pd.read_csv(
-                io.StringIO(p.to_csv(index=False, float_format="%.6g")), keep_default_na=False
-            )
-            for p in parts
-        ]
-    )
-    summary = summarize_sync(table)
+    summary = summarize_sync(_through_csv(parts))
     assert list(zip(summary["sentence"], summary["fps"], strict=True)) == [
         ("hello", 30), ("hello", 60), ("quick", 30),
     ]  # fmt: skip
@@ -266,25 +288,140 @@ def test_summarize_sync_one_row_per_utterance_and_setting() -> None:
     assert quick["max_abs_viseme_offset_frames"] == 0.75
     assert quick["visemes_within_half_frame"] == 0.5
     assert quick["largest_step_px_plain"] == 6.0 and quick["largest_step_px_oversampled"] == 2.4
-    assert quick["lengthened_seconds"] == pytest.approx(0.1)
+    assert quick["lengthened_seconds"] == 0.0
+    assert quick["duration_ratio"] == 1.0 and quick["morphs"] == 9
+    assert quick["largest_frame_motion_px"] == 6.0
+    assert (quick["mean_jerk"], quick["largest_jerk"]) == (2.0, 5.0)
     assert list(summary.columns) == [
-        "sentence", "fps", "max_px_per_frame", "frames", "psnr_mouth", "psnr_full",
+        "sentence", "sampling", "fps", "max_px_per_frame", "frames", "psnr_mouth", "psnr_full",
         "identical_frames", "mouth_lag_frames", "mouth_opening_corr",
         "max_abs_viseme_offset_frames", "visemes_within_half_frame", "largest_step_px_plain",
         "largest_step_px_oversampled", "audio_seconds", "video_seconds", "duration_diff_frames",
-        "lengthened_seconds",
+        "lengthened_seconds", "duration_ratio", "morphs", "largest_frame_motion_px", "mean_jerk",
+        "largest_jerk",
     ]  # fmt: skip
 
 
-def test_sync_sweep_figure_is_drawn_by_name(tmp_path: Path) -> None:
+def test_summarize_sync_groups_the_sampling_modes_apart() -> None:
+    """The same sentence and setting in two modes: two rows, each with its own motion."""
     from miketalk.evaluation.sync import summarize_sync
+
+    parts = [
+        _tidy("hello", 30, 2.5, [25.0] * 9, sampling="paper", ratio=3.0),
+        _tidy("hello", 30, 2.5, [25.0] * 3, sampling="blur"),
+        _tidy("hello", 30, 4.0, [25.0] * 6, sampling="paper", ratio=2.0),
+    ]
+    summary = summarize_sync(_through_csv(parts))
+    assert list(zip(summary["sampling"], summary["max_px_per_frame"], strict=True)) == [
+        ("blur", 2.5), ("paper", 2.5), ("paper", 4.0),
+    ]  # fmt: skip
+    blur, paper, _ = (summary.iloc[i] for i in range(3))
+    assert (blur["frames"], paper["frames"]) == (3, 9)
+    assert (blur["morphs"], paper["morphs"]) == (9, 9)
+    assert (blur["duration_ratio"], paper["duration_ratio"]) == (1.0, 3.0)
+    assert paper["lengthened_seconds"] == pytest.approx(1.0) and blur["lengthened_seconds"] == 0
+    assert blur["mean_jerk"] == 2.0 and paper["mean_jerk"] == pytest.approx(2.0 / 3)
+
+
+def _sweep_summary(tmp_path: Path) -> Path:
+    """A sync sweep summary of both modes: three max_px at 30 fps, two more frame rates."""
+    from miketalk.evaluation.sync import summarize_sync
+
+    parts = []
+    for sampling, ratio in (("blur", 1.0), ("paper", 3.0)):
+        for px, fps in ((1.5, 30), (2.5, 30), (4.0, 30), (2.5, 24), (2.5, 60)):
+            ratio_here = 1.0 if sampling == "blur" else ratio * 2.5 / px
+            parts.append(_tidy("quick", fps, px, [20.0, 25.0], sampling=sampling, ratio=ratio_here))
+    summary = tmp_path / "summary.csv"
+    summarize_sync(_through_csv(parts)).to_csv(summary, index=False)
+    return summary
+
+
+def _png_size(path: Path) -> tuple[int, int]:
+    import cv2
+
+    image = cv2.imread(str(path))
+    assert image is not None, path
+    return image.shape[1], image.shape[0]
+
+
+def test_sync_sweep_figure_is_drawn_by_name_a_row_per_mode(tmp_path: Path) -> None:
     from miketalk.figures.plots import draw
 
-    table = pd.concat([_tidy("quick", 30, px, [20.0, 25.0]) for px in (1.5, 2.5, 4.0)])
-    summary = tmp_path / "summary.csv"
-    summarize_sync(table).to_csv(summary, index=False)
+    summary = _sweep_summary(tmp_path)
     out = tmp_path / "sync.png"
     draw("sync_vs_max_px", out, summary_csv=summary)
-    assert out.read_bytes().startswith(b"\x89PNG")
+    width, height = _png_size(out)
+    one = tmp_path / "one.png"  # one mode: one row
+    table = pd.read_csv(summary)
+    table[table["sampling"] == "blur"].to_csv(tmp_path / "blur.csv", index=False)
+    draw("sync_vs_max_px", one, summary_csv=tmp_path / "blur.csv")
+    assert _png_size(one)[0] == width and 1.6 < height / _png_size(one)[1] < 2.4
     with pytest.raises(MiketalkError, match="no figure 'nope'; known: epe_vs_levels"):
         draw("nope", out)
+
+
+def test_sampling_modes_figure_is_drawn_at_the_configured_rate(tmp_path: Path) -> None:
+    from miketalk.figures.plots import FIGURES, draw
+
+    assert "sampling_vs_max_px" in FIGURES and "sampling_strip" in FIGURES
+    summary = _sweep_summary(tmp_path)
+    out = tmp_path / "modes.png"
+    draw("sampling_vs_max_px", out, summary_csv=summary, fps=30)
+    first = out.read_bytes()
+    assert first.startswith(b"\x89PNG")
+    draw("sampling_vs_max_px", out, summary_csv=summary, fps=30)
+    assert out.read_bytes() == first  # deterministic
+    with pytest.raises(MiketalkError, match="no rows at 25 fps"):
+        draw("sampling_vs_max_px", out, summary_csv=summary, fps=25)
+
+
+def test_sampling_strip_shows_both_modes_at_the_same_moments(
+    model_dir: Path, tmp_path: Path
+) -> None:
+    """Rows are modes, columns the same moments of the speech; the paper row's frames
+    run further apart in the lengthened video."""
+    from miketalk.figures.plots import draw
+    from miketalk.talk.say import say
+
+    model = Model(model_dir)
+    timelines = []
+    for sampling in ("blur", "paper"):
+        out = tmp_path / f"{sampling}.mp4"
+        say("wide", out, model=model, backend=Scripted(ONE), max_px_per_frame=1.0,
+            sampling=sampling)  # fmt: skip
+        timelines.append(out.with_suffix(".json"))
+    strip = tmp_path / "strip.png"
+    draw("sampling_strip", strip, model_dir=model_dir, timelines=timelines, morph={}, columns=4)
+    width, height = _png_size(strip)
+    assert width > height > 0
+    first = strip.read_bytes()
+    draw("sampling_strip", strip, model_dir=model_dir, timelines=timelines, morph={}, columns=4)
+    assert strip.read_bytes() == first
+    single = tmp_path / "single.png"
+    draw("sampling_strip", single, model_dir=model_dir, timelines=timelines[:1], morph={},
+         columns=4)  # fmt: skip
+    assert _png_size(single)[0] == width and _png_size(single)[1] < height
+    other = tmp_path / "other.mp4"
+    say("wide", other, model=model, backend=Scripted(ONE[:3] + ONE[4:]), max_px_per_frame=1.0)
+    with pytest.raises(MiketalkError, match="do not say the same phones"):
+        draw("sampling_strip", strip, model_dir=model_dir,
+             timelines=[timelines[0], other.with_suffix(".json")], morph={})  # fmt: skip
+
+
+def test_sampling_bench_targets() -> None:
+    """The bench's targets: blur within 10% of natural on every text, its step no larger."""
+    from miketalk.bench.sampling import TEXT_300, targets
+
+    assert 290 <= len(TEXT_300.split()) <= 320
+    rows = [("a", "blur", 1.0, 2.49), ("a", "paper", 3.0, 2.499), ("b", "blur", 1.05, 2.4995),
+            ("b", "paper", 2.0, 2.499)]  # fmt: skip
+    table = pd.DataFrame(rows, columns=["text", "sampling", "duration_ratio", "largest_step_px"])
+    met = targets(table)
+    assert met["blur_duration_within_10pct"] == 1.0 and met["blur_step_le_paper"] == 1.0
+    assert met["blur_step_minus_paper_px"] == pytest.approx(0.0005)
+    table.loc[2, ["duration_ratio", "largest_step_px"]] = (1.2, 2.6)
+    assert targets(table) == pytest.approx(
+        {"blur_duration_within_10pct": 0.0, "blur_step_le_paper": 0.0,
+         "blur_step_minus_paper_px": 0.101}
+    )  # fmt: skip

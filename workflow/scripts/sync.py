@@ -4,6 +4,8 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
+    import json
+
     from miketalk.evaluation.sync import sync_table
     from miketalk.evaluation.tables import read_mask
     from miketalk.media.atomic import write_text_atomic
@@ -11,6 +13,9 @@ def main() -> None:
     from miketalk.visemes import VisemeTable
 
     inputs, params = snakemake.input, snakemake.params
+    # the measures of the motion as say made them (with the frames it wrote)
+    with open(inputs.timeline, encoding="utf-8") as f:
+        motion = json.load(f)["motion"]
     table = sync_table(
         name=params.name,
         said=read_said(inputs.timeline),
@@ -18,6 +23,7 @@ def main() -> None:
         table=VisemeTable(grouping=params.grouping),
         mouth=read_mask(inputs.mouth),
         video=inputs.video,
+        motion=motion,
     )
     write_text_atomic(snakemake.output[0], table.to_csv(index=False, float_format="%.6g"))
 

@@ -16,7 +16,7 @@ error; the measures below separate them.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -24,11 +24,20 @@ import pandas as pd
 from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr
 from miketalk.talk.lipsync import Timeline, largest_step, plan
 from miketalk.talk.model import Model
+from miketalk.talk.motion import JerkMeter, measure
 from miketalk.talk.say import Said
 from miketalk.visemes import VisemeTable
 
-#: The key columns of a sync table: one utterance at one setting.
-SYNC_KEYS = ["sentence", "fps", "max_px_per_frame"]
+#: The key columns of a sync table: one utterance at one setting (``sampling`` is the
+#: mode its JSON records: ``"blur"``, ``"paper"`` or ``"none"``).
+SYNC_KEYS = ["sentence", "sampling", "fps", "max_px_per_frame"]
+
+
+#: The measures of the utterance's motion in a sync table, one value each
+#: (:class:`~miketalk.talk.motion.Motion`).
+MOTION_QUANTITIES = [
+    "duration_ratio", "morphs", "largest_frame_motion_px", "mean_jerk", "largest_jerk",
+]  # fmt: skip
 
 
 def true_parameters(timeline: Timeline, face: object) -> np.ndarray:
@@ -110,16 +119,18 @@ def sync_table(
     table: VisemeTable,
     mouth: np.ndarray,
     video: str | os.PathLike[str] | None = None,
+    motion: Mapping[str, float | None] | None = None,
 ) -> pd.DataFrame:
-    """Every sync measure of one utterance as tidy rows (sentence, fps, max_px_per_frame,
-    quantity, key, value).
+    """Every sync measure of one utterance as tidy rows (sentence, sampling, fps,
+    max_px_per_frame, quantity, key, value).
 
     Parameters
     ----------
     name : str
         The ``sentence`` column.
     said : Said
-        The utterance's timeline JSON (:func:`miketalk.talk.say.read_said`).
+        The utterance's timeline JSON (:func:`miketalk.talk.say.read_said`);
+        its ``sampling`` is the ``sampling`` column.
     model : Model
         The model that made the utterance, with the same morph options.
     table : VisemeTable
@@ -130,6 +141,12 @@ def sync_table(
     video : path-like, optional
         The utterance's mp4: its decoded video and audio durations are added
         as ``mp4_video_seconds`` and ``mp4_audio_seconds``.
+    motion : mapping, optional
+        The measures of the utterance's motion as its JSON records them
+        (``motion``, :meth:`~miketalk.talk.motion.Motion.to_dict`). None:
+        measured here, on the frames rendered again
+        (:func:`~miketalk.talk.motion.measure`; the same values for an
+        utterance of the paper's lip-sync model).
 
     Returns
     -------
@@ -137,8 +154,10 @@ def sync_table(
         Per frame ``psnr_mouth`` and ``psnr_full``; ``mouth_lag_frames``,
         ``mouth_opening_corr``, ``viseme_offset_frames`` (per transition),
         ``largest_step_px`` (``plain`` and ``oversampled``), ``audio_seconds``,
-        ``video_seconds``, ``duration_diff_frames``, ``lengthened_seconds``,
-        then the mp4's durations.
+        ``video_seconds``, ``duration_diff_frames``, ``lengthened_seconds``;
+        the measures of the motion (``motion``): ``duration_ratio``,
+        ``morphs``, ``largest_frame_motion_px``, ``mean_jerk``,
+        ``largest_jerk`` (:data:`MOTION_QUANTITIES`); then the mp4's durations.
     """
     from synth_face import Face, FaceRenderer
 
@@ -155,8 +174,9 @@ def sync_table(
     rows: list[dict] = []
 
     def add(quantity: str, key: object, value: float) -> None:
-        rows.append({"sentence": name, "fps": fps, "max_px_per_frame": said.max_px_per_frame,
-                     "quantity": quantity, "key": key, "value": float(value)})  # fmt: skip
+        rows.append({"sentence": name, "sampling": said.sampling, "fps": fps,
+                     "max_px_per_frame": said.max_px_per_frame, "quantity": quantity, "key": key,
+                     "value": float(value)})  # fmt: skip
 
     for k in range(len(frames)):
         add("psnr_mouth", k, psnr(frames[k], truth[k], mouth))
@@ -172,6 +192,16 @@ def sync_table(
     add("video_seconds", "", len(frames) / fps)
     add("duration_diff_frames", "", (len(frames) / fps - timeline.duration) * fps)
     add("lengthened_seconds", "", timeline.duration - said.planned_duration)
+    if motion is None:
+        jerk = JerkMeter()
+        for frame in frames:
+            jerk.add(frame)
+        natural = said.planned_duration
+        motion = measure(
+            timeline, model.displacement, natural_duration=natural, jerk=jerk
+        ).to_dict()
+    for quantity in MOTION_QUANTITIES:
+        add(quantity, "", motion[quantity])
     if video is not None:
         from miketalk.media.video import probe_durations
 
@@ -209,10 +239,12 @@ def summarize_sync(table: pd.DataFrame) -> pd.DataFrame:
         ``visemes_within_half_frame`` (fraction with ``|offset| <= 0.5``),
         ``largest_step_px_plain``, ``largest_step_px_oversampled``,
         ``audio_seconds``, ``video_seconds``, ``duration_diff_frames``,
-        ``lengthened_seconds``.
+        ``lengthened_seconds``, ``duration_ratio``, ``morphs``,
+        ``largest_frame_motion_px``, ``mean_jerk``, ``largest_jerk``.
     """
     rows = []
-    for group, part in table.groupby(SYNC_KEYS, sort=True):
+    # dropna=False: max_px_per_frame is empty for an utterance made without a limit
+    for group, part in table.groupby(SYNC_KEYS, sort=True, dropna=False):
         q = part.groupby("quantity")["value"]
         step = part[part["quantity"] == "largest_step_px"].set_index("key")["value"]
         offsets = part[part["quantity"] == "viseme_offset_frames"]["value"].abs()
@@ -234,5 +266,7 @@ def summarize_sync(table: pd.DataFrame) -> pd.DataFrame:
                 "duration_diff_frames": q.get_group("duration_diff_frames").iloc[0],
                 "lengthened_seconds": q.get_group("lengthened_seconds").iloc[0],
             }
+            | {name: q.get_group(name).iloc[0] for name in MOTION_QUANTITIES}
         )
+        rows[-1]["morphs"] = int(rows[-1]["morphs"])
     return pd.DataFrame(rows)

@@ -66,26 +66,103 @@ def morph_psnr_vs_alpha(morph_csv: Path_, out: Path_) -> None:
     _save(fig, out)
 
 
+#: A colour per sampling mode, the same in every figure.
+MODE_COLOURS = {"blur": "C0", "paper": "C1", "none": "C2"}
+
+
+def _modes(table: pd.DataFrame) -> list[str]:
+    """The sampling modes of a sync summary, blur, paper, none first."""
+    known = list(MODE_COLOURS)
+    return sorted(
+        table["sampling"].unique(), key=lambda m: (known.index(m) if m in known else len(known), m)
+    )
+
+
 def sync_vs_max_px(summary_csv: Path_, out: Path_) -> None:
-    """Sync error and largest per-frame motion against max_px_per_frame, per frame rate."""
+    """Sync against max_px_per_frame: a row per sampling mode, a line per frame rate.
+
+    Columns: the largest step between consecutive morphs (dashed: one morph
+    per frame, at the speech's own timing), the largest viseme offset, and the
+    seconds the speech was lengthened.
+    """
     table = pd.read_csv(summary_csv)
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
-    for fps, rows in table.groupby("fps"):
-        rows = rows.sort_values("max_px_per_frame")
-        x = rows["max_px_per_frame"]
-        axes[0].plot(x, rows["largest_step_px_oversampled"], marker="o", label=f"{fps:g} fps")
-        axes[0].plot(x, rows["largest_step_px_plain"], ls="--", alpha=0.6)
-        axes[1].plot(x, rows["max_abs_viseme_offset_frames"], marker="o", label=f"{fps:g} fps")
-        axes[2].plot(x, rows["lengthened_seconds"], marker="o", label=f"{fps:g} fps")
+    modes = _modes(table)
+    fig, axes = plt.subplots(
+        len(modes), 3, figsize=(12, 3.3 * len(modes)), squeeze=False, sharex=True,
+        sharey="col", layout="constrained",
+    )  # fmt: skip
     lim = np.array([table["max_px_per_frame"].min(), table["max_px_per_frame"].max()])
-    axes[0].plot(lim, lim, color="grey", lw=0.8, label="bound")
-    axes[0].set_ylabel("largest per-frame motion (px)\n(dashed: no oversampling)")
-    axes[1].set_ylabel("largest |viseme offset| (frames)")
-    axes[2].set_ylabel("audio lengthened (s)")
-    for ax in axes:
+    colours = {fps: f"C{i}" for i, fps in enumerate(sorted(table["fps"].unique()))}
+    for row, mode in zip(axes, modes, strict=True):
+        for fps, rows in table[table["sampling"] == mode].groupby("fps"):
+            rows = rows.sort_values("max_px_per_frame")
+            x, style = rows["max_px_per_frame"], {"color": colours[fps]}
+            row[0].plot(x, rows["largest_step_px_oversampled"], marker="o", label=f"{fps:g} fps",
+                        **style)  # fmt: skip
+            row[0].plot(x, rows["largest_step_px_plain"], ls="--", alpha=0.6, **style)
+            row[1].plot(x, rows["max_abs_viseme_offset_frames"], marker="o", **style)
+            row[2].plot(x, rows["lengthened_seconds"], marker="o", **style)
+        row[0].plot(lim, lim, color="grey", lw=0.8, label="bound")
+        row[0].set_ylabel("largest step between morphs (px)\n(dashed: one morph per frame)")
+        row[1].set_ylabel("largest |viseme offset| (frames)")
+        row[2].set_ylabel("speech lengthened (s)")
+        for ax in row:
+            ax.set_title(f"sampling {mode}", fontsize=10)
+            ax.grid(True, alpha=0.3)
+        row[0].legend(fontsize=8)
+    for ax in axes[-1]:
         ax.set_xlabel("max_px_per_frame")
+    _save(fig, out)
+
+
+def sampling_vs_max_px(summary_csv: Path_, out: Path_, *, fps: float) -> None:
+    """The sampling modes against max_px_per_frame at one frame rate.
+
+    Four panels, a line per mode: the duration of the speech over its natural
+    duration (target of the default: at most 1.1), the largest step between
+    consecutive morphs, the largest motion from one frame to the next, and the
+    mean jerk of the frames (smoothness; lower is smoother).
+
+    Parameters
+    ----------
+    summary_csv : path-like
+        A sync summary (:func:`miketalk.evaluation.sync.summarize_sync`) with
+        rows of several modes.
+    out : path-like
+        The PNG to write.
+    fps : float
+        The frame rate whose rows are drawn.
+    """
+    table = pd.read_csv(summary_csv)
+    table = table[np.isclose(table["fps"], fps)]
+    if table.empty:
+        raise MiketalkError(f"{summary_csv} has no rows at {fps:g} fps")
+    panels = (
+        ("duration_ratio", "speech duration / natural duration"),
+        ("largest_step_px_oversampled", "largest step between morphs (px)"),
+        ("largest_frame_motion_px", "largest motion frame to frame (px)"),
+        ("mean_jerk", "mean jerk of the frames (grey levels)"),
+    )
+    fig, axes = plt.subplots(1, len(panels), figsize=(15, 3.8), layout="constrained")
+    for mode in _modes(table):
+        rows = table[table["sampling"] == mode].sort_values("max_px_per_frame")
+        for ax, (column, _) in zip(axes, panels, strict=True):
+            ax.plot(rows["max_px_per_frame"], rows[column], marker="o", label=mode,
+                    color=MODE_COLOURS.get(mode))  # fmt: skip
+    plain = table.sort_values("max_px_per_frame").drop_duplicates("max_px_per_frame")
+    axes[1].plot(plain["max_px_per_frame"], plain["largest_step_px_plain"], ls="--",
+                 color="grey", label="one morph per frame")  # fmt: skip
+    lim = np.array([table["max_px_per_frame"].min(), table["max_px_per_frame"].max()])
+    axes[1].plot(lim, lim, color="k", lw=0.8, label="bound")
+    axes[0].axhline(1.1, color="grey", ls=":", lw=1, label="target of the default")
+    axes[0].set_ylim(bottom=0)
+    for ax, (_, label) in zip(axes, panels, strict=True):
+        ax.set_xlabel("max_px_per_frame")
+        ax.set_title(label, fontsize=10)
         ax.grid(True, alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=8)
+    sentences = ", ".join(sorted(table["sentence"].unique()))
+    fig.suptitle(f"sampling modes on {sentences} at {fps:g} fps")
     _save(fig, out)
 
 
@@ -145,6 +222,94 @@ def morph_strip(
             images.append(getattr(morpher.stages(alpha), stage))
             labels.append(f"{stage} a={alpha:g}")
     write_png(out, grid(images, labels, cols=len(alphas)))
+
+
+def sampling_strip(
+    model_dir: Path_, timelines: list[Path_], out: Path_, *, morph: dict, columns: int = 8
+) -> None:
+    """Frames of one sentence in several sampling modes at the same moments of the speech.
+
+    A row per timeline JSON (:func:`miketalk.talk.say.read_said`), a column per
+    moment: ``columns`` consecutive frame times of the speech at its natural
+    timing, about its fastest transition. The timeline nearest natural speed
+    (blur) shows exactly those frames; a lengthened one (paper) shows its frame
+    nearest the same moment of the speech (phone boundaries mapped linearly),
+    so its frame numbers run further apart. The frames are rendered from the
+    timelines as ``say`` renders them and cropped to where they differ most.
+
+    Parameters
+    ----------
+    model_dir : path-like
+        The model that said them.
+    timelines : list of path-like
+        The utterances' JSON files, one per row: the same sentence.
+    out : path-like
+        The PNG to write.
+    morph : dict
+        The model's morph options (as the utterances were made with).
+    columns : int
+        Frames per row.
+
+    Raises
+    ------
+    MiketalkError
+        If the timelines do not say the same phones.
+    """
+    from miketalk.figures.sheets import grid
+    from miketalk.media.images import write_png
+    from miketalk.talk.lipsync import frame_count
+    from miketalk.talk.say import open_model, read_said
+
+    model = open_model(model_dir, morph_options=morph)
+    saids = [read_said(p) for p in timelines]
+    if any(s.lipsync_model != "paper" for s in saids):
+        raise MiketalkError("the sampling strip draws utterances of the paper's lip-sync model")
+    names = [[p.name for p in s.planned_phones] for s in saids]
+    if any(
+        n != names[0] or len(s.timeline.phones) != len(n) for s, n in zip(saids, names, strict=True)
+    ):
+        raise MiketalkError("the sampling strip's timelines do not say the same phones")
+
+    def bounds(phones: tuple) -> np.ndarray:
+        return np.array([0.0, *(p.end for p in phones)])
+
+    def spoken(said: object, t: float) -> float:  # natural time -> the utterance's time
+        return float(np.interp(t, bounds(said.planned_phones), bounds(said.timeline.phones)))
+
+    reference = min(saids, key=lambda s: s.timeline.duration / s.planned_duration)
+    fps = reference.timeline.fps
+    ref = reference.timeline
+    fastest = max(
+        (t for t in ref.transitions if t.duration > 0),
+        key=lambda t: model.displacement(t.source, t.target) / t.duration,
+    )
+    middle = float(np.interp(fastest.start + fastest.duration / 2, bounds(ref.phones),
+                             bounds(reference.planned_phones)))  # fmt: skip
+    n = frame_count(reference.planned_duration, fps)
+    first = int(np.clip(round(middle * fps) - columns // 2, 0, max(0, n - columns)))
+    moments = [(first + j) / fps for j in range(min(columns, n))]
+    images, labels = [], []
+    for said in saids:
+        timeline = said.timeline
+        for j, t in enumerate(moments):
+            k = int(np.clip(round(spoken(said, t) * timeline.fps), 0, len(timeline.frames) - 1))
+            images.append(model.draw(timeline, timeline.frames[k]))
+            ratio = timeline.duration / said.planned_duration
+            head = f"{said.sampling} x{ratio:.2f} " if j == 0 else f"{said.sampling} "
+            labels.append(f"{head}#{k} {k / timeline.fps:.2f}s")
+    # crop to where the frames differ most (the lips), grown to a 5:3 box about them
+    stack = np.stack(images).astype(np.int16)
+    change = np.abs(stack - stack[:1]).max(axis=(0, 3))
+    ys, xs = (change >= max(12, change.max() // 2)).nonzero()
+    if len(ys):
+        h, w = change.shape
+        width = min(w, xs.max() - xs.min() + 1 + 24)
+        height = min(h, max(ys.max() - ys.min() + 1 + 24, round(0.6 * width)))
+        y0 = int(np.clip((ys.min() + ys.max() + 1 - height) // 2, 0, h - height))
+        x0 = int(np.clip((xs.min() + xs.max() + 1 - width) // 2, 0, w - width))
+        images = [im[y0 : y0 + height, x0 : x0 + width] for im in images]
+    scale = max(1.0, 200.0 / images[0].shape[1])
+    write_png(out, grid(images, labels, cols=len(moments), scale=scale))
 
 
 #: Every figure by name: ``draw(name, out, **inputs)`` calls ``FIGURES[name](out=out, **inputs)``.
@@ -221,6 +386,8 @@ FIGURES: dict[str, Callable[..., None]] = {
     "epe_vs_levels": epe_vs_levels,
     "morph_psnr_vs_alpha": morph_psnr_vs_alpha,
     "sync_vs_max_px": sync_vs_max_px,
+    "sampling_vs_max_px": sampling_vs_max_px,
+    "sampling_strip": sampling_strip,
     "lipsync_diagram": lipsync_diagram,
     "morph_strip": morph_strip,
     "heldout_trajectory": heldout_trajectory,
