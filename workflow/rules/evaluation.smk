@@ -76,6 +76,7 @@ rule figure_heldout:
     input:
         frames_csv=rules.heldout.output.frames,
         videos=rules.heldout.output.videos,
+        regions=rules.corpus_clips.output.regions,
     output:
         trajectory=report(
             f"{FIGURES}/heldout/{{face}}/trajectory.png",
@@ -85,6 +86,11 @@ rule figure_heldout:
         psnr=report(
             f"{FIGURES}/heldout/{{face}}/psnr.png",
             caption="../report/heldout_psnr.rst",
+            category="Real person",
+        ),
+        strip=report(
+            f"{FIGURES}/heldout/{{face}}/strip.png",
+            caption="../report/heldout_strip.rst",
             category="Real person",
         ),
     log:

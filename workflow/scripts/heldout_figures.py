@@ -1,4 +1,5 @@
-"""Rule figure_heldout: one test clip's eigenlip trajectory and mouth PSNR per frame."""
+"""Rule figure_heldout: one test clip's eigenlip trajectory, mouth PSNR per frame, and a
+strip of its side-by-side video around the mouth."""
 
 from pathlib import Path
 
@@ -6,12 +7,22 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
+    from miketalk.corpus.clips import mouth_region
+    from miketalk.figures.heldout_strip import heldout_strip
     from miketalk.figures.plots import heldout_psnr, heldout_trajectory
 
-    p, frames = snakemake.params, snakemake.input.frames_csv
-    timeline = Path(snakemake.input.videos) / f"{p.clip}.json"
-    heldout_trajectory(frames, timeline, snakemake.output.trajectory, clip=p.clip, model=p.model)
-    heldout_psnr(frames, snakemake.output.psnr, clip=p.clip, model=p.model)
+    p, frames, out = snakemake.params, snakemake.input.frames_csv, snakemake.output
+    videos = Path(snakemake.input.videos)
+    timeline = videos / f"{p.clip}.json"
+    heldout_trajectory(frames, timeline, out.trajectory, clip=p.clip, model=p.model)
+    heldout_psnr(frames, out.psnr, clip=p.clip, model=p.model)
+    heldout_strip(
+        videos / f"{p.clip}.mp4",
+        timeline,
+        out.strip,
+        mouth_box=mouth_region(Path(snakemake.input.regions).parent),
+        scale=2.5,
+    )
 
 
 run_stage(snakemake, main)

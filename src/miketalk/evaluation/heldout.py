@@ -14,7 +14,12 @@ same moment, ``k / fps``. Every measure compares the two on the mouth region:
     and the lag in frames that maximizes their cross-correlation;
 ``opening``
     the mouth's mean darkness (:func:`miketalk.evaluation.measures.mouth_opening`),
-    a measure a person can read: it rises as the dark interior shows.
+    a measure a person can read: it rises as the dark interior shows;
+``..._corr_speech``
+    the same correlations over the frames from the first spoken phone's start
+    to the last one's end only: the silences around a sentence (rest, then
+    speech) dominate a whole clip's correlation; inside the speech it measures
+    how well the mouth's shapes follow the phones.
 
 Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
 the same timeline and so the same frames: the silence viseme held (a still
@@ -168,6 +173,7 @@ def compare(
     mouth_box: Box,
     eigenlips: Eigenlips,
     max_lag: int = MAX_LAG,
+    speech: slice | None = None,
 ) -> ClipScores:
     """Every measure of a synthesized clip against its real frames (see the module docstring).
 
@@ -181,6 +187,9 @@ def compare(
         Fitted on the training frames.
     max_lag : int
         Largest lag searched, frames.
+    speech : slice, optional
+        The frames of the speech (:func:`speech_frames`): adds the
+        ``*_corr_speech`` measures.
     """
     if real.shape != synthesized.shape:
         raise MiketalkError(f"real {real.shape} and synthesized {synthesized.shape} frames differ")
@@ -215,6 +224,12 @@ def compare(
         summary[f"eigenlip{i + 1}_accel_rms_real"] = float(
             np.sqrt(np.mean(np.diff(coef_real[:, i], 2) ** 2))
         )
+    if speech is not None:
+        summary["opening_corr_speech"] = _corr(open_synth[speech], open_real[speech])
+        for i in range(coef_real.shape[1]):
+            summary[f"eigenlip{i + 1}_corr_speech"] = _corr(
+                coef_synth[speech, i], coef_real[speech, i]
+            )
     rows["opening_real"], rows["opening_synth"] = open_real, open_synth
     return ClipScores(pd.DataFrame(rows), summary)
 
@@ -232,6 +247,19 @@ def _psnr_of_mean_mse(values: np.ndarray) -> float:
     """PSNR of the mean squared error over frames."""
     mse = 255.0**2 / np.power(10.0, values / 10.0)
     return float(10 * np.log10(255.0**2 / mse.mean())) if mse.mean() > 0 else float("inf")
+
+
+def speech_frames(timeline: Timeline) -> slice:
+    """The frames from the first spoken (not silent) phone's start to the last one's end."""
+    from miketalk.visemes import default_table
+
+    table = default_table()
+    spoken = [p for p in timeline.phones if SILENCE not in table.visemes_of(p.name)]
+    if not spoken:
+        return slice(0, 0)
+    first = int(np.floor(spoken[0].start * timeline.fps))
+    last = int(np.ceil(spoken[-1].end * timeline.fps))
+    return slice(max(0, first), min(len(timeline.frames), last))
 
 
 @dataclass(frozen=True)
@@ -299,9 +327,12 @@ def evaluate_clip(
         if (models[baselines_of].directory / COARTICULATION).exists():
             jobs.append(("learned", baselines_of))
     summaries, tables, renders = [], [], {}
+    speech = speech_frames(heldout.timeline)
     for renderer, name in jobs:
         frames = np.stack(list(RENDERERS[renderer](models[name], heldout.timeline)))
-        scores = compare(heldout.real, frames, mouth_box=mouth_box, eigenlips=eigenlips)
+        scores = compare(
+            heldout.real, frames, mouth_box=mouth_box, eigenlips=eigenlips, speech=speech
+        )
         label = {"clip": heldout.id, "renderer": renderer, "model": name}
         summaries.append(label | scores.summary)
         tables.append(scores.frames.assign(**label))
@@ -309,10 +340,23 @@ def evaluate_clip(
     return summaries, pd.concat(tables, ignore_index=True), renders
 
 
-def side_by_side(real: np.ndarray, *columns: np.ndarray, gain: float = 3.0) -> np.ndarray:
-    """Frames ``real | columns... | |real - first column| x gain`` side by side."""
+def side_by_side(real: np.ndarray, *columns: np.ndarray, gain: float | None = 3.0) -> np.ndarray:
+    """Frames ``real | columns... | |real - first column| x gain`` side by side.
+
+    ``gain=None`` leaves the difference column out.
+    """
+    if gain is None:
+        return np.concatenate([real, *columns], axis=2)
     diff = np.clip(np.abs(real.astype(np.int16) - columns[0].astype(np.int16)) * gain, 0, 255)
     return np.concatenate([real, *columns, diff.astype(np.uint8)], axis=2)
+
+
+def video_columns(renders: dict[str, np.ndarray], default_model: str) -> list[str]:
+    """What the side-by-side videos show after the real clip: the paper's morph, and the
+    learned coarticulation when the model has it (else ``|real - morph| x 3``)."""
+    if f"learned:{default_model}" in renders:
+        return ["paper", "learned"]
+    return ["paper", "difference"]
 
 
 def summarize(table: pd.DataFrame) -> pd.DataFrame:
@@ -360,8 +404,10 @@ def heldout_stage(
     frames_csv, clips_csv, summary_csv : path
         Per-frame measures, per-clip summaries, and their mean and spread.
     videos_dir : path
-        One side-by-side mp4 per test clip, real | synthesized | difference x3,
-        and its timeline (``<clip>.json``: the aligned phones and the frames).
+        One side-by-side mp4 per test clip, real | paper | learned (a model
+        without learned coarticulation: real | paper | difference x3), and its
+        timeline (``<clip>.json``: the aligned phones, the frames, and the
+        names of the video's ``columns``).
 
     Returns
     -------
@@ -395,12 +441,20 @@ def heldout_stage(
         summaries += rows
         frames.append(per_frame)
         synth = renders[f"morph:{default_model}"]
+        learned = renders.get(f"learned:{default_model}")
         write_text_atomic(
-            videos / f"{clip.id}.json", json.dumps(heldout.timeline.to_dict(), indent=1)
+            videos / f"{clip.id}.json",
+            json.dumps(
+                heldout.timeline.to_dict()
+                | {"columns": ["real", *video_columns(renders, default_model)]},
+                indent=1,
+            ),
         )
         write_mp4(
             videos / f"{clip.id}.mp4",
-            side_by_side(heldout.real, synth),
+            side_by_side(heldout.real, synth)
+            if learned is None
+            else side_by_side(heldout.real, synth, learned, gain=None),
             fps=heldout.fps,
             audio=heldout.samples,
             rate=heldout.rate,

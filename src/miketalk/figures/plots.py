@@ -324,10 +324,16 @@ def heldout_trajectory(
     morph = part[part["renderer"] == "morph"]
     fig, ax = plt.subplots(figsize=(10, 3.6))
     ax.plot(morph["frame"], morph["eigenlip1_real"], color="k", lw=2, label="real")
-    for renderer, style in (("morph", "-"), ("dissolve", ":"), ("flipbook", "--")):
+    curves = (
+        ("morph", "-", "paper (morph)"),
+        ("learned", "-", "learned"),
+        ("dissolve", ":", "dissolve"),
+        ("flipbook", "--", "flip-book"),
+    )
+    for renderer, style, label in curves:
         rows = part[part["renderer"] == renderer]
         if len(rows):
-            ax.plot(rows["frame"], rows["eigenlip1_synth"], style, label=renderer)
+            ax.plot(rows["frame"], rows["eigenlip1_synth"], style, label=label)
     with open(phones_json, encoding="utf-8") as f:
         said = json.load(f)
     fps = said["fps"]
