@@ -71,6 +71,8 @@ def test_outputs_exist(run: Path) -> None:
         "figures/epe_vs_levels.png",
         "figures/morph_psnr_vs_alpha.png",
         "figures/sync_vs_max_px.png",
+        "figures/sampling_vs_max_px.png",
+        "figures/sampling_strip.png",
         "figures/lipsync_diagram.png",
         "figures/morph_strip.png",
         "corpus/s1/corpus.mp4",
@@ -151,6 +153,69 @@ def test_pyramid_depth_change_reruns_only_what_depends_on_it(run: Path, tmp_path
     flows = re.findall(r"wildcards: method=([\w-]+), strategy=(\w+)", out)
     assert {method for method, _ in flows} == {"bergen"}  # not the sweep's bergen-L<n>
     assert {strategy for _, strategy in flows} == {"direct", "concat", "mixed", "bridge"}
+
+
+def _dry_run_jobs(workdir: Path, *targets: str) -> dict[str, list[str]]:
+    """Each rule's jobs in a dry run: their input and output lines."""
+    proc = snakemake(workdir, "--dry-run", *targets)
+    jobs: dict[str, list[str]] = {}
+    for block in re.split(r"\n(?=rule \w+:)", proc.stdout):
+        if match := re.match(r"rule (\w+):", block):
+            lines = [
+                ln.strip()
+                for ln in block.splitlines()
+                if ln.strip().startswith(("input", "output"))
+            ]
+            jobs.setdefault(match[1], []).append("\n".join(lines))
+    return jobs
+
+
+SWEPT = re.compile(r"results/utterances/synthetic/sweep/(\w+)/px([\d.]+)_fps([\d.]+)\.mp4")
+
+
+@pytest.mark.parametrize(
+    ("sweep", "made"),
+    [
+        # the .test config: one setting; blur there is the configured utterance
+        ({}, {("paper", "2.5", "30")}),
+        (
+            {"max_px_per_frame": [1.5, 2.5], "fps": [30, 60]},
+            {("blur", "1.5", "30"), ("blur", "2.5", "60"), ("paper", "1.5", "30"),
+             ("paper", "2.5", "30"), ("paper", "2.5", "60")},
+        ),
+        ({"sampling": ["paper"]}, {("paper", "2.5", "30")}),
+    ],
+)  # fmt: skip
+def test_sync_sweep_targets_in_both_sampling_modes(
+    tmp_path: Path, sweep: dict, made: set[tuple[str, str, str]]
+) -> None:
+    """A dry run on the .test config: the sweep's utterances and tables, per sampling mode."""
+    import yaml
+
+    config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
+    config["sweeps"] |= sweep
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(config))
+    jobs = _dry_run_jobs(
+        tmp_path, "results/figures/sampling_vs_max_px.png", "results/figures/sampling_strip.png"
+    )
+    utterances = {SWEPT.search(job).groups() for job in jobs["sweep_utterance"]}
+    assert utterances == made
+    (table,) = jobs["sync_sweep_table"]
+    tables = set(re.findall(r"sync_sweep/synthetic/(\w+)/px([\d.]+)_fps([\d.]+)\.csv", table))
+    assert tables == made
+    # the configured point (blur, 2.5 px, 30 fps) is the sync rule's table of the sentence
+    configured = "blur" in config["sweeps"]["sampling"]
+    assert ("metrics/sync/synthetic/hello.csv" in table) == configured
+    said = [
+        re.search(r"utterances/(\w+)/(\w+)\.mp4", job).groups() for job in jobs.get("utterance", [])
+    ]
+    assert said == [("synthetic", "hello")] * configured
+    (strip,) = jobs["figure_sampling_strip"]
+    shown = re.findall(r"utterances/synthetic/(sweep/\w+/px2\.5_fps30|hello)\.json", strip)
+    # a row per swept mode, at the configured max_px and fps: blur's is the configured utterance
+    assert shown == [
+        "hello" if m == "blur" else f"sweep/{m}/px2.5_fps30" for m in config["sweeps"]["sampling"]
+    ]
 
 
 def test_stages_rebuild_byte_identical(run: Path) -> None:

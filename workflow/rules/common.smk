@@ -6,6 +6,7 @@ from pathlib import Path
 
 from miketalk import defaults
 from miketalk.flow.strategies import STRATEGIES, get_strategy
+from miketalk.talk.settings import SAMPLINGS
 
 ROOT = Path(workflow.basedir)
 
@@ -252,24 +253,65 @@ def sync_tables():
 NUMBER = r"\d+(\.\d+)?"
 
 
-def sync_sweep_tables():
-    """One setting at a time: each max_px_per_frame at lipsync.fps, each fps at the default px."""
+def sync_sweep_points():
+    """(sampling, px, fps) of the sync sweep, sorted.
+
+    In each mode of sweeps.sampling, one setting at a time: each
+    max_px_per_frame at lipsync.fps, each fps at the configured max_px_per_frame.
+    """
     s, lipsync = config["sweeps"], config["lipsync"]
-    points = [(px, lipsync["fps"]) for px in s["max_px_per_frame"]]
-    if lipsync["max_px_per_frame"] is not None:  # null: no oversampling to sweep fps at
-        points += [(lipsync["max_px_per_frame"], fps) for fps in s["fps"]]
-    default = (lipsync["max_px_per_frame"], lipsync["fps"])
-    # the default point is the sync rule's own table of the sweep sentence
-    return sorted(
-        {
-            (
-                f"{METRICS}/sync/{TRUTH_FACE}/{s['sentence']}.csv"
-                if (px, fps) == default
-                else f"{METRICS}/sync_sweep/{TRUTH_FACE}/px{px}_fps{fps}.csv"
-            )
-            for px, fps in points
-        }
+    points = set()
+    for sampling in s["sampling"]:
+        points |= {(sampling, px, lipsync["fps"]) for px in s["max_px_per_frame"]}
+        if lipsync["max_px_per_frame"] is not None:  # null: no limit to sweep fps at
+            points |= {(sampling, lipsync["max_px_per_frame"], fps) for fps in s["fps"]}
+    return sorted(points)
+
+
+def configured_point(face, sampling, px, fps):
+    """Whether a sweep point is the face's configured sampling, max_px_per_frame and fps."""
+    lipsync = lipsync_options(face)
+    return (sampling, px, fps) == (
+        lipsync["sampling"],
+        lipsync["max_px_per_frame"],
+        lipsync["fps"],
     )
+
+
+def sweep_timeline(face, sampling, px, fps):
+    """The timeline JSON of the sweep sentence said by ``face`` at one sweep point: at
+    the configured point the utterance rule's own, elsewhere the sweep_utterance's."""
+    if configured_point(face, sampling, px, fps):
+        return f"{at(UTTERANCES, face)}/{config['sweeps']['sentence']}.json"
+    return f"{at(UTTERANCES, face)}/sweep/{sampling}/px{px}_fps{fps}.json"
+
+
+def sync_sweep_tables():
+    """The sync table of every sync sweep point (truth face); at the configured point
+    the sync rule's own table of the sweep sentence."""
+    face = TRUTH_FACE or "none"
+    return [
+        (
+            f"{METRICS}/sync/{face}/{config['sweeps']['sentence']}.csv"
+            if configured_point(face, sampling, px, fps)
+            else f"{METRICS}/sync_sweep/{face}/{sampling}/px{px}_fps{fps}.csv"
+        )
+        for sampling, px, fps in sync_sweep_points()
+    ]
+
+
+def strip_max_px():
+    """The max_px_per_frame of the sampling strip: lipsync's, or the default for none."""
+    px = config["lipsync"]["max_px_per_frame"]
+    return defaults.MAX_PX_PER_FRAME if px is None else px
+
+
+def sampling_strip_timelines():
+    """The sweep sentence in each swept sampling mode at the strip's settings (figure face)."""
+    return [
+        sweep_timeline(FIGURE_FACE, sampling, strip_max_px(), config["lipsync"]["fps"])
+        for sampling in config["sweeps"]["sampling"]
+    ]
 
 
 def all_outputs():
@@ -277,7 +319,11 @@ def all_outputs():
     out += [at(MODEL, face) for face in config["faces"]]
     out += utterance_videos()
     out += heldout_tables()
-    out += [f"{FIGURES}/lipsync_diagram.png", f"{FIGURES}/morph_strip.png"]
+    out += [
+        f"{FIGURES}/lipsync_diagram.png",
+        f"{FIGURES}/morph_strip.png",
+        f"{FIGURES}/sampling_strip.png",
+    ]
     if TRUTH_FACE is not None:
         out += [
             f"{METRICS}/flow_epe.csv",
@@ -287,6 +333,7 @@ def all_outputs():
             f"{FIGURES}/epe_vs_levels.png",
             f"{FIGURES}/morph_psnr_vs_alpha.png",
             f"{FIGURES}/sync_vs_max_px.png",
+            f"{FIGURES}/sampling_vs_max_px.png",
         ]
     else:
         out.append(f"{METRICS}/SKIPPED.txt")

@@ -100,3 +100,45 @@ rule figure_morph_strip:
         morph=config["morph"],
     script:
         "../scripts/figures.py"
+
+
+rule figure_sampling_modes:
+    input:
+        summary_csv=rules.sync_sweep_table.output.summary,
+    output:
+        report(
+            f"{FIGURES}/sampling_vs_max_px.png",
+            caption="../report/sampling_vs_max_px.rst",
+            category="Lip-sync",
+        ),
+    log:
+        "results/logs/figures/sampling_vs_max_px.log",
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        figure="sampling_vs_max_px",
+        fps=config["lipsync"]["fps"],
+    script:
+        "../scripts/figures.py"
+
+
+rule figure_sampling_strip:
+    input:
+        model_dir=at(rules.model.output[0], FIGURE_FACE),
+        timelines=sampling_strip_timelines(),
+    output:
+        report(
+            f"{FIGURES}/sampling_strip.png",
+            caption="../report/sampling_strip.rst",
+            category="Lip-sync",
+        ),
+    log:
+        "results/logs/figures/sampling_strip.log",
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        figure="sampling_strip",
+        morph=morph_options(FIGURE_FACE),
+        columns=8,
+    script:
+        "../scripts/figures.py"

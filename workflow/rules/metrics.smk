@@ -45,7 +45,7 @@ rule sync:
         "../envs/miketalk.yaml"
     params:
         name=lambda wildcards: wildcards.sentence,
-        morph=config["morph"],
+        morph=morph_options(TRUTH_FACE or "none"),
         grouping=config["visemes"]["grouping"],
     script:
         "../scripts/sync.py"
@@ -58,16 +58,20 @@ rule sync_sweep_point:
         video=at(rules.sweep_utterance.output.video, TRUTH_FACE or "none"),
         timeline=at(rules.sweep_utterance.output.timeline, TRUTH_FACE or "none"),
     output:
-        f"{METRICS}/sync_sweep/{TRUTH_FACE}/px{{px}}_fps{{fps}}.csv",
+        f"{METRICS}/sync_sweep/{TRUTH_FACE}/{{sampling}}/px{{px}}_fps{{fps}}.csv",
     log:
-        f"results/logs/sync_sweep/{TRUTH_FACE}/px{{px}}_fps{{fps}}.log",
+        f"results/logs/sync_sweep/{TRUTH_FACE}/{{sampling}}/px{{px}}_fps{{fps}}.log",
     benchmark:
-        f"results/benchmarks/sync_sweep/{TRUTH_FACE}/px{{px}}_fps{{fps}}.tsv"
+        f"results/benchmarks/sync_sweep/{TRUTH_FACE}/{{sampling}}/px{{px}}_fps{{fps}}.tsv"
+    wildcard_constraints:
+        sampling=one_of(SAMPLINGS),
+        px=NUMBER,
+        fps=NUMBER,
     conda:
         "../envs/miketalk.yaml"
     params:
         name=config["sweeps"]["sentence"],
-        morph=config["morph"],
+        morph=morph_options(TRUTH_FACE or "none"),
         grouping=config["visemes"]["grouping"],
     script:
         "../scripts/sync.py"

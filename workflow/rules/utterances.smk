@@ -1,5 +1,6 @@
 # Each configured sentence as a talking-face mp4 with its timeline; and the sync
-# sweep's sentence at each of its settings (the same script, settings from the path).
+# sweep's sentence at each of its settings (the same script, sampling mode, max_px and
+# fps from the path).
 
 
 rule utterance:
@@ -35,14 +36,15 @@ rule sweep_utterance:
     input:
         model=rules.model.output[0],
     output:
-        video=f"{UTTERANCES}/sweep/px{{px}}_fps{{fps}}.mp4",
-        timeline=f"{UTTERANCES}/sweep/px{{px}}_fps{{fps}}.json",
+        video=f"{UTTERANCES}/sweep/{{sampling}}/px{{px}}_fps{{fps}}.mp4",
+        timeline=f"{UTTERANCES}/sweep/{{sampling}}/px{{px}}_fps{{fps}}.json",
     log:
-        "results/logs/utterances/{face}/sweep/px{px}_fps{fps}.log",
+        "results/logs/utterances/{face}/sweep/{sampling}/px{px}_fps{fps}.log",
     benchmark:
-        "results/benchmarks/utterances/{face}/sweep/px{px}_fps{fps}.tsv"
+        "results/benchmarks/utterances/{face}/sweep/{sampling}/px{px}_fps{fps}.tsv"
     wildcard_constraints:
         face=one_of(FACES),
+        sampling=one_of(SAMPLINGS),
         px=NUMBER,
         fps=NUMBER,
     conda:
@@ -51,6 +53,10 @@ rule sweep_utterance:
         text=config["sentences"][config["sweeps"]["sentence"]],
         fps=lambda wildcards: float(wildcards.fps),
         max_px=lambda wildcards: float(wildcards.px),
+        lipsync=lambda wildcards: {
+            **lipsync_options(wildcards.face),
+            "sampling": wildcards.sampling,
+        },
         morph=lambda wildcards: morph_options(wildcards.face),
         grouping=config["visemes"]["grouping"],
     script:

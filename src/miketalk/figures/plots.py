@@ -147,8 +147,10 @@ def sampling_vs_max_px(summary_csv: Path_, out: Path_, *, fps: float) -> None:
     for mode in _modes(table):
         rows = table[table["sampling"] == mode].sort_values("max_px_per_frame")
         for ax, (column, _) in zip(axes, panels, strict=True):
+            # the first mode's larger markers show where the modes' points coincide
             ax.plot(rows["max_px_per_frame"], rows[column], marker="o", label=mode,
-                    color=MODE_COLOURS.get(mode))  # fmt: skip
+                    color=MODE_COLOURS.get(mode), markersize=9 if mode == "blur" else 5,
+                    lw=2.5 if mode == "blur" else 1.5)  # fmt: skip
     plain = table.sort_values("max_px_per_frame").drop_duplicates("max_px_per_frame")
     axes[1].plot(plain["max_px_per_frame"], plain["largest_step_px_plain"], ls="--",
                  color="grey", label="one morph per frame")  # fmt: skip
