@@ -90,6 +90,12 @@ def morph_options(face):
     return {**config["morph"], **own}
 
 
+def lipsync_options(face):
+    """The lip-sync settings of a face: lipsync, with the face's own overrides."""
+    own = FACES[face].get("lipsync", {}) if face in FACES else {}
+    return {**config["lipsync"], **own}
+
+
 def model_flow(face):
     """The flow method and strategy of a face's model (the configured ones for no face)."""
     own = FACES[face].get("flow", {}) if face in FACES else {}
@@ -103,6 +109,11 @@ def model_flow(face):
 for _face in FACES:
     _method, _strategy = model_flow(_face)
     get_strategy(_strategy)
+    if lipsync_options(_face)["model"] == "learned" and _face not in CLIP_FACES:
+        raise ValueError(
+            f"faces.{_face}: lipsync model 'learned' needs a face built from clips "
+            "(its coarticulation is fitted to their aligned frames)"
+        )
     if _method not in config["flow"]["methods"]:
         raise ValueError(
             f"faces.{_face}: flow method {_method!r} is not in flow.methods "
@@ -195,6 +206,7 @@ def heldout_tables():
             f"{METRICS}/heldout/{face}/summary.csv",
             f"{FIGURES}/heldout/{face}/trajectory.png",
             f"{FIGURES}/heldout/{face}/psnr.png",
+            f"{FIGURES}/heldout/{face}/strip.png",
         ]
         if sweep_of(face):
             out += [

@@ -26,6 +26,7 @@ rule utterance:
         text=lambda wildcards: config["sentences"][wildcards.sentence],
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
+        lipsync=lambda wildcards: lipsync_options(wildcards.face),
         morph=lambda wildcards: morph_options(wildcards.face),
         grouping=config["visemes"]["grouping"],
     script:

@@ -14,6 +14,9 @@ def main() -> None:
         model=open_model(snakemake.input.model, morph_options=p.morph),
         fps=p.fps,
         max_px_per_frame=p.max_px,
+        sampling=p.lipsync["sampling"],
+        max_slowdown=p.lipsync["max_slowdown"],
+        lipsync_model=p.lipsync["model"],
         table=VisemeTable(grouping=p.grouping),
     )
 
