@@ -14,31 +14,16 @@ import json
 import os
 from collections.abc import Sequence
 
-import cv2
 import numpy as np
 
+from miketalk.corpus.media_video import read_video
 from miketalk.errors import MiketalkError
+from miketalk.evaluation.heldout import speech_frames
 from miketalk.figures.sheets import grid
 from miketalk.media.images import write_png
+from miketalk.talk.lipsync import Timeline
 
 Path_ = str | os.PathLike[str]
-
-
-def read_video_frames(path: Path_) -> np.ndarray:
-    """Every frame of a video, (N, H, W, 3) RGB uint8."""
-    capture = cv2.VideoCapture(os.fspath(path))
-    frames = []
-    try:
-        while True:
-            ok, frame = capture.read()
-            if not ok:
-                break
-            frames.append(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
-    finally:
-        capture.release()
-    if not frames:
-        raise MiketalkError(f"no frames could be read from {path}")
-    return np.stack(frames)
 
 
 def _phone_at(phones: Sequence[dict], t: float) -> str:
@@ -75,8 +60,8 @@ def heldout_strip(
         The columns shown, one row each (default: every column but a
         ``difference``).
     count : int
-        Frames shown, evenly spaced between the first and last phone that is
-        not a pause.
+        Frames shown, evenly spaced over the speech
+        (:func:`miketalk.evaluation.heldout.speech_frames`).
     scale : float
         Tiles are enlarged by this factor.
 
@@ -86,7 +71,7 @@ def heldout_strip(
         A timeline without ``columns``, a column to show that the video does
         not have, or a video that cannot be read.
     """
-    frames = read_video_frames(video)
+    frames, _ = read_video(video)
     with open(timeline_json, encoding="utf-8") as f:
         said = json.load(f)
     fps, phones, columns = said["fps"], said["phones"], said.get("columns")
@@ -96,10 +81,9 @@ def heldout_strip(
     unknown = [name for name in show if name not in columns]
     if unknown:
         raise MiketalkError(f"{video} has no columns {unknown} (its columns: {columns})")
-    spoken = [p for p in phones if p["name"] not in ("pau", "sil", "#")]
-    first, last = (spoken[0]["start"], spoken[-1]["end"]) if spoken else (0, len(frames) / fps)
-    picks = np.linspace(first * fps, last * fps - 1, count).round().astype(int)
-    picks = np.clip(picks, 0, len(frames) - 1)
+    speech = speech_frames(Timeline.from_dict(said))
+    first, stop = (speech.start, speech.stop) if speech.stop > speech.start else (0, len(frames))
+    picks = np.clip(np.linspace(first, stop - 1, count).round().astype(int), 0, len(frames) - 1)
     x, y, w, h = mouth_box
     width = frames.shape[2] // len(columns)
     tiles, labels = [], []
