@@ -30,7 +30,7 @@ apt:
 	  fi; \
 	fi
 
-$(STAMP): pyproject.toml setup.py src/miketalk/_morph_kernels.c
+$(STAMP): pyproject.toml setup.py src/miketalk/render/_morph_kernels.c
 	@command -v $(PYTHON) >/dev/null || { echo "$(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip

@@ -10,8 +10,8 @@ from setuptools import Extension, setup
 setup(
     ext_modules=[
         Extension(
-            "miketalk._morph_kernels",
-            sources=["src/miketalk/_morph_kernels.c"],
+            "miketalk.render._morph_kernels",
+            sources=["src/miketalk/render/_morph_kernels.c"],
             extra_compile_args=["-O3", "-ffp-contract=off"],
         )
     ]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from miketalk.corpus.audio_align import _dtw_path, dtw_map, map_times
+from miketalk.speech.audio_align import _dtw_path, dtw_map, map_times
 
 
 def _brute_force_cost(cost: np.ndarray) -> float:

@@ -12,8 +12,8 @@ import pytest
 from miketalk.errors import MiketalkError
 from miketalk.flow import pair_path, write_flow_pair
 from miketalk.media.images import write_png
-from miketalk.morph import Morpher
-from miketalk.multimorph import MultiMorpher, render_learned, render_model_learned
+from miketalk.render.morph import Morpher
+from miketalk.render.multimorph import MultiMorpher
 from miketalk.speech import Phone
 from miketalk.talk.coarticulation import (
     CoarticulationParams,
@@ -25,6 +25,7 @@ from miketalk.talk.coarticulation import (
     read_params,
     write_params,
 )
+from miketalk.talk.learned import render_learned, render_model_learned
 from miketalk.talk.lipsync import Keyframe, keyframes, plan
 from miketalk.talk.model import Model, build_model
 from miketalk.visemes import VISEMES, VisemeTable

@@ -398,7 +398,7 @@ def _bridge_recording(tmp_path):
 
 
 def test_rest_frames_and_nearest_rest():
-    from miketalk.flow.rest import nearest_rest, rest_frames
+    from miketalk.corpus.rest import nearest_rest, rest_frames
 
     rng = np.random.default_rng(0)
     rest_image = rng.integers(0, 256, (32, 32, 3), dtype=np.uint8)

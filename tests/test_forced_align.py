@@ -20,16 +20,17 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from miketalk.corpus import forced_align
-from miketalk.corpus.forced_align import (
+from miketalk.errors import MiketalkError
+from miketalk.media.decode import read_media_audio
+from miketalk.speech.align import (
     align,
     align_phones,
     arpabet_table,
+    decoder,
     festival_pronunciations,
 )
-from miketalk.corpus.media_audio import read_media_audio
-from miketalk.corpus.word_timings import WordTiming, read_word_timings
-from miketalk.errors import MiketalkError
+from miketalk.speech.align import phones as align_phones_module
+from miketalk.speech.word_timings import WordTiming, read_word_timings
 
 #: "zorgle" is in no dictionary: Festival's letter-to-sound rules pronounce it.
 SENTENCE = "please put the zorgle by seven green boxes now"
@@ -168,8 +169,8 @@ def test_a_stop_after_silence_keeps_a_closure_of_max_closure():
         ("<sil>", [("SIL", 100, 110, 104)]),
         ("by", [("B", 110, 130, 125), ("AY", 130, 140, 133)]),
     ]
-    spans, phones = forced_align._read_alignment(aligned, 100, {})
-    cap = forced_align.MAX_CLOSURE
+    spans, phones = align_phones_module._read_alignment(aligned, 100, {})
+    cap = align_phones_module.MAX_CLOSURE
     assert spans[0][0] == pytest.approx(0.56 - cap)
     assert phones[1] == ("p", pytest.approx(0.56 - cap), 0.62)
     assert spans[1][0] == 0.78  # after a word: untouched
@@ -199,7 +200,7 @@ def test_phones_stay_inside_given_word_timings(spoken):
 
 def test_float_audio_at_another_rate(spoken):
     samples, rate, _ = spoken
-    resampled = forced_align._resample(samples / 32768.0, rate, 22050)
+    resampled = decoder._resample(samples / 32768.0, rate, 22050)
     ours = align(resampled, 22050, SENTENCE.split())
     reference = align(samples, rate, SENTENCE.split())
     for a, b in zip(ours.words, reference.words, strict=True):
@@ -212,13 +213,13 @@ def test_resample_keeps_a_tone():
     rate, target = 44100, 16000
     t = np.arange(rate) / rate
     tone = np.sin(2 * np.pi * 440.0 * t)
-    out = forced_align._resample(tone, rate, target)
+    out = decoder._resample(tone, rate, target)
     assert len(out) == target
     expected = np.sin(2 * np.pi * 440.0 * np.arange(target) / target)
     middle = slice(100, -100)  # away from the zero padding at the ends
     assert np.max(np.abs(out[middle] - expected[middle])) < 2e-3
     # a tone above the new Nyquist frequency is filtered out, not folded back
-    high = forced_align._resample(np.sin(2 * np.pi * 10000.0 * t), rate, target)
+    high = decoder._resample(np.sin(2 * np.pi * 10000.0 * t), rate, target)
     assert np.max(np.abs(high[middle])) < 0.01
 
 

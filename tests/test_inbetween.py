@@ -23,7 +23,8 @@ from miketalk.evaluation.inbetween import (
 )
 from miketalk.evaluation.measures import psnr
 from miketalk.flow.registry import get_estimator
-from miketalk.morph import Morpher, forward_warp, morph, morph_stages
+from miketalk.render.morph import Morpher, morph, morph_stages
+from miketalk.render.splat import forward_warp
 
 
 def _texture(h: int, w: int, seed: int = 0, cell: int = 6) -> np.ndarray:

@@ -7,7 +7,8 @@ import pytest
 from skimage.metrics import structural_similarity
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr, ssim
+from miketalk.evaluation.measures import lag_frames, psnr, ssim
+from miketalk.mouth import mouth_opening
 
 
 @pytest.mark.parametrize("shape", [(256, 256, 3), (97, 140, 3), (64, 64)])

@@ -74,7 +74,7 @@ def test_model_loads_and_morphs(model_dir: Path) -> None:
 
 
 def test_model_applies_morph_options_and_renders_what_it_prefetches(model_dir: Path) -> None:
-    from miketalk.morph import Morpher
+    from miketalk.render.morph import Morpher
 
     plain = Model(model_dir, morph_options={"median": False})
     flows = plain.flows

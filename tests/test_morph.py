@@ -8,15 +8,8 @@ import pytest
 
 from miketalk.bench.morph import numpy_morph, scene
 from miketalk.errors import MiketalkError
-from miketalk.morph import (
-    HOLE_VALUE,
-    Morpher,
-    cross_dissolve,
-    fill_holes_scanline,
-    forward_warp,
-    morph,
-    morph_stages,
-)
+from miketalk.render.morph import Morpher, cross_dissolve, morph, morph_stages
+from miketalk.render.splat import HOLE_VALUE, fill_holes_scanline, forward_warp
 
 
 def _texture(h: int, w: int, channels: int = 3, seed: int = 0) -> np.ndarray:
@@ -248,7 +241,7 @@ def test_random_scenes_equal_the_numpy_reference(seed):
 
 def test_kernels_reject_buffers_of_the_wrong_layout():
     # the C functions check sizes themselves, so a wrong call cannot read out of bounds
-    from miketalk import _morph_kernels as kernels
+    from miketalk.render import _morph_kernels as kernels
 
     flow = np.zeros((4, 5, 2), np.float32)
     priority = np.zeros((4, 5), np.float32)

@@ -16,8 +16,9 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from miketalk.corpus.media_video import read_video
-from miketalk.corpus.stabilize import (
+from miketalk.errors import MiketalkError
+from miketalk.media.decode import read_video
+from miketalk.stabilize import (
     Stabilizer,
     choose_reference,
     locate_face,
@@ -26,7 +27,6 @@ from miketalk.corpus.stabilize import (
     registration_mask,
     residual_motion,
 )
-from miketalk.errors import MiketalkError
 
 H, W = 144, 176
 MOUTH = (88, 104)  # centre (x, y) of the synthetic mouth

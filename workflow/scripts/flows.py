@@ -9,9 +9,9 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk.corpus.clips import flow_region
     from miketalk.flow.build import build_flow_database
     from miketalk.media.atomic import write_text_atomic
+    from miketalk.mouth import flow_region
 
     spec = json.loads(snakemake.params.spec)
     regions = snakemake.input.get("regions")  # a face from clips: flows around the mouth only

@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.corpus.forced_align import align
-from miketalk.corpus.media_audio import read_media_audio
-from miketalk.corpus.word_timings import WordTiming, read_word_timings
 from miketalk.errors import MiketalkError
+from miketalk.media.decode import read_media_audio
+from miketalk.speech.align import align
+from miketalk.speech.word_timings import WordTiming, read_word_timings
 
 #: The issue's target: median and 90th percentile absolute boundary error, ms.
 TARGET_MEDIAN_MS = 20.0

@@ -153,14 +153,14 @@ def _measure_clip(
     box: tuple[int, int, int, int] | None,
 ) -> tuple[pd.DataFrame, tuple[int, int, int, int], dict[str, float]]:
     """Decode one clip, find its mouth box, measure it (runs in a worker process)."""
-    from miketalk.corpus.media_video import read_video
+    from miketalk.media.decode import read_video
 
     t0 = time.perf_counter()
     frames, _fps = read_video(path)
     t1 = time.perf_counter()
     if box is None:
         if mouth == "locate":
-            from miketalk.corpus.stabilize import locate_face, locate_mouth
+            from miketalk.stabilize import locate_face, locate_mouth
 
             box = locate_mouth(frames, locate_face(frames[len(frames) // 2]))
         else:

@@ -24,7 +24,8 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.media.atomic import write_text_atomic
-from miketalk.morph import HOLE_VALUE, Morpher
+from miketalk.render.morph import Morpher
+from miketalk.render.splat import HOLE_VALUE
 
 SIZES = (256, 512)
 _MIN_SECONDS = 0.5  # time each case for at least this long

@@ -40,15 +40,10 @@ from pathlib import Path
 import numpy as np
 
 from miketalk import defaults
-from miketalk.corpus.media_video import read_video
-from miketalk.corpus.stabilize import (
-    Stabilizer,
-    choose_reference,
-    registration_mask,
-    residual_motion,
-)
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
+from miketalk.media.decode import read_video
+from miketalk.stabilize import Stabilizer, choose_reference, registration_mask, residual_motion
 
 _VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mov", ".mkv")
 _COLUMNS = (

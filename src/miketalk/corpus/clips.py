@@ -59,12 +59,13 @@ from miketalk.corpus.folder import (
     frame_path,
     words_doc,
 )
-from miketalk.corpus.word_timings import WordTiming, read_word_timings
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.audio import write_wav
 from miketalk.media.images import write_png
+from miketalk.mouth.region import REGIONS, mouth_box
 from miketalk.speech.types import Phone
+from miketalk.speech.word_timings import WordTiming, read_word_timings
 
 log = logging.getLogger(__name__)
 
@@ -75,7 +76,6 @@ CLIPS_TABLE = "clips.tsv"
 PHONES_TABLE = "phones.tsv"
 STABILIZATION_TABLE = "stabilization.tsv"
 SKIPPED_TABLE = "skipped.tsv"
-REGIONS = "regions.json"
 FACE_MASK = "face_mask.png"
 MOUTH_MASK = "mouth_mask.png"
 REFERENCE = "reference.png"
@@ -197,9 +197,8 @@ def decode_clip(clip: Clip) -> DecodedClip:
         No sound, a missing timing file, a word the aligner cannot place, or
         fewer frames than the clip's phones need; the message names the clip.
     """
-    from miketalk.corpus.forced_align import align
-    from miketalk.corpus.media_audio import read_media_audio
-    from miketalk.corpus.media_video import read_video
+    from miketalk.media.decode import read_media_audio, read_video
+    from miketalk.speech.align import align
 
     try:
         frames, fps = read_video(clip.media)
@@ -262,8 +261,8 @@ def ingest_clips(
     MiketalkError
         When no clip can be used, or the clips differ in size or frame rate.
     """
-    from miketalk.corpus.stabilize import Stabilizer, choose_reference
     from miketalk.media.video import write_mp4
+    from miketalk.stabilize import Stabilizer, choose_reference
 
     if not clips:
         raise MiketalkError("no clips to build a corpus from")
@@ -390,8 +389,8 @@ def ingest_clips(
 
 def corpus_stabilizer(corpus_dir: str | Path):
     """The stabilizer the corpus was registered with, for other clips of the same person."""
-    from miketalk.corpus.stabilize import Stabilizer
     from miketalk.media.images import read_image
+    from miketalk.stabilize import Stabilizer
 
     corpus_dir = Path(corpus_dir)
     face = read_image(corpus_dir / FACE_MASK)
@@ -399,22 +398,6 @@ def corpus_stabilizer(corpus_dir: str | Path):
     return Stabilizer.from_reference(
         read_image(corpus_dir / REFERENCE), face=face, mouth_box=mouth_box(corpus_dir)
     )
-
-
-def mouth_box(corpus_dir: str | Path) -> tuple[int, int, int, int]:
-    """The mouth box ``(x, y, w, h)`` the corpus stage found (where the lips move most)."""
-    regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
-    return tuple(int(v) for v in regions["mouth_box"])
-
-
-def mouth_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
-    """The mouth region measures and viseme choices look at: lips, teeth and the opening.
-
-    The mouth box marks where the lips move most (often a thin band at the
-    lips' meeting line); the region is centred on it, 1.3 mouth widths wide
-    and one high, so that it holds both lips and the open mouth between them.
-    """
-    return _about_mouth(corpus_dir, side=0.65, above=0.45, below=0.55)
 
 
 def _decoded(
@@ -497,26 +480,3 @@ def _write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[obje
     writer.writerow(header)
     writer.writerows(rows)
     write_text_atomic(path, buf.getvalue())
-
-
-def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
-    """The box flows are estimated in: the mouth and what moves with it, jaw and cheeks.
-
-    In mouth widths ``w`` about the mouth box's centre: one each side, 0.6
-    above (to the nose, below the eyes, which blink) and 1.3 below (the chin,
-    which follows the jaw), clipped to the frame.
-    """
-    return _about_mouth(corpus_dir, side=1.5, above=0.6, below=1.3)
-
-
-def _about_mouth(
-    corpus_dir: str | Path, *, side: float, above: float, below: float
-) -> tuple[int, int, int, int]:
-    """A box about the mouth box's centre, in mouth widths each way, clipped to the frame."""
-    regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
-    x, y, w, h = regions["mouth_box"]
-    height, width = regions["size"]
-    cx, cy = x + w / 2, y + h / 2
-    x0, x1 = max(0, round(cx - side * w)), min(width, round(cx + side * w))
-    y0, y1 = max(0, round(cy - above * w)), min(height, round(cy + below * w))
-    return x0, y0, x1 - x0, y1 - y0

@@ -29,11 +29,11 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from miketalk.corpus.audio_align import locate_words, map_times
 from miketalk.corpus.folder import TRUTH, CorpusVideo, open_corpus
+from miketalk.corpus.rest import motion_region
 from miketalk.errors import MiketalkError
-from miketalk.flow.rest import motion_region
 from miketalk.media.audio import read_wav
+from miketalk.speech.audio_align import locate_words, map_times
 from miketalk.speech.backend import SpeechBackend, get_backend
 from miketalk.visemes import VisemeTable
 
@@ -198,9 +198,9 @@ def extract_visemes_stage(
     ``out`` has the rule's named outputs: ``targets``, ``visemes``, ``images``,
     ``sheet``, ``strip``.
     """
-    from miketalk.figures.sheets import grid
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.images import write_png
+    from miketalk.media.sheets import grid
     from miketalk.visemes import viseme_slug
 
     table = VisemeTable(grouping=grouping)

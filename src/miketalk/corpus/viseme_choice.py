@@ -285,17 +285,12 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     ``images`` and ``sheet``.
     """
 
-    from miketalk.corpus.clips import (
-        CLIPS_TABLE,
-        PHONES_TABLE,
-        REFERENCE,
-        flow_region,
-        mouth_region,
-    )
+    from miketalk.corpus.clips import CLIPS_TABLE, PHONES_TABLE, REFERENCE
     from miketalk.corpus.folder import FRAMES_TABLE, open_corpus
-    from miketalk.figures.sheets import grid
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.images import read_image, write_png
+    from miketalk.media.sheets import grid
+    from miketalk.mouth import flow_region, mouth_region
     from miketalk.visemes import viseme_slug
 
     corpus_dir = Path(corpus_dir)

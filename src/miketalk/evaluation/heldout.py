@@ -37,75 +37,16 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr, ssim
+from miketalk.evaluation.measures import lag_frames, psnr, ssim
+from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
+from miketalk.mouth.region import Box
 from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
 from miketalk.visemes import SILENCE
 
-Box = tuple[int, int, int, int]
-
-#: How many eigenlip coefficients are compared.
-N_EIGENLIPS = 3
-
 #: Largest lag (frames) searched by the cross-correlation.
 MAX_LAG = 5
-
-
-class Eigenlips:
-    """Principal components of mouth regions ("eigenlips", Bregler & Konig 1994).
-
-    Fitted on the grey mouth boxes of the training frames; :meth:`project`
-    gives each frame's coefficients on the first ``n`` components.
-
-    Parameters
-    ----------
-    mouths : (N, h, w) array
-        Grey mouth boxes of the training frames.
-    n : int
-        Components kept.
-    """
-
-    def __init__(self, mouths: np.ndarray, *, n: int = N_EIGENLIPS) -> None:
-        data = _flat(mouths)
-        if len(data) <= n:
-            raise MiketalkError(f"eigenlips need more than {n} training frames, got {len(data)}")
-        self.mean = data.mean(axis=0)
-        # the right singular vectors of the centred data are the principal axes
-        _, s, vt = np.linalg.svd(data - self.mean, full_matrices=False)
-        self.components = vt[:n]
-        self.variance = (s[:n] ** 2) / (len(data) - 1)
-        self.explained = self.variance / float((s**2).sum() / (len(data) - 1))
-        # sign convention: each axis points the way the mouth darkens (opens)
-        darker = -np.sign(self.components.sum(axis=1))
-        self.components *= np.where(darker == 0, 1.0, darker)[:, None]
-
-    def project(self, mouths: np.ndarray) -> np.ndarray:
-        """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
-        return (_flat(mouths) - self.mean) @ self.components.T
-
-
-def _flat(mouths: np.ndarray) -> np.ndarray:
-    """Each mouth box as a vector, normalized to zero mean and unit variance.
-
-    The normalization removes what differs between recordings rather than
-    between mouth shapes (exposure, white balance, light on the face), which
-    otherwise is the first principal component of clips recorded on
-    different days (Bregler & Konig normalize the same way).
-    """
-    flat = np.asarray(mouths).reshape(len(mouths), -1).astype(np.float64)
-    flat -= flat.mean(axis=1, keepdims=True)
-    spread = flat.std(axis=1, keepdims=True)
-    return flat / np.where(spread > 0, spread, 1.0)
-
-
-def grey_mouths(frames: np.ndarray, box: Box) -> np.ndarray:
-    """The grey mouth box of every frame: ``(N, h, w)`` float32 (BT.601 luma)."""
-    x, y, w, h = box
-    crop = np.asarray(frames)[:, y : y + h, x : x + w].astype(np.float32)
-    if crop.ndim == 3:
-        return crop
-    return crop @ np.array([0.299, 0.587, 0.114], np.float32)
 
 
 def _pairs(model: Model, timeline: Timeline) -> Iterator[tuple[str, str, float]]:
@@ -143,7 +84,7 @@ def render_morph(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
 
 def render_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
     """Learned coarticulation (:mod:`miketalk.talk.coarticulation`) drawn by the N-way morph."""
-    from miketalk.multimorph import render_model_learned
+    from miketalk.talk.learned import render_model_learned
 
     return render_model_learned(model, timeline)
 
@@ -417,10 +358,11 @@ def heldout_stage(
     import json
     from pathlib import Path
 
-    from miketalk.corpus.clips import corpus_stabilizer, mouth_region
+    from miketalk.corpus.clips import corpus_stabilizer
     from miketalk.corpus.folder import open_corpus
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
+    from miketalk.mouth import mouth_region
     from miketalk.visemes import VisemeTable
 
     box = mouth_region(corpus_dir)

@@ -48,7 +48,7 @@ from miketalk.errors import MiketalkError
 from miketalk.evaluation.measures import psnr, ssim
 from miketalk.flow.registry import Estimator, get_estimator
 from miketalk.flow.warp import backward_warp
-from miketalk.morph import Morpher, cross_dissolve
+from miketalk.render.morph import Morpher, cross_dissolve
 
 __all__ = [
     "COLUMNS",
@@ -329,7 +329,7 @@ def find_mouth_box(
     sample = frames[:: max(1, int(step))]
     height, width = frames.shape[1:3]
     if head is None:
-        from miketalk.corpus.stabilize import locate_head
+        from miketalk.stabilize import locate_head
 
         head = locate_head(np.median(sample, axis=0).astype(np.uint8))
     head = np.asarray(head, bool)

@@ -1,4 +1,4 @@
-"""Image and sync measures: PSNR, SSIM, mouth opening, motion lag."""
+"""Image and sync measures: PSNR, SSIM, motion lag."""
 
 from __future__ import annotations
 
@@ -62,24 +62,6 @@ def ssim(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = Non
 
 
 _SSIM_WIN = 7
-
-
-def mouth_opening(frames: np.ndarray, region: np.ndarray) -> np.ndarray:
-    """Per-frame mouth opening signal: the mean darkness of ``region``.
-
-    An open mouth shows its dark interior, so the region's mean darkness
-    ``1 - grey / 255`` rises as the mouth opens. Unlike a count of pixels under
-    a threshold, it is linear in a blend of two images, so a morph and a render
-    with the same timing give signals with the same timing.
-
-    Parameters
-    ----------
-    frames : (N, H, W, 3) or (N, H, W) uint8
-    region : (H, W) bool
-        The mouth region.
-    """
-    pixels = frames[:, region].astype(np.float64)  # (N, M) or (N, M, 3): the region only
-    return 1.0 - pixels.reshape(len(frames), -1).mean(axis=1) / 255.0
 
 
 def lag_frames(signal: np.ndarray, reference: np.ndarray, *, max_lag: int = 10) -> int:

@@ -21,7 +21,8 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr
+from miketalk.evaluation.measures import lag_frames, psnr
+from miketalk.mouth import mouth_opening
 from miketalk.talk.lipsync import Timeline, largest_step, plan
 from miketalk.talk.model import Model
 from miketalk.talk.motion import JerkMeter, measure

@@ -113,7 +113,8 @@ def morph_fidelity_table(
     from miketalk.evaluation.measures import psnr, ssim
     from miketalk.evaluation.truth import viseme_params
     from miketalk.media.images import read_image
-    from miketalk.morph import HOLE_VALUE, Morpher, cross_dissolve
+    from miketalk.render.morph import Morpher, cross_dissolve
+    from miketalk.render.splat import HOLE_VALUE
     from synth_face import Face, FaceRenderer
 
     options = dict(morph_options or {})

@@ -16,11 +16,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from miketalk.corpus.media_video import read_video
 from miketalk.errors import MiketalkError
 from miketalk.evaluation.heldout import speech_frames
-from miketalk.figures.sheets import grid
+from miketalk.media.decode import read_video
 from miketalk.media.images import write_png
+from miketalk.media.sheets import grid
 from miketalk.talk.lipsync import Timeline
 
 Path_ = str | os.PathLike[str]

@@ -211,8 +211,8 @@ def morph_strip(
     model_dir: Path_, pair: list[str], alphas: list[float], out: Path_, *, morph: dict
 ) -> None:
     """The paper's Figure 7: forward warps of each side, blend, after filling and median."""
-    from miketalk.figures.sheets import grid
     from miketalk.media.images import write_png
+    from miketalk.media.sheets import grid
     from miketalk.talk.say import open_model
 
     model = open_model(model_dir, morph_options=morph)
@@ -257,8 +257,8 @@ def sampling_strip(
     MiketalkError
         If the timelines do not say the same phones.
     """
-    from miketalk.figures.sheets import grid
     from miketalk.media.images import write_png
+    from miketalk.media.sheets import grid
     from miketalk.talk.lipsync import frame_count
     from miketalk.talk.say import open_model, read_said
 

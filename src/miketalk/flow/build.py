@@ -23,11 +23,11 @@ import numpy as np
 import pandas as pd
 
 from miketalk.corpus.folder import count_frames, frame_path
+from miketalk.corpus.rest import rest_frames
 from miketalk.errors import MiketalkError
 from miketalk.flow.database import FlowDatabase, pair_path
 from miketalk.flow.exr import write_flow_pair
 from miketalk.flow.registry import get_estimator, in_region
-from miketalk.flow.rest import rest_frames
 from miketalk.flow.strategies import Pair, Recording, Strategy, get_strategy
 from miketalk.media.images import read_image
 

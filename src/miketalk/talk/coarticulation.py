@@ -711,10 +711,9 @@ def fit_coarticulation(
     CoarticulationParams
         The fitted parameters; ``fit`` also holds the paper timeline's training loss.
     """
-    from miketalk.corpus.clips import mouth_region
     from miketalk.corpus.folder import count_frames, frame_path
-    from miketalk.evaluation.heldout import Eigenlips, grey_mouths
     from miketalk.media.images import read_image
+    from miketalk.mouth import Eigenlips, grey_mouths, mouth_region
     from miketalk.talk.model import Model
 
     table = VisemeTable(grouping=grouping)

@@ -41,7 +41,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
-from miketalk.morph import Morpher
+from miketalk.render.morph import Morpher
 from miketalk.talk.lipsync import FrameSample, Timeline
 from miketalk.visemes import viseme_slug
 
@@ -196,6 +196,28 @@ class Model:
                     lambda: (self.flows.flow(a, b), self.flows.flow(b, a))
                 )
             return self._reads[key]
+
+    def flow_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
+        """Flows ``a -> b`` and ``b -> a`` (float32) through the model's one reading thread.
+
+        The :class:`~miketalk.flow.FlowDatabase` is read by one thread only (it is
+        not thread-safe); the reading future is dropped once collected, as
+        :meth:`morpher` does.
+        """
+        future = self._read(a, b)
+        try:
+            forward, backward = future.result()
+        finally:
+            with self._lock:
+                if self._reads.get((a, b)) is future:
+                    self._reads.pop((a, b))
+        for flow in (forward, backward):
+            if flow.shape[:2] != self.size:
+                raise MiketalkError(f"flow {a} -> {b} is not of the model's size {self.size}")
+        return (
+            np.ascontiguousarray(forward, np.float32),
+            np.ascontiguousarray(backward, np.float32),
+        )
 
     def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
         """The morph from viseme a to b at ``alpha``."""

@@ -116,9 +116,9 @@ def align_recording(
         No text and no timings, words that do not match the timings, a
         recording without sound, a word the aligner cannot place.
     """
-    from miketalk.corpus.forced_align import align_phones
-    from miketalk.corpus.media_audio import read_media_audio
-    from miketalk.corpus.word_timings import read_word_timings
+    from miketalk.media.decode import read_media_audio
+    from miketalk.speech.align import align_phones
+    from miketalk.speech.word_timings import read_word_timings
 
     if text is None and timings is None:
         raise MiketalkError("say what the recording says: give its text or its word timings")

@@ -330,8 +330,8 @@ def write_utterance(
     if coarticulation is None:
         rendered = model.render(timeline)
     else:
-        from miketalk.multimorph import render_learned
         from miketalk.talk.coarticulation import frame_weights
+        from miketalk.talk.learned import render_learned
 
         weights = frame_weights(timeline, coarticulation)
         rendered = render_learned(model, timeline, coarticulation, weights=weights)

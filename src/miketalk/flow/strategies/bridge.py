@@ -18,9 +18,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from miketalk.corpus.rest import nearest_rest
 from miketalk.flow.concat import concatenate_up_flows
 from miketalk.flow.mixed import warp_residual
-from miketalk.flow.rest import nearest_rest
 from miketalk.flow.strategies.base import Pair, PairFlows, Recording, Strategy
 from miketalk.flow.strategies.mixed import mixed_flows
 

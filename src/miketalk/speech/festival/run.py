@@ -8,8 +8,9 @@ import os
 import select
 import subprocess
 import time
-from contextlib import ExitStack
-from typing import TYPE_CHECKING
+from contextlib import AbstractContextManager, ExitStack
+from pathlib import Path
+from typing import Protocol
 
 from miketalk.errors import MiketalkError
 from miketalk.speech.backend import PendingSpeech, Retime
@@ -27,8 +28,20 @@ from miketalk.speech.festival.voices import VOICES, Voice, install_hint
 from miketalk.speech.text import normalize_text, split_chunks
 from miketalk.speech.types import Utterance
 
-if TYPE_CHECKING:
-    from miketalk.speech.festival.backend import FestivalBackend
+
+class FestivalSession(Protocol):
+    """What a run needs of its backend (:class:`~miketalk.speech.festival.FestivalBackend`)."""
+
+    voice: Voice
+    max_words: int
+    timeout: float
+
+    def _workspace(
+        self, texts: list[str]
+    ) -> AbstractContextManager[tuple[Path, dict[str, str], list[str]]]:
+        """A scratch directory, the environment carrying ``texts``, and the command line."""
+        ...
+
 
 #: Festival and every voice miketalk knows (the Makefile installs them).
 APT_PACKAGES = " ".join(["festival", *(v.package for v in VOICES.values())])
@@ -46,7 +59,7 @@ class FestivalRun(PendingSpeech):
     the waves. The text reaches Festival only through the environment.
     """
 
-    def __init__(self, backend: FestivalBackend, text: str) -> None:
+    def __init__(self, backend: FestivalSession, text: str) -> None:
         clean = normalize_text(text)
         super().__init__(backend, clean)
         self._texts = split_chunks(clean, max_words=backend.max_words)

@@ -7,8 +7,9 @@ drawn from them as follows (:meth:`MultiMorpher.frame`):
 one viseme
     its image;
 two visemes ``A`` then ``B``
-    the paper's two-image morph (:class:`miketalk.morph.Morpher`, through
-    :meth:`miketalk.talk.model.Model.frame`) at ``alpha = w_B / (w_A + w_B)``,
+    the paper's two-image morph (:class:`miketalk.render.morph.Morpher`, through
+    the source's ``frame``, e.g. :meth:`miketalk.talk.model.Model.frame`) at
+    ``alpha = w_B / (w_A + w_B)``,
     byte for byte what the paper's renderer draws at that alpha;
 three or more
     the viseme of the largest weight is the reference ``R``. Each other viseme
@@ -26,26 +27,43 @@ three or more
     in ``tests/test_coarticulation.py``. The model's ``median`` setting applies
     as in the paper's morph (3x3 median).
 
-All warps are ``cv2.remap`` in float32. :func:`render_learned` draws a timeline
-with the learned weights.
+All warps are ``cv2.remap`` in float32. :func:`miketalk.talk.learned.render_learned`
+draws a timeline with the learned weights.
 """
 
 from __future__ import annotations
 
 import threading
 from collections import OrderedDict
-from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
+from collections.abc import Mapping, Sequence
+from typing import Protocol
 
 import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.talk.coarticulation import CoarticulationParams, frame_weights, read_params
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.model import RENDER_WORKERS, Model
 
-__all__ = ["MultiMorpher", "render_learned", "render_model_learned"]
+__all__ = ["MorphSource", "MultiMorpher", "Weights"]
+
+
+class MorphSource(Protocol):
+    """What the N-way morph needs of a model: images, flows and the two-image morph."""
+
+    size: tuple[int, int]
+    morph_options: Mapping[str, object]
+
+    def image(self, viseme: str) -> np.ndarray:
+        """The viseme's image, (H, W, 3) uint8."""
+        ...
+
+    def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
+        """The paper's morph from ``a`` to ``b`` at ``alpha``."""
+        ...
+
+    def flow_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
+        """Flows ``a -> b`` and ``b -> a``, (H, W, 2) float32."""
+        ...
+
 
 #: Weights (viseme, weight) of one frame.
 Weights = Sequence[tuple[str, float]]
@@ -56,8 +74,9 @@ class MultiMorpher:
 
     Parameters
     ----------
-    model : Model
-        The talking-face model: its images, flows and morph settings.
+    model : MorphSource
+        The visemes' images, flows and morph settings (a
+        :class:`miketalk.talk.model.Model`).
     inverse_iterations : int
         Fixed-point steps inverting the blended shape (0: first order).
     flow_cache : int
@@ -69,7 +88,9 @@ class MultiMorpher:
     shared read-only; the work of a frame uses no shared buffer.
     """
 
-    def __init__(self, model: Model, *, inverse_iterations: int = 2, flow_cache: int = 48) -> None:
+    def __init__(
+        self, model: MorphSource, *, inverse_iterations: int = 2, flow_cache: int = 48
+    ) -> None:
         if inverse_iterations < 0:
             raise MiketalkError(f"inverse_iterations must be >= 0, not {inverse_iterations}")
         self.model = model
@@ -89,7 +110,7 @@ class MultiMorpher:
             if key in self._flows:
                 self._flows.move_to_end(key)
                 return self._flows[key]
-        forward, backward = _read_pair(self.model, a, b)
+        forward, backward = self.model.flow_pair(a, b)
         with self._lock:
             self._flows[(a, b)] = forward
             self._flows[(b, a)] = backward
@@ -154,97 +175,3 @@ def _remap(image: np.ndarray, where: np.ndarray) -> np.ndarray:
     return cv2.remap(image, where, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(
         image.shape
     )
-
-
-def _read_pair(model: Model, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
-    """Flows ``a -> b`` and ``b -> a`` through the model's one reading thread.
-
-    The model's :class:`~miketalk.flow.FlowDatabase` is read by one thread
-    only (it is not thread-safe); its reading future is dropped once
-    collected, as :meth:`Model.morpher` does.
-    """
-    future = model._read(a, b)
-    try:
-        forward, backward = future.result()
-    finally:
-        with model._lock:
-            if model._reads.get((a, b)) is future:
-                model._reads.pop((a, b))
-    for flow in (forward, backward):
-        if flow.shape[:2] != model.size:
-            raise MiketalkError(f"flow {a} -> {b} is not of the model's size {model.size}")
-    return (
-        np.ascontiguousarray(forward, np.float32),
-        np.ascontiguousarray(backward, np.float32),
-    )
-
-
-def render_learned(
-    model: Model,
-    timeline: Timeline,
-    params: CoarticulationParams,
-    *,
-    workers: int | None = None,
-    morpher: MultiMorpher | None = None,
-    weights: Sequence[Weights] | None = None,
-) -> Iterator[np.ndarray]:
-    """The frames of ``timeline`` with the learned coarticulation, in order.
-
-    Each frame's weights come from :func:`miketalk.talk.coarticulation.frame_weights`
-    (the timeline's keyframes and frame times; its transitions and alphas are
-    not used) and are drawn by :meth:`MultiMorpher.frame`.
-
-    Parameters
-    ----------
-    model : Model
-    timeline : Timeline
-    params : CoarticulationParams
-        E.g. :func:`miketalk.talk.coarticulation.read_params` of the model's directory.
-    workers : int, optional
-        Threads drawing frames (default the model's :data:`RENDER_WORKERS`);
-        the frames do not depend on it.
-    morpher : MultiMorpher, optional
-        Reused between calls (keeps its flows).
-    weights : sequence of Weights, optional
-        ``frame_weights(timeline, params)`` when the caller has them already.
-    """
-    if weights is None:
-        weights = frame_weights(timeline, params)
-    morpher = morpher or MultiMorpher(model)
-    workers = RENDER_WORKERS if workers is None else max(1, int(workers))
-    # read the flows the frames need, in the order they are needed
-    needed: list[tuple[str, str]] = []
-    for row in weights:
-        if len(row) == 2:
-            needed.append((row[0][0], row[1][0]))
-        elif len(row) > 2:
-            reference = max(row, key=lambda item: item[1])[0]
-            needed += [(reference, v) for v, _ in row if v != reference]
-    model.prefetch(dict.fromkeys(needed))
-    if workers == 1:
-        for row in weights:
-            yield morpher.frame(row)
-        return
-    pending: list[Future] = []
-    with ThreadPoolExecutor(workers, thread_name_prefix="miketalk-multimorph") as pool:
-        try:
-            for row in weights:
-                pending.append(pool.submit(morpher.frame, row))
-                if len(pending) > 2 * workers:
-                    yield pending.pop(0).result()
-            while pending:
-                yield pending.pop(0).result()
-        finally:
-            for future in pending:
-                future.cancel()
-
-
-def render_model_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """:func:`render_learned` with the parameters fitted into the model's directory.
-
-    The ``(model, timeline)`` signature of
-    :data:`miketalk.evaluation.heldout.RENDERERS`; raises
-    :class:`~miketalk.errors.MiketalkError` for a model without
-    ``coarticulation.json`` (:func:`miketalk.talk.coarticulation.read_params`).
-    """
-    return render_learned(model, timeline, read_params(model.directory))

@@ -1,4 +1,8 @@
-"""Decode a video file to RGB frames with the ffmpeg binary bundled with imageio-ffmpeg.
+"""Decoding media files with the ffmpeg binary bundled with imageio-ffmpeg: frames and sound.
+
+:func:`read_video` decodes a video file to RGB frames; :func:`read_media_audio` decodes the
+sound track of any media file (video or audio) to mono int16 samples. ffmpeg is run with
+an argument list, never through a shell.
 
 :func:`read_video` runs ffmpeg once, with the decoder, the filter graph and the
 colour conversion on one thread each (``-threads 1 -filter_threads 1``) and
@@ -11,9 +15,6 @@ and accurate rounding (``-sws_flags bicubic+accurate_rnd+full_chroma_int``).
 The frame rate is the stream's own rational rate as ffmpeg's filter graph
 receives it (``fr:25/1`` in ffmpeg's verbose log), not the rounded figure of
 its summary line: an NTSC stream gives 30000/1001 exactly (as a float).
-
-Self-contained on purpose (only numpy, imageio-ffmpeg and
-:class:`miketalk.errors.MiketalkError`), so it can move to a media package.
 """
 
 from __future__ import annotations
@@ -28,8 +29,10 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["read_video"]
+__all__ = ["read_media_audio", "read_video"]
 
+#: Seconds ffmpeg may take to decode one file's sound.
+_TIMEOUT = 300.0
 _STDERR_TAIL = 6  # lines of ffmpeg's log quoted in an error
 # the filter graph's input: "... w:360 h:288 pixfmt:yuv420p tb:1/90000 fr:25/1 sar:1/1 ..."
 _RATE_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bfr:(\d+)/(\d+)")
@@ -122,3 +125,56 @@ def _tail(log: str) -> str:
     lines = [ln.strip() for ln in log.splitlines() if ln.strip()]
     keep = [ln for ln in lines if not ln.startswith("[") or "rror" in ln] or lines
     return " | ".join(keep[-_STDERR_TAIL:])
+
+
+def read_media_audio(path: str | Path, *, rate: int = 16000) -> np.ndarray:
+    """Decode the first audio stream of a media file to mono int16 at ``rate`` Hz.
+
+    Channels are averaged; ffmpeg resamples.
+
+    Parameters
+    ----------
+    path : str or Path
+        Any file ffmpeg reads (``.mpg``, ``.mp4``, ``.wav``, ...).
+    rate : int
+        Sample rate of the result in Hz.
+
+    Returns
+    -------
+    numpy.ndarray
+        int16 samples, shape ``(n,)``.
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, has no audio stream, or ffmpeg cannot decode it;
+        the message names the file.
+    """
+    import imageio_ffmpeg
+
+    path = Path(path)
+    if isinstance(rate, bool) or not isinstance(rate, int) or not 1000 <= rate <= 384000:
+        raise MiketalkError(f"rate must be a whole number of Hz in 1000..384000, got {rate!r}")
+    if not path.is_file():
+        raise MiketalkError(f"cannot read audio from {path}: no such file")
+    command = [
+        imageio_ffmpeg.get_ffmpeg_exe(),
+        "-nostdin", "-hide_banner", "-loglevel", "error",
+        "-i", str(path.resolve()),
+        "-map", "0:a:0", "-vn", "-sn", "-dn",
+        "-ac", "1", "-ar", str(rate), "-acodec", "pcm_s16le", "-f", "s16le",
+        "pipe:1",
+    ]  # fmt: skip
+    try:
+        proc = subprocess.run(command, capture_output=True, timeout=_TIMEOUT, check=False)
+    except subprocess.TimeoutExpired:
+        raise MiketalkError(f"ffmpeg took longer than {_TIMEOUT:.0f} s to decode {path}") from None
+    errors = proc.stderr.decode(errors="replace").strip()
+    if proc.returncode != 0:
+        if "matches no streams" in errors:
+            raise MiketalkError(f"{path} has no audio stream")
+        tail = errors.splitlines()[-1] if errors else f"exit status {proc.returncode}"
+        raise MiketalkError(f"ffmpeg cannot decode the audio of {path}: {tail}")
+    if len(proc.stdout) < 2:
+        raise MiketalkError(f"{path} has an empty audio stream")
+    return np.frombuffer(proc.stdout[: len(proc.stdout) // 2 * 2], dtype="<i2").astype(np.int16)

@@ -1,0 +1,193 @@
+"""pocketsphinx's aligner, shared by the process: audio in its rate and format, words placed."""
+
+from __future__ import annotations
+
+import math
+import re
+import threading
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+
+#: The aligner's sample rate (its acoustic model's).
+ALIGN_RATE = 16000
+
+
+#: pocketsphinx settings, beside its defaults. The beams are far wider than the
+#: defaults (1e-48, 1e-48, 7e-29): alignment follows one known word sequence, so a
+#: wide beam costs little, and a narrow one makes the aligner give up on audio it
+#: scores badly. No lattice best-path pass: it re-segments the words after the
+#: alignment and can leave the phone pass a 1-frame phone it cannot align
+#: (pocketsphinx warns "impossible duration ... consider disabling bestpath").
+#: Word boundaries on GRID talker 1 are the same as with the defaults.
+_DECODER_SETTINGS: dict[str, object] = {
+    "beam": 1e-80,
+    "pbeam": 1e-80,
+    "wbeam": 1e-60,
+    "bestpath": False,
+}
+
+
+def _resample(x: np.ndarray, rate: int, target: int, *, zeros: int = 16) -> np.ndarray:
+    """Resample float samples from ``rate`` to ``target`` Hz: a polyphase windowed sinc.
+
+    The low-pass cuts at 94 % of the lower Nyquist frequency, Kaiser window
+    (beta 8.6), ``zeros`` sinc zero crossings each side.
+    """
+    if rate == target:
+        return x
+    g = math.gcd(rate, target)
+    up, down = target // g, rate // g
+    n_out = len(x) * up // down
+    cutoff = 0.94 * min(1.0, up / down)  # of the input's Nyquist frequency
+    half = zeros / cutoff  # the kernel's half-width in input samples
+    taps = math.ceil(half)
+    offsets = np.arange(1 - taps, taps + 1, dtype=np.float64)  # k - floor(t)
+    fractions = np.arange(up, dtype=np.float64)[:, None] / up  # t - floor(t), one row per phase
+    tau = offsets[None, :] - fractions
+    window = np.i0(8.6 * np.sqrt(np.clip(1.0 - (tau / half) ** 2, 0.0, None))) / np.i0(8.6)
+    bank = np.where(np.abs(tau) <= half, cutoff * np.sinc(cutoff * tau) * window, 0.0)
+    bank /= bank.sum(axis=1, keepdims=True)  # unit gain at 0 Hz in every phase
+    padded = np.concatenate([np.zeros(taps), x, np.zeros(taps + 1)])
+    out = np.empty(n_out, np.float64)
+    block = 8192
+    for first in range(0, n_out, block):
+        j = np.arange(first, min(first + block, n_out), dtype=np.int64)
+        base, phase = np.divmod(j * down, up)
+        rows = padded[(base + 1)[:, None] + np.arange(2 * taps)[None, :]]
+        out[first : first + len(j)] = np.einsum("ij,ij->i", rows, bank[phase])
+    return out
+
+
+def _to_pcm(samples: np.ndarray, rate: int) -> np.ndarray:
+    """Mono int16 at :data:`ALIGN_RATE` from int16-scaled integers or floats in [-1, 1]."""
+    samples = np.asarray(samples)
+    if samples.ndim not in (1, 2) or samples.size == 0:
+        raise MiketalkError(
+            f"audio must be a non-empty (n,) or (n, channels) array, got shape {samples.shape}"
+        )
+    if samples.ndim == 1 and samples.dtype == np.int16 and rate == ALIGN_RATE:
+        return samples
+    if samples.dtype.kind in "iu":
+        x = samples.astype(np.float64)
+    elif samples.dtype.kind == "f":
+        x = samples.astype(np.float64) * 32767.0
+    else:
+        raise MiketalkError(f"audio samples must be integers or floats, got {samples.dtype}")
+    if x.ndim == 2:
+        x = x.mean(axis=1)
+    if not np.all(np.isfinite(x)):
+        raise MiketalkError("audio samples must be finite")
+    x = _resample(x, rate, ALIGN_RATE)
+    return np.clip(np.round(x), -32768, 32767).astype(np.int16)
+
+
+class _Aligner:
+    """A pocketsphinx decoder (1 s to load its dictionary) and the words added to it."""
+
+    def __init__(self) -> None:
+        import pocketsphinx
+
+        config = pocketsphinx.Config(loglevel="FATAL", **_DECODER_SETTINGS)
+        self.decoder = pocketsphinx.Decoder(config)
+        self.frate = int(self.decoder.config["frate"])
+        self.window = float(self.decoder.config["wlen"])  # seconds
+        self.added: dict[str, tuple[str, ...]] = {}
+
+    def in_dictionary(self, word: str) -> bool:
+        return word not in self.added and self.decoder.lookup_word(word) is not None
+
+    def add(self, word: str, arpabet: tuple[str, ...]) -> None:
+        self.decoder.add_word(word, " ".join(arpabet), True)
+        self.added[word] = arpabet
+
+    def _start(self) -> None:
+        # a fresh front end: its noise estimate would otherwise carry over from the
+        # last utterance, and an alignment would depend on what was aligned before
+        self.decoder.reinit_feat()
+        self.decoder.start_utt()
+
+    def words_placed(self, pcm: bytes, words: Sequence[str]) -> list[str]:
+        """The word pass: the words the aligner placed (all of them, or fewer)."""
+        self.decoder.set_align_text(" ".join(words))
+        try:
+            self._start()
+            self.decoder.process_raw(pcm, full_utt=True)
+            self.decoder.end_utt()
+        except RuntimeError:
+            return []
+        hyp = self.decoder.hyp()
+        return hyp.hypstr.split() if hyp is not None else []
+
+    def phone_pass(self, pcm: bytes) -> list[tuple[str, list[tuple[str, int, int, int]]]]:
+        """The phone pass after a complete word pass.
+
+        Returns ``(word, [(phone, start, end, end of its first HMM state)])``, in frames.
+        """
+        self.decoder.set_alignment()
+        self._start()
+        self.decoder.process_raw(pcm, full_utt=True)
+        self.decoder.end_utt()
+        alignment = self.decoder.get_alignment()
+        # iterating one phone's states crashes pocketsphinx 5.1.1: walk the flat list
+        first_state_end = {}
+        for state in alignment.states():
+            first_state_end.setdefault(state.start, state.start + state.duration)
+        return [
+            (
+                word.name,
+                [
+                    (p.name, p.start, p.start + p.duration, first_state_end.get(p.start, p.start))
+                    for p in word
+                ],
+            )
+            for word in alignment.words()
+        ]
+
+
+_LOCK = threading.Lock()  # one alignment at a time: the decoder is shared
+
+
+_SHARED: list[_Aligner] = []  # the shared aligner, once loaded
+
+
+def _shared_aligner(pronunciations: Mapping[str, tuple[str, ...]] | None = None) -> _Aligner:
+    """The shared aligner, with ``pronunciations`` (ARPAbet) in its dictionary.
+
+    A word added earlier with another pronunciation cannot be replaced in
+    pocketsphinx's dictionary: the aligner is then loaded afresh.
+    """
+    pronunciations = pronunciations or {}
+    if not _SHARED or any(
+        _SHARED[0].added.get(w, arpa) != arpa for w, arpa in pronunciations.items()
+    ):
+        _SHARED[:] = [_Aligner()]
+    aligner = _SHARED[0]
+    for word, arpa in pronunciations.items():
+        if word not in aligner.added:
+            try:
+                aligner.add(word, arpa)
+            except RuntimeError as err:
+                raise MiketalkError(f"cannot add the word {word!r} as {' '.join(arpa)}") from err
+    return aligner
+
+
+def _first_unplaced(aligner: _Aligner, pcm: bytes, words: Sequence[str], placed: list[str]) -> int:
+    """Index of the first word the aligner cannot place (a binary search over prefixes)."""
+    if placed and words[: len(placed)] == placed:
+        return len(placed)
+    good, bad = 0, len(words)  # words[:good] align (trivially for 0); words[:bad] do not
+    while bad - good > 1:
+        middle = (good + bad) // 2
+        if _strip(aligner.words_placed(pcm, words[:middle])) == list(words[:middle]):
+            good = middle
+        else:
+            bad = middle
+    return good
+
+
+def _strip(hyp: Iterable[str]) -> list[str]:
+    """Hypothesis words without alternate-pronunciation marks and fillers."""
+    return [re.sub(r"\(\d+\)$", "", w) for w in hyp if not w.startswith(("<", "[", "+"))]
