@@ -30,7 +30,7 @@ from miketalk.flow import pair_path, write_flow_pair
 from miketalk.media.audio import read_wav
 from miketalk.media.images import write_png
 from miketalk.media.video import probe_durations
-from miketalk.talk.model import build_model
+from miketalk.talk.build import build_model
 from miketalk.visemes import VISEMES
 
 #: How far each viseme's texture is shifted, pixels (0, 3, ..., 45).

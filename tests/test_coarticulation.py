@@ -15,6 +15,7 @@ from miketalk.media.images import write_png
 from miketalk.render.morph import Morpher
 from miketalk.render.multimorph import MultiMorpher
 from miketalk.speech import Phone
+from miketalk.talk.build import build_model
 from miketalk.talk.coarticulation import (
     CoarticulationParams,
     TrainingClip,
@@ -27,7 +28,7 @@ from miketalk.talk.coarticulation import (
 )
 from miketalk.talk.learned import render_learned, render_model_learned
 from miketalk.talk.lipsync import Keyframe, keyframes, plan
-from miketalk.talk.model import Model, build_model
+from miketalk.talk.model import Model
 from miketalk.visemes import VISEMES, VisemeTable
 
 # ---------------------------------------------------------------------------

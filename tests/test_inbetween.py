@@ -10,19 +10,12 @@ import pytest
 from miketalk.bench.inbetween import main as bench_main
 from miketalk.bench.inbetween import parse_estimator
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.inbetween import (
-    COLUMNS,
-    Method,
-    default_methods,
-    find_mouth_box,
-    inbetween_table,
-    slomo_flows,
-    slomo_frame,
-    summarize_inbetween,
-    summary_markdown,
-)
+from miketalk.evaluation.inbetween import COLUMNS, Method, default_methods, inbetween_table
+from miketalk.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
 from miketalk.evaluation.measures import psnr
+from miketalk.evaluation.slomo import slomo_flows, slomo_frame
 from miketalk.flow.registry import get_estimator
+from miketalk.mouth.lip_colour import find_mouth_box
 from miketalk.render.morph import Morpher, morph, morph_stages
 from miketalk.render.splat import forward_warp
 

@@ -10,7 +10,7 @@ import pytest
 
 from miketalk.errors import MiketalkError
 from miketalk.speech import FestivalBackend, Phone, Utterance
-from miketalk.talk import lipsync
+from miketalk.talk import lipsync, sampling
 from miketalk.visemes import default_table
 
 TABLE = default_table()
@@ -67,18 +67,18 @@ def test_oversampling_bounds_the_per_frame_motion() -> None:
         return 0.0 if a == b else 30.0
 
     before = lipsync.plan(ONE, TABLE, fps=30.0, duration=0.8)
-    assert lipsync.largest_step(before, disp) > 2.5
-    durations = lipsync.oversampled_durations(
+    assert sampling.largest_step(before, disp) > 2.5
+    durations = sampling.oversampled_durations(
         ONE, TABLE, fps=30.0, displacement=disp, max_px_per_frame=2.5
     )
     assert np.all(durations >= [p.duration for p in ONE])
     slow = phones(list(zip([p.name for p in ONE], durations, strict=True)))
     after = lipsync.plan(slow, TABLE, fps=30.0, duration=slow[-1].end)
-    assert lipsync.largest_step(after, disp) <= 2.5
+    assert sampling.largest_step(after, disp) <= 2.5
 
 
 def test_no_oversampling_needed_keeps_durations() -> None:
-    durations = lipsync.oversampled_durations(
+    durations = sampling.oversampled_durations(
         ONE, TABLE, fps=30.0, displacement=lambda a, b: 1.0, max_px_per_frame=2.5
     )
     assert np.allclose(durations, [p.duration for p in ONE])
@@ -88,7 +88,7 @@ def test_bad_settings() -> None:
     with pytest.raises(MiketalkError):
         lipsync.plan(ONE, TABLE, fps=0.0, duration=0.8)
     with pytest.raises(MiketalkError):
-        lipsync.oversampled_durations(
+        sampling.oversampled_durations(
             ONE, TABLE, fps=30.0, displacement=lambda a, b: 1.0, max_px_per_frame=0.0
         )
     with pytest.raises(MiketalkError, match="unknown phone"):
@@ -103,13 +103,13 @@ def test_synchronize_resynthesizes_and_keeps_audio_and_video_together() -> None:
     def disp(a: str, b: str) -> float:
         return 0.0 if a == b else 20.0
 
-    out, timeline = lipsync.synchronize(
+    out, timeline = sampling.synchronize(
         utt, TABLE, fps=30.0, displacement=disp, max_px_per_frame=2.5, sampling="paper",
         backend=festival,
     )  # fmt: skip
     assert out.duration > utt.duration
     assert abs(len(timeline.frames) / 30.0 - out.duration) <= 1 / 30
-    assert lipsync.largest_step(timeline, disp) <= 2.5
+    assert sampling.largest_step(timeline, disp) <= 2.5
     assert [p.name for p in out.phones] == [p.name for p in utt.phones]
 
 
@@ -124,11 +124,11 @@ def test_oversampled_text_in_many_chunks_stays_under_the_limit() -> None:
 
     text = "One wide boat sailed past the old mill and the quiet farm at dawn."
     with festival.start(text) as speech:
-        out, timeline = lipsync.speak_in_sync(
+        out, timeline = sampling.speak_in_sync(
             speech, TABLE, fps=30.0, displacement=disp, max_px_per_frame=2.5, sampling="paper"
         )
     assert len(out.chunks) > 3
-    assert lipsync.largest_step(timeline, disp) <= 2.5
+    assert sampling.largest_step(timeline, disp) <= 2.5
 
 
 # ---------------------------------------------------------------------------
@@ -143,12 +143,12 @@ def far(a: str, b: str) -> float:
 
 def test_motion_blur_keeps_every_step_under_the_limit() -> None:
     point = lipsync.plan(ONE, TABLE, fps=30.0, duration=0.8)
-    assert lipsync.largest_step(point, far) > 6
-    blurred = lipsync.motion_blur(point, displacement=far, max_px_per_frame=2.5)
-    assert lipsync.largest_step(blurred, far) <= 2.5
+    assert sampling.largest_step(point, far) > 6
+    blurred = sampling.motion_blur(point, displacement=far, max_px_per_frame=2.5)
+    assert sampling.largest_step(blurred, far) <= 2.5
     # blurring is no slowing down: the frames and their middles stay where they were
     assert blurred.duration == point.duration and len(blurred.frames) == len(point.frames)
-    assert lipsync.largest_frame_motion(blurred, far) > 6
+    assert sampling.largest_frame_motion(blurred, far) > 6
     moved = [f for f in blurred.frames if f.samples]
     assert moved and blurred.morph_count > len(blurred.frames)
     for before, after in zip(point.frames, blurred.frames, strict=True):
@@ -169,13 +169,13 @@ def test_motion_blur_keeps_every_step_under_the_limit() -> None:
 
 def test_motion_blur_leaves_slow_motion_alone() -> None:
     point = lipsync.plan(ONE, TABLE, fps=30.0, duration=0.8)
-    slow = lipsync.motion_blur(point, displacement=lambda a, b: 0.5, max_px_per_frame=2.5)
+    slow = sampling.motion_blur(point, displacement=lambda a, b: 0.5, max_px_per_frame=2.5)
     assert slow == point
 
 
 def test_motion_blur_caps_the_samples_of_a_frame() -> None:
     point = lipsync.plan(ONE, TABLE, fps=30.0, duration=0.8)
-    capped = lipsync.motion_blur(
+    capped = sampling.motion_blur(
         point, displacement=lambda a, b: 0.0 if a == b else 3000.0, max_px_per_frame=0.5,
         max_samples=16,
     )  # fmt: skip
@@ -185,7 +185,7 @@ def test_motion_blur_caps_the_samples_of_a_frame() -> None:
 def test_blurred_timeline_round_trips_through_json() -> None:
     import json
 
-    blurred = lipsync.motion_blur(
+    blurred = sampling.motion_blur(
         lipsync.plan(ONE, TABLE, fps=30.0, duration=0.8), displacement=far, max_px_per_frame=2.5
     )
     doc = json.loads(json.dumps(blurred.to_dict()))
@@ -198,9 +198,9 @@ def test_blurred_timeline_round_trips_through_json() -> None:
 def test_capped_durations_keep_the_speech_within_the_slowdown() -> None:
     natural = np.array([0.2, 0.1, 0.2, 0.1, 0.2])
     longer = natural * np.array([1.0, 4.0, 3.0, 4.0, 1.0])
-    assert np.array_equal(lipsync.capped_durations(natural, longer, max_slowdown=None), longer)
-    assert np.array_equal(lipsync.capped_durations(natural, longer, max_slowdown=10), longer)
-    capped = lipsync.capped_durations(natural, longer, max_slowdown=1.5)
+    assert np.array_equal(sampling.capped_durations(natural, longer, max_slowdown=None), longer)
+    assert np.array_equal(sampling.capped_durations(natural, longer, max_slowdown=10), longer)
+    capped = sampling.capped_durations(natural, longer, max_slowdown=1.5)
     assert capped.sum() == pytest.approx(1.5 * natural.sum())
     assert np.all(capped >= natural) and np.all(capped <= longer)
     share = (capped - natural)[1:4] / (longer - natural)[1:4]
@@ -221,7 +221,7 @@ def test_settings_are_checked_with_their_ranges() -> None:
     with pytest.raises(MiketalkError, match="sampling must be one of blur, paper, none"):
         lipsync.check_sampling("fast")
     with pytest.raises(MiketalkError, match="max_slowdown caps"):
-        lipsync.synchronize(
+        sampling.synchronize(
             festival_free_utterance(), TABLE, fps=30.0, displacement=far, max_px_per_frame=2.5,
             max_slowdown=2.0,
         )  # fmt: skip
@@ -255,16 +255,16 @@ def test_a_long_text_keeps_its_own_duration_with_blur_and_small_steps() -> None:
 
     with festival.start(TEXT_300) as speech:
         planned: list = []
-        out, blurred = lipsync.speak_in_sync(
+        out, blurred = sampling.speak_in_sync(
             speech, TABLE, fps=30.0, displacement=disp, max_px_per_frame=2.5,
             on_planned=planned.append,
         )  # fmt: skip
     natural = round(planned[0][-1].end * out.rate) / out.rate
     assert out.duration == natural and len(out.chunks) > 3
-    assert lipsync.largest_step(blurred, disp) <= 2.5
+    assert sampling.largest_step(blurred, disp) <= 2.5
     with festival.start(TEXT_300) as speech:
-        slow, paper = lipsync.speak_in_sync(
+        slow, paper = sampling.speak_in_sync(
             speech, TABLE, fps=30.0, displacement=disp, max_px_per_frame=2.5, sampling="paper"
         )
     assert slow.duration > 1.5 * natural
-    assert lipsync.largest_step(paper, disp) <= 2.5
+    assert sampling.largest_step(paper, disp) <= 2.5

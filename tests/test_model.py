@@ -16,7 +16,8 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import get_estimator, pair_path, write_flow_pair
 from miketalk.media.images import write_png
 from miketalk.speech import FestivalBackend, Phone
-from miketalk.talk.model import Model, build_model
+from miketalk.talk.build import build_model
+from miketalk.talk.model import Model
 from miketalk.visemes import VISEMES
 
 needs_festival = pytest.mark.skipif(
@@ -179,14 +180,14 @@ def test_a_blurred_frame_is_the_weighted_mean_of_its_morphs(model_dir: Path) -> 
 
 
 def test_render_gives_the_same_bytes_with_any_number_of_workers(model_dir: Path) -> None:
-    from miketalk.talk import lipsync
+    from miketalk.talk import lipsync, sampling
     from miketalk.visemes import default_table
 
     phones = [
         Phone(n, 0.06 * i, 0.06 * (i + 1)) for i, n in enumerate("pau b ae t f ay pau".split())
     ]
     point = lipsync.plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
-    blurred = lipsync.motion_blur(
+    blurred = sampling.motion_blur(
         point, displacement=lambda a, b: 0.0 if a == b else 12.0, max_px_per_frame=0.5
     )
     assert blurred.morph_count > 2 * len(blurred.frames)
@@ -200,7 +201,7 @@ def test_render_gives_the_same_bytes_with_any_number_of_workers(model_dir: Path)
 
 
 def test_manifest_paths_stay_inside_the_model(model_dir: Path, tmp_path: Path) -> None:
-    from miketalk.talk.model import inside
+    from miketalk.talk.manifest import inside
 
     assert inside(model_dir, "visemes/p.png", "x") == model_dir / "visemes" / "p.png"
     for bad in ("../x.png", "/etc/passwd", "visemes/../../x", "..\\x", "C:/x.png", "a/../../b"):

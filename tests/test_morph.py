@@ -1,4 +1,4 @@
-"""Tests of miketalk.morph: forward warp, hole-aware blend, hole filling, median, checks."""
+"""Tests of miketalk.render.morph: forward warp, hole-aware blend, hole filling, median, checks."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests of miketalk.corpus.media_video (decoding) and miketalk.corpus.stabilize.
+"""Tests of miketalk.media.decode (decoding) and miketalk.stabilize.
 
 Everything is built here: a seeded synthetic head (a textured ellipse on a
 plain background, a neck and shoulders, a dark mouth blob that opens and

@@ -21,6 +21,7 @@ from miketalk.errors import MiketalkError
 from miketalk.speech import FestivalBackend, Phone, Utterance
 from miketalk.speech.backend import SpeechBackend
 from miketalk.talk import lipsync
+from miketalk.talk import sampling as talk_sampling
 from miketalk.talk.model import Model
 from miketalk.visemes import default_table
 
@@ -88,7 +89,7 @@ def test_speak_in_sync_reports_the_phones_predicted_before_oversampling() -> Non
     backend = Scripted(ONE)
     planned: list[tuple[Phone, ...]] = []
     with backend.start("wide") as speech:
-        utterance, timeline = lipsync.speak_in_sync(
+        utterance, timeline = talk_sampling.speak_in_sync(
             speech, TABLE, fps=30.0, displacement=lambda a, b: 0.0 if a == b else 20.0,
             max_px_per_frame=2.5, sampling="paper", on_planned=planned.append,
         )  # fmt: skip
@@ -100,7 +101,8 @@ def test_speak_in_sync_reports_the_phones_predicted_before_oversampling() -> Non
 def test_say_records_planned_phones_and_read_said_rebuilds_the_timeline(
     model_dir: Path, tmp_path: Path
 ) -> None:
-    from miketalk.talk.say import read_said, say
+    from miketalk.talk.say import say
+    from miketalk.talk.utterance import read_said
 
     model = Model(model_dir)
     out = tmp_path / "wide.mp4"
@@ -114,8 +116,8 @@ def test_say_records_planned_phones_and_read_said_rebuilds_the_timeline(
     assert said.planned_duration == round(ONE[-1].end * 16000) / 16000
     assert utterance.duration > said.planned_duration  # 0.5 px per frame lengthens phones
     plain = lipsync.plan(said.planned_phones, TABLE, fps=30.0, duration=said.planned_duration)
-    assert lipsync.largest_step(plain, model.displacement) > 0.5
-    assert lipsync.largest_step(said.timeline, model.displacement) <= 0.5
+    assert talk_sampling.largest_step(plain, model.displacement) > 0.5
+    assert talk_sampling.largest_step(said.timeline, model.displacement) <= 0.5
 
 
 def test_say_progress_bar_counts_every_frame(
@@ -132,7 +134,7 @@ def test_say_progress_bar_counts_every_frame(
 
 
 def test_read_said_errors(tmp_path: Path) -> None:
-    from miketalk.talk.say import read_said
+    from miketalk.talk.utterance import read_said
 
     with pytest.raises(MiketalkError, match="no timeline"):
         read_said(tmp_path / "none.json")
@@ -152,7 +154,8 @@ def test_the_frames_measured_are_the_frames_say_writes(
 ) -> None:
     from miketalk.evaluation.sync import utterance_frames
     from miketalk.talk import say as say_module
-    from miketalk.talk.say import read_said, say
+    from miketalk.talk.say import say
+    from miketalk.talk.utterance import read_said
 
     written: list[np.ndarray] = []
     real_write_mp4 = say_module.write_mp4
@@ -181,7 +184,8 @@ def test_sync_table_of_an_utterance_reads_its_json_and_probes_its_mp4(
 ) -> None:
     from miketalk.evaluation.sync import MOTION_QUANTITIES, summarize_sync, sync_table
     from miketalk.media.video import probe_durations
-    from miketalk.talk.say import read_said, say
+    from miketalk.talk.say import say
+    from miketalk.talk.utterance import read_said
 
     model = Model(model_dir)
     out = tmp_path / "hello.mp4"

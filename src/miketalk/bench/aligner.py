@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from miketalk.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_media_audio
 from miketalk.speech.align import align
@@ -157,35 +158,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         0 on success, 1 on a MiketalkError (printed on stderr).
     """
-    parser = argparse.ArgumentParser(
-        prog="python -m miketalk.bench.aligner", description=__doc__.splitlines()[0]
-    )
+    parser = bench_parser(__name__, __doc__, limit_help="align the first N clips only")
     parser.add_argument("--pool", type=Path, required=True, help="a GRID-style folder")
     parser.add_argument("--out", type=Path, required=True, help="folder for the CSV and summary")
-    parser.add_argument("--limit", type=int, default=None, help="align the first N clips only")
-    args = parser.parse_args(argv)
-    if args.limit is not None and args.limit < 1:
-        parser.error("--limit must be at least 1")
-    try:
-        clips = _pool_clips(args.pool)[: args.limit]
-        rows: list[dict[str, object]] = []
-        decode_s: list[float] = []
-        align_s: list[float] = []
-        for clip, words in clips:
-            grid = read_word_timings(args.pool / "align" / f"{clip}.align")
-            if [w.word.lower() for w in grid] != [w.lower() for w in words]:
-                raise MiketalkError(f"{clip}: the .align words differ from the transcript")
-            t0 = time.perf_counter()
-            samples = read_media_audio(args.pool / "video" / f"{clip}.mpg", rate=16000)
-            t1 = time.perf_counter()
-            result = align(samples, 16000, words)
-            t2 = time.perf_counter()
-            decode_s.append(t1 - t0)
-            align_s.append(t2 - t1)
-            rows += _boundaries(clip, result.words, grid)
-    except MiketalkError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 1
+    return run_bench(parser, argv, _run)
+
+
+def _run(args: argparse.Namespace) -> str:
+    """Align the clips, write the table and the summary; return the summary."""
+    clips = _pool_clips(args.pool)[: args.limit]
+    rows: list[dict[str, object]] = []
+    decode_s: list[float] = []
+    align_s: list[float] = []
+    for clip, words in clips:
+        grid = read_word_timings(args.pool / "align" / f"{clip}.align")
+        if [w.word.lower() for w in grid] != [w.lower() for w in words]:
+            raise MiketalkError(f"{clip}: the .align words differ from the transcript")
+        t0 = time.perf_counter()
+        samples = read_media_audio(args.pool / "video" / f"{clip}.mpg", rate=16000)
+        t1 = time.perf_counter()
+        result = align(samples, 16000, words)
+        t2 = time.perf_counter()
+        decode_s.append(t1 - t0)
+        align_s.append(t2 - t1)
+        rows += _boundaries(clip, result.words, grid)
     n = len(clips)
     # the first clip also loads the aligner's model: its time is shown apart
     rest = slice(1, None) if n > 1 else slice(None)
@@ -203,8 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     (args.out / "boundaries.csv").write_text(buffer.getvalue(), "utf-8")
     summary = _summary(rows, n, seconds)
     (args.out / "summary.md").write_text(summary, "utf-8")
-    print(summary)
-    return 0
+    return summary
 
 
 if __name__ == "__main__":

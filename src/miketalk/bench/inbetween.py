@@ -35,18 +35,13 @@ import pandas as pd
 import yaml
 
 from miketalk import defaults
+from miketalk.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.inbetween import (
-    VARIANTS,
-    Method,
-    default_methods,
-    find_mouth_box,
-    inbetween_table,
-    summarize_inbetween,
-    summary_markdown,
-)
+from miketalk.evaluation.inbetween import VARIANTS, Method, default_methods, inbetween_table
+from miketalk.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
 from miketalk.flow.registry import Estimator, get_estimator
 from miketalk.media.atomic import write_text_atomic
+from miketalk.mouth.lip_colour import find_mouth_box
 
 #: File name endings read as clips.
 SUFFIXES = (".mpg", ".mp4", ".avi", ".mov")
@@ -187,18 +182,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         0 on success, 1 on a MiketalkError (printed on stderr).
     """
-    parser = argparse.ArgumentParser(
-        prog="python -m miketalk.bench.inbetween", description=__doc__.splitlines()[0]
-    )
+    parser = bench_parser(__name__, __doc__, limit_help="N clips evenly spread over the folder's")
     parser.add_argument("--clips", type=Path, required=True, help="a folder of video clips")
     parser.add_argument(
         "--out",
         type=Path,
         default=defaults.RESULTS / "bench" / "inbetween",
         help="folder for the tables (default: %(default)s)",
-    )
-    parser.add_argument(
-        "--limit", type=int, default=None, help="N clips evenly spread over the folder's"
     )
     parser.add_argument(
         "--exclude", type=Path, default=None, help="leave out clips named as clips of this folder"
@@ -238,33 +228,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--mouth-box", type=_parse_box, default=None, help="x,y,w,h for every clip")
     parser.add_argument("--workers", type=int, default=1, help="processes (default: 1)")
-    args = parser.parse_args(argv)
-    if args.limit is not None and args.limit < 1:
-        parser.error("--limit must be at least 1")
-    if args.workers < 1 or args.step < 1:
-        parser.error("--workers and --step must be at least 1")
+    return run_bench(
+        parser,
+        argv,
+        lambda args: _run(args, argv),
+        check=lambda args: (
+            "--workers and --step must be at least 1" if args.workers < 1 or args.step < 1 else None
+        ),
+    )
+
+
+def _run(args: argparse.Namespace, argv: Sequence[str] | None) -> str:
+    """Measure the clips, write the tables and the summary; return the summary."""
     context = None if args.context < 0 else args.context
     start = time.perf_counter()
-    try:
-        clips = list_clips(args.clips, limit=args.limit, exclude=args.exclude)
-        estimators: list[tuple[str, Estimator]] = []
-        for spec in args.estimators:
-            if spec == "default":
-                estimators.append(model_estimator(args.config, args.face))
-            else:
-                estimators.append(parse_estimator(spec))
-        methods = default_methods(estimators, variants=args.variants)
-        jobs = [
-            (p, methods, args.ks, args.step, context, args.mouth, args.mouth_box) for p in clips
-        ]
-        if args.workers == 1:
-            results = [_measure_clip(*job) for job in jobs]
+    clips = list_clips(args.clips, limit=args.limit, exclude=args.exclude)
+    estimators: list[tuple[str, Estimator]] = []
+    for spec in args.estimators:
+        if spec == "default":
+            estimators.append(model_estimator(args.config, args.face))
         else:
-            with ProcessPoolExecutor(args.workers) as pool:
-                results = list(pool.map(_measure_clip, *zip(*jobs, strict=True)))
-    except MiketalkError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 1
+            estimators.append(parse_estimator(spec))
+    methods = default_methods(estimators, variants=args.variants)
+    jobs = [(p, methods, args.ks, args.step, context, args.mouth, args.mouth_box) for p in clips]
+    if args.workers == 1:
+        results = [_measure_clip(*job) for job in jobs]
+    else:
+        with ProcessPoolExecutor(args.workers) as pool:
+            results = list(pool.map(_measure_clip, *zip(*jobs, strict=True)))
     seconds = time.perf_counter() - start
     table = pd.concat([r[0] for r in results], ignore_index=True)
     summary = summarize_inbetween(table)
@@ -302,8 +293,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     write_text_atomic(args.out / "inbetween_summary.csv", summary.to_csv(index=False))
     write_text_atomic(args.out / "boxes.csv", boxes.to_csv(index=False))
     write_text_atomic(args.out / "inbetween.md", markdown)
-    print(markdown)
-    return 0
+    return markdown
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Benchmark of the morph (paper §5.3-5.4) on one core, against cv2.remap and plain numpy.
 
-``run(out_dir)`` times :class:`miketalk.morph.Morpher` frames (both forward
+``run(out_dir)`` times :class:`miketalk.render.morph.Morpher` frames (both forward
 warps, hole-aware blend, scanline hole filling, 3x3 median) at 256x256 and
 512x512 RGB, with the process pinned to one CPU and OpenCV limited to one
 thread. In the same run it times ``cv2.remap`` (bilinear, one backward warp of
@@ -46,7 +46,7 @@ def _numpy_splat(flow: np.ndarray, scale: float, collision: str = "motion") -> n
     inside = (qx >= 0) & (qx < w) & (qy >= 0) & (qy < h)
     src = np.flatnonzero(inside)
     dest = (qy[inside] * w + qx[inside]).astype(np.int64)
-    if collision == "motion":  # dx * dx + dy * dy in float32, as miketalk.morph computes it
+    if collision == "motion":  # dx * dx + dy * dy in float32, as miketalk.render.morph computes it
         dx, dy = flow[..., 0], flow[..., 1]
         priority = (dx * dx + dy * dy).ravel()[src]
     else:
@@ -88,7 +88,7 @@ def numpy_morph(
 ) -> np.ndarray:
     """The full morph in vectorised numpy (no compiled kernel): the reference and the speed floor.
 
-    Same algorithm, rounding and collision rule as :func:`miketalk.morph.morph`
+    Same algorithm, rounding and collision rule as :func:`miketalk.render.morph.morph`
     with every stage on, so the two agree bit for bit. No input checks.
     """
     shape = image0.shape

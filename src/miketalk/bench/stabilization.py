@@ -3,12 +3,12 @@
 ``python -m miketalk.bench.stabilization --pool DIR --out OUT [--limit N]`` takes
 the clips of a pool (``DIR/video/*.mpg``, GRID's layout, or the video files in
 ``DIR`` itself) in name order, picks the reference frame in the first clip
-(:func:`~miketalk.corpus.stabilize.choose_reference`), builds a
-:class:`~miketalk.corpus.stabilize.Stabilizer` from it (the mouth found in the
+(:func:`~miketalk.stabilize.choose_reference`), builds a
+:class:`~miketalk.stabilize.Stabilizer` from it (the mouth found in the
 first clip), and registers every frame of every clip to that one frame.
 
 For each frame it measures the residual motion
-(:func:`~miketalk.corpus.stabilize.residual_motion`: mean DIS-flow magnitude
+(:func:`~miketalk.stabilize.residual_motion`: mean DIS-flow magnitude
 from the reference) on two masks of the reference:
 
 - the **target** mask, ``registration_mask(region="rigid")``: the face between
@@ -29,7 +29,6 @@ prints the summary.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import io
 import sys
@@ -40,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from miketalk import defaults
+from miketalk.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.decode import read_video
@@ -225,9 +225,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         0 on success, 1 on a MiketalkError (printed on stderr).
     """
-    parser = argparse.ArgumentParser(
-        prog="python -m miketalk.bench.stabilization", description=__doc__.splitlines()[0]
-    )
+    parser = bench_parser(__name__, __doc__, limit_help="the first N clips only")
     parser.add_argument("--pool", type=Path, required=True, help="a folder of clips (GRID-style)")
     parser.add_argument(
         "--out",
@@ -235,17 +233,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=defaults.RESULTS / "bench" / "stabilization",
         help="output folder",
     )
-    parser.add_argument("--limit", type=int, default=None, help="the first N clips only")
-    args = parser.parse_args(argv)
-    if args.limit is not None and args.limit < 1:
-        parser.error("--limit must be at least 1")
-    try:
-        summary = run(args.pool, args.out, limit=args.limit)
-    except MiketalkError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 1
-    print(summary)
-    return 0
+    return run_bench(parser, argv, lambda args: run(args.pool, args.out, limit=args.limit))
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ position". Here it is automatic and uses only what a real recording gives: the
 video, its audio, the word list, and Festival's predicted timing of each word.
 
 1. Words are located in the audio (one speech segment per word) and Festival's
-   synthesis of each word is aligned to it (:mod:`miketalk.corpus.audio_align`), so each
+   synthesis of each word is aligned to it (:mod:`miketalk.speech.audio_align`), so each
    target's predicted time (its phone's middle; a diphthong's nuclei at a
    quarter and three quarters) maps into the recording.
 2. The mouth is found as the part of the picture that moves most over the

@@ -25,7 +25,7 @@ gains over taking any instance) and its distance to the nearest other class's
 image (whether the 16 images are distinct).
 
 **One face around the mouths.** Each image is the chosen frame's lower face
-(the box flows are estimated in, :func:`miketalk.corpus.clips.flow_region`)
+(the box flows are estimated in, :func:`miketalk.mouth.flow_region`)
 laid onto the corpus's reference frame with a feathered edge: the frames are
 stabilized, so the two meet without a seam, and the rest of the face (eyes
 that blink, brows) is the same in all 16 images, as it is in the paper's

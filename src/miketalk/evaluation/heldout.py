@@ -13,7 +13,7 @@ same moment, ``k / fps``. Every measure compares the two on the mouth region:
     Pearson correlation of each coefficient's trajectory, synthesized vs real,
     and the lag in frames that maximizes their cross-correlation;
 ``opening``
-    the mouth's mean darkness (:func:`miketalk.evaluation.measures.mouth_opening`),
+    the mouth's mean darkness (:func:`miketalk.mouth.mouth_opening`),
     a measure a person can read: it rises as the dark interior shows;
 ``..._corr_speech``
     the same correlations over the frames from the first spoken phone's start
@@ -218,11 +218,11 @@ class HeldoutClip:
 def prepare_heldout(clip, *, stabilizer, table, decode=None) -> HeldoutClip:
     """Decode, align and stabilize a test clip; its timeline at its own frame rate.
 
-    ``clip`` is a :class:`miketalk.corpus.clips.Clip`, ``stabilizer`` the
+    ``clip`` is a :class:`miketalk.corpus.clip_sources.Clip`, ``stabilizer`` the
     corpus's (:func:`miketalk.corpus.clips.corpus_stabilizer`), so the test
     frames are registered to the same reference as the training frames.
     """
-    from miketalk.corpus.clips import RATE, decode_clip
+    from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.talk.lipsync import plan
 
     decoded = (decode or decode_clip)(clip)
@@ -341,7 +341,7 @@ def heldout_stage(
     grouping : dict
         Viseme grouping overrides.
     morph : dict, optional
-        The face's morph settings (:class:`miketalk.morph.Morpher` keywords).
+        The face's morph settings (:class:`miketalk.render.morph.Morpher` keywords).
     frames_csv, clips_csv, summary_csv : path
         Per-frame measures, per-clip summaries, and their mean and spread.
     videos_dir : path

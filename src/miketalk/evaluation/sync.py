@@ -23,10 +23,11 @@ import pandas as pd
 
 from miketalk.evaluation.measures import lag_frames, psnr
 from miketalk.mouth import mouth_opening
-from miketalk.talk.lipsync import Timeline, largest_step, plan
+from miketalk.talk.lipsync import Timeline, plan
 from miketalk.talk.model import Model
 from miketalk.talk.motion import JerkMeter, measure
-from miketalk.talk.say import Said
+from miketalk.talk.sampling import largest_step
+from miketalk.talk.utterance import Said
 from miketalk.visemes import VisemeTable
 
 #: The key columns of a sync table: one utterance at one setting (``sampling`` is the
@@ -130,7 +131,7 @@ def sync_table(
     name : str
         The ``sentence`` column.
     said : Said
-        The utterance's timeline JSON (:func:`miketalk.talk.say.read_said`);
+        The utterance's timeline JSON (:func:`miketalk.talk.utterance.read_said`);
         its ``sampling`` is the ``sampling`` column.
     model : Model
         The model that made the utterance, with the same morph options.

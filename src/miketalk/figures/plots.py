@@ -173,7 +173,7 @@ def lipsync_diagram(
 ) -> None:
     """The paper's Figure 8 for one word: diphones, viseme transitions, frames and alphas."""
     from miketalk.speech import get_backend
-    from miketalk.talk.lipsync import speak_in_sync
+    from miketalk.talk.sampling import speak_in_sync
     from miketalk.talk.say import open_model
     from miketalk.visemes import default_table
 
@@ -231,7 +231,7 @@ def sampling_strip(
 ) -> None:
     """Frames of one sentence in several sampling modes at the same moments of the speech.
 
-    A row per timeline JSON (:func:`miketalk.talk.say.read_said`), a column per
+    A row per timeline JSON (:func:`miketalk.talk.utterance.read_said`), a column per
     moment: ``columns`` consecutive frame times of the speech at its natural
     timing, about its fastest transition. The timeline nearest natural speed
     (blur) shows exactly those frames; a lengthened one (paper) shows its frame
@@ -260,7 +260,8 @@ def sampling_strip(
     from miketalk.media.images import write_png
     from miketalk.media.sheets import grid
     from miketalk.talk.lipsync import frame_count
-    from miketalk.talk.say import open_model, read_said
+    from miketalk.talk.say import open_model
+    from miketalk.talk.utterance import read_said
 
     model = open_model(model_dir, morph_options=morph)
     saids = [read_said(p) for p in timelines]

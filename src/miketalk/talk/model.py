@@ -15,40 +15,33 @@ file present. Flows are read lazily, each file checked as it is read (an error
 names the file), and morphers for recently used transitions are cached.
 
 A timeline frame with several samples (motion blur,
-:func:`miketalk.talk.lipsync.motion_blur`) is rendered as the weighted average
+:func:`miketalk.talk.sampling.motion_blur`) is rendered as the weighted average
 of its morphs.
 """
 
 from __future__ import annotations
 
-import json
 import os
-import shutil
 import threading
 from collections import OrderedDict, deque
 from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from functools import cache
-from importlib import resources
-from itertools import combinations
-from pathlib import Path, PurePosixPath
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
-from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
 from miketalk.render.morph import Morpher
 from miketalk.talk.lipsync import FrameSample, Timeline
-from miketalk.visemes import viseme_slug
+from miketalk.talk.manifest import check_complete, inside, read_manifest
 
 if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
-    import pandas as pd
+    pass
 
-FORMAT = "miketalk-model/1"
 
 #: Threads :meth:`Model.render` draws frames in (the machine's cores, at most 2: the
 #: third core's worth of work, encoding the video, runs in ffmpeg beside them).
@@ -65,7 +58,7 @@ class Model:
     cache_size : int
         How many transitions' morphers to keep ready.
     morph_options : dict, optional
-        Keyword flags for :class:`miketalk.morph.Morpher` (``hole_aware_blend``,
+        Keyword flags for :class:`miketalk.render.morph.Morpher` (``hole_aware_blend``,
         ``fill_holes``, ``median``).
 
     Raises
@@ -304,171 +297,3 @@ class Model:
             raise MiketalkError(
                 f"the model has no viseme {viseme!r} (it has {' '.join(self.visemes)})"
             )
-
-
-@cache
-def _manifest_validator() -> Any:
-    import jsonschema  # here: only opening a model needs it
-
-    schema = json.loads(
-        resources.files("miketalk").joinpath("data/model_manifest.schema.json").read_text()
-    )
-    return jsonschema.Draft202012Validator(schema)
-
-
-def _no_constants(name: str) -> float:
-    raise ValueError(f"{name} is not a JSON number")
-
-
-def strict_json(text: str) -> Any:
-    """``json.loads`` that refuses ``NaN``, ``Infinity`` and ``-Infinity`` (not JSON)."""
-    return json.loads(text, parse_constant=_no_constants)
-
-
-def read_manifest(directory: str | os.PathLike[str]) -> dict:
-    """The checked manifest of the model in ``directory`` (see the module docstring).
-
-    Raises
-    ------
-    MiketalkError
-        Naming the manifest and what is wrong with it.
-    """
-    path = Path(directory) / "manifest.json"
-    if not path.is_file():
-        raise MiketalkError(f"no model at {directory} (missing manifest.json)")
-    try:
-        manifest = strict_json(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as err:
-        raise MiketalkError(f"cannot read model manifest {path}: {err}") from None
-    if isinstance(manifest, dict) and manifest.get("format") != FORMAT:
-        raise MiketalkError(
-            f"{path} is not a {FORMAT} manifest (its format is {manifest.get('format')!r})"
-        )
-    errors = sorted(_manifest_validator().iter_errors(manifest), key=lambda e: list(e.path))
-    if errors:
-        error = errors[0]
-        where = "/".join(str(p) for p in error.absolute_path) or "the top level"
-        raise MiketalkError(f"{path} is not a {FORMAT} manifest: at {where}, {error.message}")
-    visemes = manifest["visemes"]
-    lacking = [v for v in visemes if v not in manifest["images"]]
-    if lacking:
-        raise MiketalkError(f"{path}: no image for viseme(s) {', '.join(lacking)}")
-    pairs = [f"{a}|{b}" for a in visemes for b in visemes if a != b]
-    missing = [p for p in pairs if p not in manifest["max_displacement"]]
-    if missing:
-        raise MiketalkError(
-            f"{path}: max_displacement lacks {len(missing)} pair(s), e.g. {missing[0]!r}"
-        )
-    for viseme in visemes:
-        inside(directory, manifest["images"][viseme], f"the image of viseme {viseme!r}")
-    return manifest
-
-
-def inside(directory: str | os.PathLike[str], relative: str, what: str) -> Path:
-    """``directory / relative``, for a path that stays inside ``directory``.
-
-    Raises
-    ------
-    MiketalkError
-        For an absolute path, a drive, a backslash, or a ``..`` component.
-    """
-    posix = PurePosixPath(relative)
-    if posix.is_absolute() or ".." in posix.parts or "\\" in relative or ":" in relative:
-        raise MiketalkError(
-            f"{what}, {relative!r}, is outside the model directory {directory}: a manifest "
-            "names files by paths relative to its directory, inside it"
-        )
-    return Path(directory) / posix
-
-
-def check_complete(flows: FlowDatabase, visemes: tuple[str, ...] | list[str]) -> None:
-    """Raise MiketalkError naming the first missing pair file of ``visemes``."""
-    for a, b in combinations(visemes, 2):
-        path = flows.path_for(a, b)
-        if not path.exists():
-            raise MiketalkError(f"flow file {path} for visemes {a!r} and {b!r} is missing")
-
-
-def largest_displacement(flow: np.ndarray, *, quantile: float = 0.999) -> float:
-    """The paper's "maximal offset vector" of a flow, robust to stray vectors.
-
-    The 99.9th percentile of the vector lengths rather than the very longest:
-    an estimated flow has a few wild vectors (textureless background, occlusion
-    borders) that are no motion at all, and would make oversampling slow every
-    transition down. On true flows the two agree to a fraction of a pixel.
-    """
-    length = np.sqrt((flow.astype(np.float64) ** 2).sum(axis=-1))
-    return float(np.quantile(length, quantile))
-
-
-def build_model(
-    out_dir: str | os.PathLike[str],
-    *,
-    images: dict[str, str | os.PathLike[str]],
-    flows_dir: str | os.PathLike[str],
-    estimator: str,
-    settings: dict,
-    fallbacks: dict[str, str] | None = None,
-) -> Path:
-    """Assemble a model directory from viseme images and a flow database.
-
-    Images and flow files are hard-linked where possible (copied otherwise);
-    the manifest is written last, so a model without one is incomplete.
-    ``fallbacks`` (viseme -> the class whose image it borrows, for a class the
-    recording had no instance of) is listed in the manifest.
-    """
-    out = Path(out_dir)
-    (out / "visemes").mkdir(parents=True, exist_ok=True)
-    names = list(images)
-    sizes = set()
-    image_paths = {}
-    for viseme, src in images.items():
-        rel = f"visemes/{viseme_slug(viseme)}.png"
-        sizes.add(read_image(src).shape[:2])
-        _link(Path(src), out / rel)
-        image_paths[viseme] = rel
-    if len(sizes) != 1:
-        raise MiketalkError(f"viseme images differ in size: {sorted(sizes)}")
-    source = FlowDatabase(flows_dir)
-    check_complete(source, names)
-    if (out / "flows").exists():
-        shutil.rmtree(out / "flows")
-    (out / "flows").mkdir()
-    for a, b in combinations(names, 2):
-        path = source.path_for(a, b)
-        _link(path, out / "flows" / path.name)
-    displacement = {
-        f"{a}|{b}": largest_displacement(source.flow(a, b)) for a in names for b in names if a != b
-    }
-    manifest = {
-        "format": FORMAT,
-        "visemes": names,
-        "size": list(sizes.pop()),
-        "estimator": estimator,
-        "settings": settings,
-        "images": image_paths,
-        "max_displacement": displacement,
-    }
-    if fallbacks:
-        manifest["fallbacks"] = dict(sorted(fallbacks.items()))
-    write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
-    return out
-
-
-def fallbacks_of(visemes: pd.DataFrame) -> dict[str, str]:
-    """``viseme -> donor`` from a ``visemes.tsv`` table's ``fallback`` column (empty: none)."""
-    if "fallback" not in visemes.columns:
-        return {}
-    return {
-        str(v): str(f)
-        for v, f in zip(visemes["viseme"], visemes["fallback"], strict=True)
-        if isinstance(f, str) and f
-    }
-
-
-def _link(src: Path, dst: Path) -> None:
-    dst.unlink(missing_ok=True)
-    try:
-        os.link(src, dst)
-    except OSError:
-        shutil.copyfile(src, dst)

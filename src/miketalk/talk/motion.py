@@ -7,9 +7,9 @@ JSON, under ``motion``):
 * **duration ratio**: how much longer the speech became than the engine's
   own timing (1.0 at natural speed; the paper's oversampling makes it 2-5);
 * **largest step**: the largest distance, along the flows, between two
-  consecutive rendered morphs (:func:`miketalk.talk.lipsync.largest_step`),
+  consecutive rendered morphs (:func:`miketalk.talk.sampling.largest_step`),
   what the paper keeps under ``max_px_per_frame``; and the largest motion from
-  one frame to the next (:func:`miketalk.talk.lipsync.largest_frame_motion`),
+  one frame to the next (:func:`miketalk.talk.sampling.largest_frame_motion`),
   how fast the mouth moves per frame, which blur leaves as the speech has it;
 * **smoothness**, measured on the frames as written: the *jerk*, the mean
   absolute second difference in time of the grey frames
@@ -36,7 +36,8 @@ from itertools import pairwise
 import cv2
 import numpy as np
 
-from miketalk.talk.lipsync import Displacement, Timeline, largest_frame_motion, largest_step
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.sampling import Displacement, largest_frame_motion, largest_step
 
 
 class JerkMeter:

@@ -4,12 +4,12 @@ Where :func:`miketalk.talk.say.say` makes the sound with Festival, here the
 sound is given (a wav, or any media file with an audio stream) together with
 what is said, as text or as word timings (GRID ``.align``, Praat ``.TextGrid``).
 The phones are placed in the recording by
-:func:`miketalk.corpus.forced_align.align_phones` and the video follows them
+:func:`miketalk.speech.align.align_phones` and the video follows them
 (paper §7: one keyframe per phone, the morph rate from the phone timing).
 
 The audio is fixed, so the paper's oversampling (which lengthens phones and
 speaks them again) cannot apply; motion blur (the default sampling,
-:func:`miketalk.talk.lipsync.motion_blur`) keeps the steps between morphs
+:func:`miketalk.talk.sampling.motion_blur`) keeps the steps between morphs
 under ``max_px_per_frame`` at the recording's own speed. The measures of the
 motion are in the JSON beside the mp4 and in the return value.
 """
@@ -24,9 +24,10 @@ from typing import TYPE_CHECKING
 from miketalk import defaults
 from miketalk.errors import MiketalkError
 from miketalk.speech.types import Phone
-from miketalk.talk.lipsync import Sampling, Timeline, motion_blur, plan
+from miketalk.talk.lipsync import Sampling, Timeline, plan
 from miketalk.talk.model import Model
 from miketalk.talk.motion import Motion
+from miketalk.talk.sampling import motion_blur
 from miketalk.talk.settings import LipsyncModel
 from miketalk.visemes import VisemeTable, default_table
 
@@ -188,8 +189,9 @@ def say_recorded(
         errors of :func:`align_recording`.
     """
     from miketalk.talk.output import check_output
-    from miketalk.talk.say import learned_coarticulation, write_utterance
+    from miketalk.talk.say import learned_coarticulation
     from miketalk.talk.settings import check_settings
+    from miketalk.talk.utterance import write_utterance
 
     if sampling == "paper":
         raise MiketalkError(

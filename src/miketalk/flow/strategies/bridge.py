@@ -3,7 +3,7 @@
     C_{A,B} = concat( C_{a, r_a}, C_{r_a, r_b}, C_{r_b, b} )
 
 with ``a``, ``b`` the frames of visemes A and B, ``r_a``, ``r_b`` the rest frames
-nearest to them (:mod:`miketalk.flow.rest` says how they are found), the outer
+nearest to them (:mod:`miketalk.corpus.rest` says how they are found), the outer
 two concatenated consecutive flows of the recording and the middle one direct
 flow between two rest frames. The bridge replaces the mixed flow of the same
 method only where it explains the end image better (a smaller residual, the

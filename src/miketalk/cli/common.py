@@ -1,0 +1,53 @@
+"""What the subcommands share: the text to speak, the Festival backend, timing."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from miketalk.errors import MiketalkError
+
+if TYPE_CHECKING:
+    from miketalk.speech.festival import FestivalBackend
+
+
+log = logging.getLogger("miketalk")
+
+
+def read_text(args: argparse.Namespace) -> str:
+    if getattr(args, "text_option", None) is not None:
+        if args.text is not None:
+            raise MiketalkError("give the text once: as an argument or with --text")
+        args.text = args.text_option
+        args.text_option = None
+    if args.file is not None and args.text is not None:
+        raise MiketalkError("give the text or --file, not both")
+    if args.file is not None:
+        try:
+            return Path(args.file).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as err:
+            raise MiketalkError(f"cannot read {args.file}: {err}") from err
+    if args.text is None:
+        raise MiketalkError("no text: give it as an argument or with --file")
+    return args.text
+
+
+def has_text(args: argparse.Namespace) -> bool:
+    return (args.text, getattr(args, "text_option", None), args.file) != (
+        None,
+        None,
+        None,
+    )
+
+
+def festival_backend(args: argparse.Namespace) -> FestivalBackend:
+    from miketalk.speech import get_backend
+
+    return get_backend("festival", voice=args.voice)
+
+
+def seconds_since(started: float) -> float:
+    return time.perf_counter() - started

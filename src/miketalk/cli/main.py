@@ -1,0 +1,56 @@
+"""The ``miketalk`` command line: ``say``, ``cues`` and ``phones``.
+
+Every user mistake (a bad setting, an output that cannot be written, a text
+Festival cannot read, a broken model) is one line on stderr and exit status 2,
+found before the work starts where it can be. stdout carries only the result
+(:mod:`miketalk.console`); ``-v`` logs progress and timings on stderr.
+SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from collections.abc import Sequence
+
+from miketalk.cli.parser import build_parser
+from miketalk.console import handle_termination, native_output_logged
+from miketalk.errors import MiketalkError
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; user mistakes print one clear line and exit with status 2."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if hasattr(args, "voice"):
+        args.voice_given = args.voice is not None
+        args.voice = args.voice or "kal"
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="miketalk: %(levelname)s: %(message)s",
+    )
+    if args.verbose:
+        logging.getLogger("miketalk").setLevel(logging.INFO)
+    with handle_termination(), native_output_logged() as out:
+        args.out = out
+        try:
+            return args.func(args)
+        except MiketalkError as err:
+            print(f"miketalk: error: {err}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt as err:
+            signum = getattr(err, "signum", 2)
+            print(
+                f"miketalk: {'interrupted' if signum == 2 else 'terminated'}",
+                file=sys.stderr,
+            )
+            return 128 + signum
+        except BrokenPipeError:
+            # the reader went away (e.g. `| head`): stop quietly
+            import contextlib
+            import io
+            import os
+
+            with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
+            return 0

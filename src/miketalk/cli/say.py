@@ -1,0 +1,171 @@
+"""``miketalk say``: a text or a recording to an mp4 of the face speaking it."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from miketalk import defaults
+from miketalk.cli.common import festival_backend, has_text, log, read_text, seconds_since
+from miketalk.errors import MiketalkError
+
+
+def _sampling(args: argparse.Namespace) -> tuple[str, float | None]:
+    """The sampling mode and ``max_px_per_frame`` of ``say``'s options, checked together."""
+    sampling = args.sampling
+    if args.no_oversampling:
+        if sampling not in (None, "none"):
+            raise MiketalkError(f"--no-oversampling is --sampling none, not {sampling}")
+        sampling = "none"
+    sampling = sampling or "blur"
+    if sampling == "none":
+        if args.max_px_per_frame is not None:
+            raise MiketalkError("--max-px-per-frame has no effect with --sampling none")
+        max_px = None
+    else:
+        max_px = (
+            defaults.MAX_PX_PER_FRAME if args.max_px_per_frame is None else args.max_px_per_frame
+        )
+    if args.max_slowdown is not None and sampling != "paper":
+        raise MiketalkError(
+            "--max-slowdown caps how much --sampling paper lengthens the speech; "
+            f"--sampling {sampling} keeps the speech's own duration"
+        )
+    return sampling, max_px
+
+
+def cmd_say(args: argparse.Namespace) -> int:
+    """Speak a text as an mp4 (Festival's voice), or make the face speak a recording."""
+    from miketalk.talk.output import check_output
+
+    started = time.perf_counter()
+    sampling, max_px = _sampling(args)
+    if args.audio is not None:
+        return _say_recorded(args, sampling, max_px, started)
+    if args.timings is not None:
+        raise MiketalkError("--timings goes with --audio (the word timings of that recording)")
+    from miketalk.speech.festival.voices import get_voice
+
+    voice = get_voice(args.voice)
+    if sampling == "paper" and not voice.follows_durations:
+        raise MiketalkError(
+            f"the {voice.name} voice sets its own phone durations, so --sampling paper cannot "
+            "lengthen them: use --sampling blur (the default) or --voice kal or ked"
+        )
+    text = read_text(args)
+    output = check_output(args.output, overwrite=args.force)
+    _check_lipsync_model(args)
+    # Festival starts first and analyses the text while the rest loads
+    with festival_backend(args).start(text) as speech:
+        log.info("Festival started (%s voice)", voice.name)
+        from miketalk.talk.say import open_model, speak
+
+        with open_model(args.model) as model:
+            log.info("model %s opened, %.2f s after start", model.directory, seconds_since(started))
+            long_text = len(text.split()) > 40
+            spoken = speak(
+                speech,
+                output,
+                model=model,
+                fps=args.fps,
+                max_px_per_frame=max_px,
+                sampling=sampling,
+                max_slowdown=args.max_slowdown,
+                lipsync_model=args.lipsync_model,
+                progress=args.progress or (long_text and sys.stderr.isatty()),
+                overwrite=args.force,
+            )
+    motion = spoken.motion
+    if args.json:
+        doc = {
+            "video": str(spoken.video),
+            "timeline": str(spoken.timeline_json),
+            "fps": args.fps,
+            "sampling": sampling,
+            "max_px_per_frame": max_px,
+            "max_slowdown": args.max_slowdown,
+            "lipsync_model": args.lipsync_model,
+            "voice": voice.name,
+            "motion": motion.to_dict(),
+        }
+        print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
+    else:
+        print(
+            f"{spoken.video}: {motion.frames} frames at {args.fps:g} fps, "
+            f"{motion.duration:.2f} s of audio ({motion.duration_ratio:.2f} x its own duration), "
+            f"{motion.morphs} morphs, largest step {motion.largest_step_px:.2f} px "
+            f"({sampling}, {args.lipsync_model} lip-sync); timeline in {spoken.timeline_json}",
+            file=args.out,
+        )
+    log.info("say took %.2f s", seconds_since(started))
+    return 0
+
+
+def _check_lipsync_model(args: argparse.Namespace) -> None:
+    """``--lipsync-model learned`` needs a model with learned coarticulation: say so now."""
+    if args.lipsync_model != "learned":
+        return
+    from miketalk.talk.coarticulation import read_params
+    from miketalk.talk.say import default_model_dir
+
+    read_params(args.model if args.model is not None else default_model_dir())
+
+
+def _say_recorded(
+    args: argparse.Namespace, sampling: str, max_px: float | None, started: float
+) -> int:
+    """``say --audio``: the recording's own sound, its phones found by forced alignment."""
+    from miketalk.talk.output import check_output
+
+    if sampling == "paper" or args.max_slowdown is not None:
+        raise MiketalkError(
+            "--audio keeps the recording's own timing, so --sampling paper (which lengthens "
+            "the speech) cannot apply: use --sampling blur (the default) or none"
+        )
+    if args.voice_given:
+        raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
+    text = read_text(args) if has_text(args) else None
+    check_output(args.output, overwrite=args.force)
+    _check_lipsync_model(args)
+    from miketalk.talk.recorded import say_recorded
+    from miketalk.talk.say import open_model
+
+    with open_model(args.model) as model:
+        said = say_recorded(
+            args.audio,
+            args.output,
+            model=model,
+            text=text,
+            timings=args.timings,
+            fps=args.fps,
+            max_px_per_frame=max_px,
+            sampling=sampling,
+            lipsync_model=args.lipsync_model,
+            progress=args.progress,
+            overwrite=args.force,
+        )
+    motion = said.motion
+    if args.json:
+        doc = {
+            "video": str(args.output),
+            "timeline": str(Path(args.output).with_suffix(".json")),
+            "audio": str(args.audio),
+            "fps": args.fps,
+            "sampling": sampling,
+            "max_px_per_frame": max_px,
+            "lipsync_model": args.lipsync_model,
+            "motion": motion.to_dict(),
+        }
+        print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
+    else:
+        print(
+            f"{args.output}: {motion.frames} frames at {args.fps:g} fps, "
+            f"{said.audio_seconds:.2f} s of recorded audio, {motion.morphs} morphs, largest "
+            f"step {said.largest_step_px:.2f} px ({sampling}, {args.lipsync_model} lip-sync)",
+            file=args.out,
+        )
+    log.info("say took %.2f s", seconds_since(started))
+    return 0

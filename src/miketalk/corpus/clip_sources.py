@@ -1,0 +1,195 @@
+"""The clips of a person a corpus is built from: media, transcripts and word timings, decoded."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.types import Phone
+from miketalk.speech.word_timings import WordTiming, read_word_timings
+
+#: Sample rate of the corpus sound (the aligner's rate).
+RATE = 16000
+
+
+@dataclass(frozen=True)
+class Clip:
+    """One utterance of the corpus: its id, media file, transcript and word timings (if any)."""
+
+    id: str
+    media: Path
+    text: str
+    timings: Path | None = None
+
+    @property
+    def words(self) -> list[str]:
+        """The transcript's words, lower case."""
+        return self.text.lower().split()
+
+
+@dataclass(frozen=True)
+class DecodedClip:
+    """A clip read and aligned: frames as recorded, sound, phones (clip time)."""
+
+    clip: Clip
+    frames: np.ndarray
+    fps: float
+    samples: np.ndarray
+    phones: tuple[Phone, ...]
+    words: tuple[WordTiming, ...]
+
+
+class ClipError(MiketalkError):
+    """A clip that cannot be used; the message names the clip."""
+
+
+def read_transcripts(path: str | Path) -> dict[str, str]:
+    """The ``id text`` table: one clip per line, the id first, then the words.
+
+    Blank lines and lines starting with ``#`` are ignored.
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, a line has no words, or an id repeats.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MiketalkError(f"transcript table not found: {path}")
+    table: dict[str, str] = {}
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        clip_id, _, text = line.partition(" ")
+        if not text.strip():
+            raise MiketalkError(f"{path}:{number}: clip {clip_id!r} has no words")
+        if clip_id in table:
+            raise MiketalkError(f"{path}:{number}: clip {clip_id!r} appears twice")
+        table[clip_id] = " ".join(text.split())
+    return table
+
+
+def clip_sources(
+    ids: Sequence[str],
+    *,
+    media: str,
+    transcripts: str | Path,
+    timings: str | None = None,
+) -> list[Clip]:
+    """The clips named by ``ids``, their files found through ``{id}`` patterns.
+
+    Parameters
+    ----------
+    ids : sequence of str
+        Which clips, in order.
+    media : str
+        Path pattern of a clip's video with sound, e.g. ``data/grid_s1/video/{id}.mpg``.
+    transcripts : path
+        The ``id text`` table (:func:`read_transcripts`).
+    timings : str, optional
+        Path pattern of a clip's word timings (``.align`` or ``.TextGrid``).
+
+    Raises
+    ------
+    MiketalkError
+        For a pattern without ``{id}``, an id the table lacks, a repeated id,
+        or a media file that does not exist.
+    """
+    if not media or not transcripts:
+        raise MiketalkError("a corpus of clips needs its media pattern and its transcript table")
+    if not ids:
+        raise MiketalkError("no clips named: list the clip ids to use")
+    for name, pattern in (("media", media), ("timings", timings)):
+        if pattern is not None and "{id}" not in pattern:
+            raise MiketalkError(f"clips.{name} must contain {{id}}, got {pattern!r}")
+    if len(set(ids)) != len(ids):
+        raise MiketalkError("a clip id is listed twice")
+    table = read_transcripts(transcripts)
+    clips = []
+    for clip_id in ids:
+        if clip_id not in table:
+            raise MiketalkError(f"clip {clip_id!r} is not in the transcript table {transcripts}")
+        path = Path(media.replace("{id}", clip_id))
+        if not path.is_file():
+            raise MiketalkError(f"clip {clip_id}: media file not found: {path}")
+        timing = Path(timings.replace("{id}", clip_id)) if timings else None
+        clips.append(Clip(clip_id, path, table[clip_id], timing))
+    return clips
+
+
+def decode_clip(clip: Clip) -> DecodedClip:
+    """Read a clip's frames and sound and align its phones.
+
+    Raises
+    ------
+    ClipError
+        No sound, a missing timing file, a word the aligner cannot place, or
+        fewer frames than the clip's phones need; the message names the clip.
+    """
+    from miketalk.media.decode import read_media_audio, read_video
+    from miketalk.speech.align import align
+
+    try:
+        frames, fps = read_video(clip.media)
+        samples = read_media_audio(clip.media, rate=RATE)
+        if clip.timings is not None and not clip.timings.is_file():
+            raise MiketalkError(f"word timing file not found: {clip.timings}")
+        words = read_word_timings(clip.timings) if clip.timings is not None else None
+        if words is not None and [w.word.lower() for w in words] != clip.words:
+            raise MiketalkError(
+                f"the word timings ({' '.join(w.word for w in words)}) do not match the "
+                f"transcript ({clip.text})"
+            )
+        if len(samples) < RATE // 10 or not np.abs(samples.astype(np.int32)).max() > 64:
+            raise MiketalkError("it has no sound (silent or shorter than 0.1 s)")
+        aligned = align(samples, RATE, clip.words, word_timings=words)
+    except ClipError:
+        raise
+    except MiketalkError as err:
+        raise ClipError(f"clip {clip.id}: {err}") from err
+    spoken = [p for p in aligned.phones if p.name != "pau"]
+    if spoken and spoken[-1].end > len(frames) / fps + 0.5 / fps:
+        raise ClipError(
+            f"clip {clip.id}: its video ({len(frames)} frames, {len(frames) / fps:.2f} s) ends "
+            f"before its phones do ({spoken[-1].end:.2f} s)"
+        )
+    shortest = min((p.duration for p in spoken), default=1.0)
+    if len(frames) < 3 or shortest <= 0:
+        raise ClipError(f"clip {clip.id}: shorter than its phones")
+    return DecodedClip(clip, frames, float(fps), samples, aligned.phones, aligned.words)
+
+
+def _clipped(phones: Sequence[Phone], duration: float) -> list[Phone]:
+    """The phones inside ``[0, duration]``, the last one ending exactly there."""
+    out = [p for p in phones if p.start < duration - 1e-9]
+    if out:
+        last = out[-1]
+        out[-1] = Phone(last.name, last.start, duration)
+    return out
+
+
+def _words(
+    clip_id: str, words: Sequence[WordTiming], phones: Sequence[Phone], offset: float
+) -> list[dict]:
+    """``words.json`` entries: each word with its span and the phones inside it (recording time)."""
+    out = []
+    for w in words:
+        inside = [p for p in phones if p.name != "pau" and w.start - 1e-6 <= p.start < w.end - 1e-6]
+        out.append(
+            {
+                "word": w.word,
+                "clip": clip_id,
+                "start": w.start + offset,
+                "end": w.end + offset,
+                "phones": [
+                    {"name": p.name, "start": p.start + offset, "end": p.end + offset}
+                    for p in inside
+                ],
+            }
+        )
+    return out

@@ -1,0 +1,99 @@
+"""Coarticulation learned from the person's own speech (beyond the paper; its §10 limitation).
+
+The paper's lip-sync (:mod:`miketalk.talk.lipsync`) runs every transition from
+one viseme image all the way to the next: each phone's viseme is reached in
+full at the phone's middle, however short the phone. Real lips undershoot short
+phones and anticipate the next one. This module replaces the piecewise-linear
+path by the Cohen-Massaro dominance model (Cohen & Massaro 1993), whose
+parameters are fitted to the recording, as the paper's successor learned its
+trajectories from the recording (Ezzat, Geiger & Poggio 2002).
+
+Model
+-----
+Keyframe ``i`` (one per phone at its middle, two for a diphthong; see
+:func:`miketalk.talk.lipsync.keyframes`) with viseme ``V_i`` at time ``c_i``
+has the dominance
+
+.. math:: D_i(t) = a_{V_i} \\exp(-\theta_{V_i} |t - (c_i - \\ell)|)
+
+where ``a_V`` is the viseme's magnitude (how strongly it holds the mouth),
+``theta_V`` its rate (1/s; how quickly its hold fades) and ``ell`` an
+anticipation lead (s) common to all visemes: the mouth reaches for a phone's
+viseme ``ell`` seconds before the phone's middle. Only keyframes within
+``window`` seconds of ``t`` (and always the nearest one) count. The mouth at
+``t`` is the blend of the visemes with weights ``w_i(t) = D_i(t) / sum_j D_j(t)``
+(a viseme's weights summed over its keyframes). A short phone between two
+dominant ones is then never reached in full: undershoot.
+
+Fitting
+-------
+:func:`fit` takes the aligned phones of the training clips and the eigenlip
+coordinates (:class:`miketalk.mouth.Eigenlips`) of their real
+frames and of the viseme images, and chooses ``log a``, ``log theta`` and
+``ell`` minimizing the squared distance between the predicted trajectory
+``sum_V w_V(t) E(V)`` and the real one, each clip's trajectories with their
+moving average over ``detrend`` seconds removed (:func:`detrender`): what
+moves slower than that follows lighting and the head pose the stabilization
+left rather than the mouth, and is not the model's to predict (fitted
+without it, broad dominances of seconds fitted those drifts). ``ell`` is
+chosen on a grid; for each grid value ``log a`` and ``log theta`` are found by
+Levenberg-Marquardt with a finite-difference Jacobian (numpy only), kept in
+plausible bounds, with a weak pull towards the prior ``a = 1``,
+``theta = prior_rate`` so that a viseme seen rarely keeps the prior.
+The training loss of the paper's own timeline (the same frames through
+:func:`miketalk.talk.lipsync.plan`) is stored beside the fitted one.
+
+:func:`fit_coarticulation` runs it for a face built from clips and writes the
+parameters as data (``coarticulation.json`` in the model directory);
+:func:`read_params` reads them back.
+
+Rendering
+---------
+:func:`frame_weights` gives every frame of a timeline its visemes and weights,
+the ``max_visemes`` largest, those under ``min_weight`` dropped, renormalized;
+:func:`miketalk.talk.learned.render_learned` draws them.
+"""
+
+from miketalk.talk.coarticulation.fit import (
+    TrainingClip,
+    detrender,
+    fit,
+    fit_coarticulation,
+    training_clips,
+)
+from miketalk.talk.coarticulation.params import (
+    FILENAME,
+    FORMAT,
+    LEAD_GRID,
+    LIPSYNC_MODELS,
+    PRIOR_RATE,
+    CoarticulationParams,
+    read_params,
+    write_params,
+)
+from miketalk.talk.coarticulation.weights import (
+    dominance_weights,
+    frame_weights,
+    paper_trajectory,
+    predict_trajectory,
+)
+
+__all__ = [
+    "FILENAME",
+    "FORMAT",
+    "LEAD_GRID",
+    "LIPSYNC_MODELS",
+    "PRIOR_RATE",
+    "CoarticulationParams",
+    "TrainingClip",
+    "detrender",
+    "dominance_weights",
+    "fit",
+    "fit_coarticulation",
+    "frame_weights",
+    "paper_trajectory",
+    "predict_trajectory",
+    "read_params",
+    "training_clips",
+    "write_params",
+]

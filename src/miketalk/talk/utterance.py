@@ -1,0 +1,213 @@
+"""An utterance on disk: the mp4 and its timeline JSON written together, and read back."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+from contextlib import closing
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from miketalk.errors import MiketalkError
+from miketalk.media.atomic import atomic_paths, sweep_beside
+from miketalk.media.video import write_mp4
+from miketalk.speech.types import Phone, Utterance
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.manifest import strict_json
+from miketalk.talk.model import Model
+from miketalk.talk.motion import JerkMeter, Motion, measure
+from miketalk.talk.output import TIMELINE_FORMAT, check_output
+
+if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
+    import numpy as np
+
+    from miketalk.talk.coarticulation import CoarticulationParams
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Spoken:
+    """What :func:`speak` made.
+
+    Attributes
+    ----------
+    utterance : Utterance
+        The audio as spoken (lengthened if the paper's mode lengthened phones).
+    timeline : Timeline
+        The timeline of the mp4's frames.
+    motion : Motion
+        The measures of its motion.
+    video, timeline_json : Path
+        The two files written.
+    """
+
+    utterance: Utterance
+    timeline: Timeline
+    motion: Motion
+    video: Path
+    timeline_json: Path
+
+
+def write_utterance(
+    output: Path,
+    *,
+    model: Model,
+    timeline: Timeline,
+    samples: np.ndarray,
+    rate: int,
+    natural_duration: float,
+    extra: dict,
+    coarticulation: CoarticulationParams | None = None,
+    progress: bool = False,
+    overwrite: bool = False,
+) -> Motion:
+    """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
+
+    The JSON is :meth:`Timeline.to_dict` plus ``format``, ``extra``,
+    ``largest_step_px`` and ``motion``. The two files replace any older pair
+    together or not at all (see the module docstring); what killed runs left
+    beside ``output`` is tidied first.
+
+    Parameters
+    ----------
+    coarticulation : CoarticulationParams, optional
+        Draw the frames with this learned coarticulation
+        (:func:`miketalk.talk.learned.render_learned`) instead of the paper's
+        transitions; the motion is then measured on its weights.
+
+    Returns
+    -------
+    Motion
+        The measures of the utterance's motion.
+    """
+    output = check_output(output, overwrite=overwrite)
+    sweep_beside(output)
+    for t in timeline.transitions:  # every viseme must be in the model before we start
+        model.displacement(t.source, t.target)
+    started = time.perf_counter()
+    jerk = JerkMeter()
+    weights = None
+    if coarticulation is None:
+        rendered = model.render(timeline)
+    else:
+        from miketalk.talk.coarticulation import frame_weights
+        from miketalk.talk.learned import render_learned
+
+        weights = frame_weights(timeline, coarticulation)
+        rendered = render_learned(model, timeline, coarticulation, weights=weights)
+    frames = jerk.watch(rendered)
+    if progress:
+        from tqdm import tqdm
+
+        frames = tqdm(frames, total=len(timeline.frames), desc="rendering", unit="frame")
+    json_path = output.with_suffix(".json")
+    with closing(rendered), atomic_paths([output, json_path]) as (video_tmp, json_tmp):
+        write_mp4(
+            video_tmp, frames, fps=timeline.fps, audio=samples, rate=rate,
+            n_frames=len(timeline.frames),
+        )  # fmt: skip
+        motion = measure(
+            timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,
+            weights=weights,
+        )  # fmt: skip
+        doc = (
+            {"format": TIMELINE_FORMAT}
+            | timeline.to_dict()
+            | extra
+            | {"largest_step_px": motion.largest_step_px, "motion": motion.to_dict()}
+        )
+        try:
+            text = json.dumps(doc, indent=1, allow_nan=False)
+        except ValueError as err:
+            raise MiketalkError(
+                f"the timeline of {output} holds a value JSON cannot: {err}"
+            ) from None
+        json_tmp.write_text(text, encoding="utf-8")
+    log.info(
+        "rendered %d frames (%d morphs) and wrote %s in %.2f s",
+        len(timeline.frames), motion.morphs, output, time.perf_counter() - started,
+    )  # fmt: skip
+    return motion
+
+
+@dataclass(frozen=True)
+class Said:
+    """What :func:`say` wrote beside an mp4: enough to render its frames again and check them.
+
+    Attributes
+    ----------
+    text : str
+        The text as spoken.
+    timeline : Timeline
+        The timeline of the mp4's frames (``Model.render(timeline)`` made them).
+    planned_phones : tuple of Phone
+        The phones at the engine's own timing, before the paper's mode
+        lengthened any.
+    planned_duration : float
+        Seconds of audio the planned phones make.
+    max_px_per_frame : float or None
+        The limit ``say`` was given.
+    sampling : str
+        ``"blur"``, ``"paper"`` or ``"none"`` (``"paper"`` for a JSON from
+        before sampling was recorded, ``"none"`` when there was no limit).
+    max_slowdown : float or None
+        The paper mode's cap on lengthening.
+    lipsync_model : str
+        ``"paper"`` or ``"learned"`` (``"paper"`` for a JSON from before it
+        was recorded).
+    """
+
+    text: str
+    timeline: Timeline
+    planned_phones: tuple[Phone, ...]
+    planned_duration: float
+    max_px_per_frame: float | None
+    sampling: str = "paper"
+    max_slowdown: float | None = None
+    lipsync_model: str = "paper"
+
+
+def read_said(path: str | os.PathLike[str]) -> Said:
+    """Read the timeline JSON :func:`say` wrote (``<name>.json`` beside ``<name>.mp4``).
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, is not JSON, or lacks a field (for example a
+        JSON from before ``planned_phones`` was recorded: make the utterance again).
+    """
+    path = Path(path)
+    try:
+        doc = strict_json(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise MiketalkError(f"no timeline at {path}") from None
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise MiketalkError(f"cannot read the timeline {path}: {err}") from None
+    if not isinstance(doc, dict):
+        raise MiketalkError(f"{path} is not a timeline (not a JSON object)")
+    missing = [k for k in ("text", "planned_phones", "planned_duration") if k not in doc]
+    if missing:
+        raise MiketalkError(f"{path} has no {', '.join(missing)}: make the utterance again")
+    try:
+        planned = tuple(Phone(**p) for p in doc["planned_phones"])
+    except TypeError as err:
+        raise MiketalkError(f"{path}: malformed planned_phones ({err})") from None
+    try:
+        timeline = Timeline.from_dict(doc)
+    except MiketalkError as err:
+        raise MiketalkError(f"{path}: {err}") from None
+    max_px = doc.get("max_px_per_frame")
+    return Said(
+        text=doc["text"],
+        timeline=timeline,
+        planned_phones=planned,
+        planned_duration=doc["planned_duration"],
+        max_px_per_frame=max_px,
+        sampling=doc.get("sampling", "paper" if max_px is not None else "none"),
+        max_slowdown=doc.get("max_slowdown"),
+        lipsync_model=doc.get("lipsync_model", "paper"),
+    )
