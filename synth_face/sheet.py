@@ -12,8 +12,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from miketalk.figures.sheets import grid
 from miketalk.media.atomic import atomic_path
+from miketalk.media.sheets import grid
 from synth_face.face import Face
 from synth_face.render import FaceRenderer
 

@@ -153,12 +153,12 @@ def test_the_frames_measured_are_the_frames_say_writes(
     model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from miketalk.evaluation.sync import utterance_frames
-    from miketalk.talk import say as say_module
+    from miketalk.talk import utterance as utterance_module
     from miketalk.talk.say import say
     from miketalk.talk.utterance import read_said
 
     written: list[np.ndarray] = []
-    real_write_mp4 = say_module.write_mp4
+    real_write_mp4 = utterance_module.write_mp4
 
     def capture(path, frames, *args, **kwargs):
         def tee():
@@ -168,7 +168,7 @@ def test_the_frames_measured_are_the_frames_say_writes(
 
         return real_write_mp4(path, tee(), *args, **kwargs)
 
-    monkeypatch.setattr(say_module, "write_mp4", capture)
+    monkeypatch.setattr(utterance_module, "write_mp4", capture)
     out = tmp_path / "hello.mp4"
     say("Hello world.", out, model=Model(model_dir))
     assert out.exists() and len(written) > 10

@@ -6,7 +6,8 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus.clips import clip_sources, ingest_clips
+    from miketalk.corpus.clip_sources import clip_sources
+    from miketalk.corpus.clips import ingest_clips
 
     corpus = snakemake.params.corpus
     clips = clip_sources(

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus.clips import clip_sources
+    from miketalk.corpus.clip_sources import clip_sources
     from miketalk.evaluation.heldout import heldout_stage
 
     corpus = snakemake.params.corpus

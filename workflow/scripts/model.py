@@ -9,7 +9,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk.talk.model import build_model, fallbacks_of
+    from miketalk.talk.build import build_model, fallbacks_of
 
     spec = json.loads(snakemake.params.spec)
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)

@@ -9,7 +9,8 @@ def main() -> None:
     from miketalk.evaluation.sync import sync_table
     from miketalk.evaluation.tables import read_mask
     from miketalk.media.atomic import write_text_atomic
-    from miketalk.talk.say import open_model, read_said
+    from miketalk.talk.say import open_model
+    from miketalk.talk.utterance import read_said
     from miketalk.visemes import VisemeTable
 
     inputs, params = snakemake.input, snakemake.params
