@@ -153,3 +153,26 @@ def test_paired_differences_against_the_morph() -> None:
     assert "mouth_lmd_vs_morph_mean" not in summarize(table).columns
     assert paired_differences(table, reference=("morph", "other")).empty
     assert "lip_opening_corr_speech" in LANDMARK_MEASURES
+
+
+def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
+    from miketalk.bench.real_face import LANDMARK_FIGURES, landmark_figures
+
+    rows = []
+    for clip, lag in (("a", 0), ("b", 2)):
+        for renderer, model, lmd in (
+            ("morph", "own", 2.0),
+            ("learned", "own", 1.5),
+            ("still", "own", 3.0),
+            ("morph", "other", 9.0),
+        ):
+            rows.append(
+                {"clip": clip, "renderer": renderer, "model": model, "lip_opening_lag": lag}
+                | dict.fromkeys(LANDMARK_FIGURES, lmd + (clip == "b"))
+            )
+    figures = landmark_figures(pd.DataFrame(rows), "own")
+    assert figures["morph_mouth_lmd_mean"] == pytest.approx(2.5)
+    assert figures["learned_minus_morph_mouth_lmd_mean"] == pytest.approx(-0.5)
+    assert figures["learned_minus_morph_mouth_lmd_sd"] == pytest.approx(0)
+    assert figures["learned_lip_opening_lag_within_1_fraction"] == 0.5
+    assert not any(key.startswith("still_") for key in figures)
