@@ -116,6 +116,11 @@ def test_amplitude_and_width() -> None:
     assert summary["lip_opening_amplitude_speech"] == pytest.approx(0.5)
     assert summary["lip_opening_corr_speech"] == pytest.approx(1)
     assert summary["mouth_width_corr_speech"] == 0  # the width does not move in either
+    _, still = landmark_scores(
+        real, np.repeat(real[:1], 50, axis=0), speech=slice(0, 50), max_lag=5
+    )
+    assert np.isnan(still["lip_opening_lag"])  # a still face has no lag
+    assert still["lip_opening_amplitude_speech"] == 0
     assert summary["mouth_lmd"] > 0
     with pytest.raises(MiketalkError, match="68, 2"):
         landmark_scores(real[:, :20], half[:, :20], speech=slice(0, 50), max_lag=5)

@@ -19,7 +19,8 @@ in pixels of the stabilized frame:
 ``lip_opening_lag``
     the shift in frames that best aligns the synthesized opening to the real one
     over the clip (:func:`miketalk.evaluation.measures.lag_frames`; positive when
-    the synthesis is late).
+    the synthesis is late); undefined (NaN) when either opening never changes
+    (a still face has no lag: the cross-correlation of a constant is noise).
 
 :func:`paired_differences` compares every renderer with a reference (the
 paper's morph) clip by clip.
@@ -134,9 +135,16 @@ def landmark_scores(
         else float("nan"),
         "mouth_width_corr_speech": correlation(width_synth[spoken], width_real[spoken]),
         "lip_opening_corr": correlation(open_synth, open_real),
-        "lip_opening_lag": lag_frames(open_synth, open_real, max_lag=max_lag),
+        "lip_opening_lag": float(lag_frames(open_synth, open_real, max_lag=max_lag))
+        if _varies(open_synth) and _varies(open_real)
+        else float("nan"),
     }
     return per_frame, summary
+
+
+def _varies(signal: np.ndarray) -> bool:
+    """Whether a signal changes (beyond floating-point wobble), as :func:`correlation` judges."""
+    return correlation(signal, signal) != 0.0
 
 
 def paired_differences(
