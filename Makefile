@@ -34,7 +34,7 @@ $(STAMP): pyproject.toml setup.py src/miketalk/render/_morph_kernels.c
 	@command -v $(PYTHON) >/dev/null || { echo "$(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/pip install -q -e '.[dev,evaluation]'
 	touch $@
 
 run: setup

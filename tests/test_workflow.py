@@ -103,9 +103,23 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert manifest.get("fallbacks", {}) == fallbacks
     assert set(visemes["clip"]) <= set(clips["clip"])  # test clips never reach the model
     summary = pd.read_csv(results / "metrics/heldout/s1/summary.csv")
-    assert set(summary["renderer"]) == {"morph", "still", "flipbook", "dissolve", "learned"}
+    assert set(summary["renderer"]) == {
+        "morph", "still", "flipbook", "dissolve", "learned", "real_late1", "real_late2"
+    }  # fmt: skip
     assert (summary["clips"] == 2).all()
     assert summary["eigenlip1_corr_speech_mean"].between(-1, 1).all()
+    # the landmark measures: the real mouth late is near, but not the real mouth
+    rows = summary.set_index(["renderer", "model"])
+    late1, late2 = (
+        rows.loc[("real_late1", "bergen/bridge")],
+        rows.loc[("real_late2", "bergen/bridge")],
+    )
+    assert 0 < late1["mouth_lmd_mean"] < late2["mouth_lmd_mean"]
+    assert late1["lip_opening_corr_speech_mean"] < 1
+    assert late1["lip_opening_lag_mean"] == 1 and late2["lip_opening_lag_mean"] == 2
+    assert rows.loc[("still", "bergen/bridge"), "lip_opening_amplitude_speech_mean"] == 0
+    assert rows.loc[("morph", "bergen/bridge"), "mouth_lmd_vs_morph_mean"] == 0
+    assert summary["lip_opening_corr_speech_mean"].between(-1, 1).all()
     # the side-by-side videos show both lip-sync models, and the strip is drawn from them
     side = json.loads((results / "heldout/s1/bbas3a.json").read_text())
     assert side["columns"] == ["real", "paper", "learned"]

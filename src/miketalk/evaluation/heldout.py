@@ -19,13 +19,17 @@ same moment, ``k / fps``. Every measure compares the two on the mouth region:
     the same correlations over the frames from the first spoken phone's start
     to the last one's end only: the silences around a sentence (rest, then
     speech) dominate a whole clip's correlation; inside the speech it measures
-    how well the mouth's shapes follow the phones.
+    how well the mouth's shapes follow the phones;
+``mouth_lmd``, ``lip_opening_...``, ``mouth_width_...``
+    dlib's 68 face landmarks of both (:mod:`miketalk.evaluation.landmark_scores`).
 
 Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
 the same timeline and so the same frames: the silence viseme held (a still
 face), the nearest viseme held (a flip-book, no morph), and a cross-dissolve
 with the morph's alpha; and, for a model that has learned its person's
-coarticulation (``coarticulation.json``), that model (``learned``).
+coarticulation (``coarticulation.json``), that model (``learned``). Calibration
+rows measure the real frames themselves 1 and 2 frames late (``real_late1``,
+``real_late2``; :data:`CALIBRATION_DELAYS`): what a small lag alone costs.
 """
 
 from __future__ import annotations
@@ -37,6 +41,9 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
+from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
+from miketalk.evaluation.landmarks import delayed
+from miketalk.evaluation.measures import correlation as _corr
 from miketalk.evaluation.measures import lag_frames, psnr, ssim
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
@@ -47,6 +54,9 @@ from miketalk.visemes import SILENCE
 
 #: Largest lag (frames) searched by the cross-correlation.
 MAX_LAG = 5
+
+#: The calibration rows: the real frames this many frames late (renderer ``real_late<k>``).
+CALIBRATION_DELAYS = (1, 2)
 
 
 def _pairs(model: Model, timeline: Timeline) -> Iterator[tuple[str, str, float]]:
@@ -175,15 +185,6 @@ def compare(
     return ClipScores(pd.DataFrame(rows), summary)
 
 
-def _corr(a: np.ndarray, b: np.ndarray) -> float:
-    """Pearson correlation; 0 when either signal is constant (a still face correlates with none)."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    # a constant signal projected through floating point wobbles by ~1e-15: still constant
-    if a.std() <= 1e-9 * (1 + np.abs(a).max()) or b.std() <= 1e-9 * (1 + np.abs(b).max()):
-        return 0.0
-    return float(np.corrcoef(a, b)[0, 1])
-
-
 def _psnr_of_mean_mse(values: np.ndarray) -> float:
     """PSNR of the mean squared error over frames."""
     mse = 255.0**2 / np.power(10.0, values / 10.0)
@@ -242,6 +243,7 @@ def evaluate_clip(
     mouth_box: Box,
     eigenlips: Eigenlips,
     baselines_of: str | None = None,
+    landmarks=None,
 ) -> tuple[list[dict], pd.DataFrame, dict[str, np.ndarray]]:
     """Every renderer's scores on one clip.
 
@@ -253,7 +255,11 @@ def evaluate_clip(
     mouth_box, eigenlips
         As :func:`compare`.
     baselines_of : str, optional
-        The model whose images the baselines (still, flip-book, dissolve) use.
+        The model whose images the baselines (still, flip-book, dissolve) use;
+        the calibration rows (the real frames late) are labelled with it.
+    landmarks : FaceLandmarks, optional
+        Adds the landmark measures (:mod:`miketalk.evaluation.landmark_scores`);
+        each real frame is marked once.
 
     Returns
     -------
@@ -267,17 +273,29 @@ def evaluate_clip(
         jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
         if (models[baselines_of].directory / COARTICULATION).exists():
             jobs.append(("learned", baselines_of))
+        jobs += [(f"real_late{k}", baselines_of) for k in CALIBRATION_DELAYS]
     summaries, tables, renders = [], [], {}
     speech = speech_frames(heldout.timeline)
+    marks = None if landmarks is None else ClipLandmarks(landmarks, heldout.real)
     for renderer, name in jobs:
-        frames = np.stack(list(RENDERERS[renderer](models[name], heldout.timeline)))
+        late = int(renderer.removeprefix("real_late")) if renderer.startswith("real_late") else 0
+        if late:
+            frames = delayed(heldout.real, late)
+        else:
+            frames = np.stack(list(RENDERERS[renderer](models[name], heldout.timeline)))
         scores = compare(
             heldout.real, frames, mouth_box=mouth_box, eigenlips=eigenlips, speech=speech
         )
         label = {"clip": heldout.id, "renderer": renderer, "model": name}
-        summaries.append(label | scores.summary)
-        tables.append(scores.frames.assign(**label))
-        renders[f"{renderer}:{name}"] = frames
+        per_frame, summary = scores.frames, scores.summary
+        if marks is not None:
+            points = marks.late(late) if late else marks.of(frames)
+            columns, measures = landmark_scores(marks.real, points, speech=speech, max_lag=MAX_LAG)
+            per_frame, summary = per_frame.assign(**columns), summary | measures
+        summaries.append(label | summary)
+        tables.append(per_frame.assign(**label))
+        if not late:
+            renders[f"{renderer}:{name}"] = frames
     return summaries, pd.concat(tables, ignore_index=True), renders
 
 
@@ -300,13 +318,20 @@ def video_columns(renders: dict[str, np.ndarray], default_model: str) -> list[st
     return ["paper", "difference"]
 
 
-def summarize(table: pd.DataFrame) -> pd.DataFrame:
-    """Mean and spread (standard deviation) over clips of every measure, per renderer and model."""
+def summarize(table: pd.DataFrame, *, reference: tuple[str, str] | None = None) -> pd.DataFrame:
+    """Mean and spread (standard deviation) over clips of every measure, per renderer and model.
+
+    With ``reference`` (``(renderer, model)``, the paper's morph), the landmark
+    measures are also paired with it clip by clip
+    (:func:`miketalk.evaluation.landmark_scores.paired_differences`).
+    """
     measures = [c for c in table.columns if c not in ("clip", "renderer", "model", "frames")]
     grouped = table.groupby(["renderer", "model"], sort=False)[measures]
     mean = grouped.mean().add_suffix("_mean")
     spread = grouped.std(ddof=1).add_suffix("_sd")
     out = pd.concat([mean, spread], axis=1)
+    if reference is not None:
+        out = out.join(paired_differences(table, reference=reference))
     out.insert(0, "clips", grouped.size())
     return out.reset_index()
 
@@ -360,6 +385,7 @@ def heldout_stage(
 
     from miketalk.corpus.clips import corpus_stabilizer
     from miketalk.corpus.folder import open_corpus
+    from miketalk.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region
@@ -372,13 +398,19 @@ def heldout_stage(
     stabilizer = corpus_stabilizer(corpus_dir)
     table = VisemeTable(grouping=grouping)
     opened = {name: Model(path, morph_options=morph) for name, path in models.items()}
+    landmarks = face_landmarks()
     videos = Path(videos_dir)
     videos.mkdir(parents=True, exist_ok=True)
     summaries, frames = [], []
     for clip in clips:
         heldout = prepare_heldout(clip, stabilizer=stabilizer, table=table)
         rows, per_frame, renders = evaluate_clip(
-            heldout, opened, mouth_box=box, eigenlips=eigenlips, baselines_of=default_model
+            heldout,
+            opened,
+            mouth_box=box,
+            eigenlips=eigenlips,
+            baselines_of=default_model,
+            landmarks=landmarks,
         )
         summaries += rows
         frames.append(per_frame)
@@ -402,7 +434,7 @@ def heldout_stage(
             rate=heldout.rate,
         )
     per_clip = pd.DataFrame(summaries)
-    summary = summarize(per_clip)
+    summary = summarize(per_clip, reference=("morph", default_model))
     write_text_atomic(frames_csv, pd.concat(frames).to_csv(index=False, float_format="%.5f"))
     write_text_atomic(clips_csv, per_clip.to_csv(index=False, float_format="%.5f"))
     write_text_atomic(summary_csv, summary.to_csv(index=False, float_format="%.4f"))

@@ -1,4 +1,4 @@
-"""Image and sync measures: PSNR, SSIM, motion lag."""
+"""Image and sync measures: PSNR, SSIM, correlation, motion lag."""
 
 from __future__ import annotations
 
@@ -62,6 +62,15 @@ def ssim(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = Non
 
 
 _SSIM_WIN = 7
+
+
+def correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation; 0 when either signal is constant (a still face correlates with none)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    # a constant signal projected through floating point wobbles by ~1e-15: still constant
+    if a.std() <= 1e-9 * (1 + np.abs(a).max()) or b.std() <= 1e-9 * (1 + np.abs(b).max()):
+        return 0.0
+    return float(np.corrcoef(a, b)[0, 1])
 
 
 def lag_frames(signal: np.ndarray, reference: np.ndarray, *, max_lag: int = 10) -> int:

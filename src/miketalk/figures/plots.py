@@ -354,9 +354,11 @@ def heldout_trajectory(
 
 
 def heldout_psnr(frames_csv: Path_, out: Path_, *, clip: str, model: str) -> None:
-    """Mouth PSNR per frame of one held-out clip, for the morph and the baselines."""
+    """Mouth PSNR per frame of one held-out clip, for the morph and the baselines (the
+    calibration rows, the real frames late, left out)."""
     table = pd.read_csv(frames_csv)
     part = table[(table["clip"] == clip) & (table["model"] == model)]
+    part = part[~part["renderer"].str.startswith("real_late")]
     fig, ax = plt.subplots(figsize=(10, 3.2))
     for renderer, rows in part.groupby("renderer", sort=False):
         ax.plot(

@@ -1,0 +1,188 @@
+"""Face landmarks for the held-out evaluation: dlib's 68-point shape predictor.
+
+The points follow the iBUG 300-W markup (0-based): the jaw 0-16, brows
+17-26, nose 27-35, eyes 36-47, the outer lip contour 48-59 (corners 48 and
+54) and the inner lip contour 60-67 (corners 60 and 64; upper inner lip
+61-63 above lower inner lip 67-65). The predictor file,
+``shape_predictor_68_face_landmarks.dat``, is the one the
+``face-recognition-models`` package ships (the ``evaluation`` extra), so
+nothing is downloaded. Its training data (iBUG 300-W) is for research use:
+the landmarks measure a synthesis against the real video and never take part
+in building a model or speaking.
+
+A clip's frames are all stabilized to one reference, so the face does not
+move within a clip: the frontal face detector runs once per clip, on the
+per-pixel median of its real frames, and every frame of that clip, real or
+synthesized, is marked from that one face box (the predictor's starting
+shape is then the same for both, and only the pixels differ).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+
+Box = tuple[int, int, int, int]
+
+#: The predictor's file inside the ``face_recognition_models`` package.
+PREDICTOR_FILE = "shape_predictor_68_face_landmarks.dat"
+
+#: The 20 mouth points (outer and inner lip contours).
+MOUTH = slice(48, 68)
+
+#: Upper and lower inner-lip points facing each other (the inner lip opening).
+INNER_LIP_PAIRS = ((61, 67), (62, 66), (63, 65))
+
+#: The mouth's corners on the outer contour (the mouth width).
+MOUTH_CORNERS = (48, 54)
+
+
+def predictor_path() -> Path:
+    """Where the installed ``face-recognition-models`` package keeps the 68-point predictor.
+
+    Found without importing the package (its ``__init__`` needs ``pkg_resources``).
+
+    Raises
+    ------
+    MiketalkError
+        When the package or the file is missing.
+    """
+    spec = importlib.util.find_spec("face_recognition_models")
+    if spec is None or not spec.submodule_search_locations:
+        raise MiketalkError(
+            "face landmarks need the evaluation extra: pip install -e '.[evaluation]'"
+        )
+    path = Path(next(iter(spec.submodule_search_locations))) / "models" / PREDICTOR_FILE
+    if not path.is_file():
+        raise MiketalkError(f"the face-recognition-models package lacks {PREDICTOR_FILE}")
+    return path
+
+
+class FaceLandmarks:
+    """dlib's frontal face detector and 68-point shape predictor, loaded once.
+
+    Use :func:`face_landmarks` for the shared instance (loading the predictor
+    takes about a second).
+    """
+
+    def __init__(self) -> None:
+        try:
+            import dlib
+        except ImportError as err:
+            raise MiketalkError(
+                "face landmarks need the evaluation extra: pip install -e '.[evaluation]'"
+            ) from err
+        self._dlib = dlib
+        self._detector = dlib.get_frontal_face_detector()
+        self._predictor = dlib.shape_predictor(str(predictor_path()))
+
+    def face_box(self, frames: np.ndarray) -> Box:
+        """The face box ``(x, y, w, h)`` of a stabilized clip.
+
+        The detector runs once, on the per-pixel median of the frames (a still
+        face), first at the frames' own size and, if it finds no face, on the
+        frames upsampled once; the largest face found is kept.
+
+        Parameters
+        ----------
+        frames : (N, H, W, 3) or (N, H, W) uint8
+            The clip's real frames.
+
+        Raises
+        ------
+        MiketalkError
+            When no face is found.
+        """
+        still = np.ascontiguousarray(np.median(np.asarray(frames), axis=0).astype(np.uint8))
+        for upsample in (0, 1):
+            found = list(self._detector(still, upsample))
+            if found:
+                face = max(found, key=lambda r: (r.width() * r.height(), -r.left(), -r.top()))
+                return (int(face.left()), int(face.top()), int(face.width()), int(face.height()))
+        raise MiketalkError("the face detector found no face in the clip's frames")
+
+    def points(self, frames: np.ndarray, box: Box) -> np.ndarray:
+        """The 68 landmarks of every frame, marked from one face box.
+
+        Parameters
+        ----------
+        frames : (N, H, W, 3) or (N, H, W) uint8
+            RGB or grey frames.
+        box : (x, y, w, h)
+            The face box (:meth:`face_box`).
+
+        Returns
+        -------
+        (N, 68, 2) float64
+            ``[..., 0]`` x and ``[..., 1]`` y in pixels (dlib gives whole pixels).
+        """
+        grey = grey_frames(frames)
+        x, y, w, h = box
+        rect = self._dlib.rectangle(int(x), int(y), int(x + w - 1), int(y + h - 1))
+        out = np.empty((len(grey), 68, 2))
+        for k, frame in enumerate(grey):
+            shape = self._predictor(frame, rect)
+            out[k] = [(p.x, p.y) for p in shape.parts()]
+        return out
+
+
+@lru_cache(maxsize=1)
+def face_landmarks() -> FaceLandmarks:
+    """The process's one :class:`FaceLandmarks` (the predictor loaded on first use)."""
+    return FaceLandmarks()
+
+
+def grey_frames(frames: np.ndarray) -> np.ndarray:
+    """Frames as C-contiguous grey ``(N, H, W)`` uint8 (BT.601 luma of RGB, rounded)."""
+    frames = np.asarray(frames)
+    if frames.dtype != np.uint8:
+        raise MiketalkError(f"frames must be uint8, not {frames.dtype}")
+    if frames.ndim == 3:
+        return np.ascontiguousarray(frames)
+    if frames.ndim != 4 or frames.shape[3] != 3:
+        raise MiketalkError(f"frames must be (N, H, W) or (N, H, W, 3), not {frames.shape}")
+    luma = frames @ np.array([0.299, 0.587, 0.114], np.float32)
+    return np.ascontiguousarray(np.clip(luma + 0.5, 0, 255).astype(np.uint8))
+
+
+def mouth_points(points: np.ndarray) -> np.ndarray:
+    """The 20 mouth points ``(N, 20, 2)`` of landmarks ``(N, 68, 2)``."""
+    return np.asarray(points)[:, MOUTH]
+
+
+def lip_opening(points: np.ndarray) -> np.ndarray:
+    """Inner-lip opening per frame, pixels: the mean distance of the facing inner-lip pairs."""
+    points = np.asarray(points, float)
+    upper = points[:, [a for a, _ in INNER_LIP_PAIRS]]
+    lower = points[:, [b for _, b in INNER_LIP_PAIRS]]
+    return np.linalg.norm(lower - upper, axis=2).mean(axis=1)
+
+
+def mouth_width(points: np.ndarray) -> np.ndarray:
+    """Mouth width per frame, pixels: the distance between the corners 48 and 54."""
+    points = np.asarray(points, float)
+    a, b = MOUTH_CORNERS
+    return np.linalg.norm(points[:, b] - points[:, a], axis=1)
+
+
+def mouth_lmd(points: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Mouth landmark distance per frame, pixels: the mean distance of the 20 mouth points."""
+    diff = mouth_points(points).astype(float) - mouth_points(reference)
+    return np.linalg.norm(diff, axis=2).mean(axis=1)
+
+
+def delayed(values: np.ndarray, frames: int) -> np.ndarray:
+    """``values`` ``frames`` frames late: frame ``k`` shows frame ``k - frames``, the first
+    repeated before it starts (a late copy of the same length)."""
+    values = np.asarray(values)
+    if frames < 0:
+        raise MiketalkError(f"a delay must be at least 0 frames, not {frames}")
+    if frames == 0 or len(values) == 0:
+        return values.copy()
+    head = np.repeat(values[:1], min(frames, len(values)), axis=0)
+    return np.concatenate([head, values[: max(0, len(values) - frames)]])

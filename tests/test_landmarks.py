@@ -1,0 +1,183 @@
+"""dlib's face landmarks and the held-out landmark measures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.evaluation.heldout import summarize
+from miketalk.evaluation.landmark_scores import (
+    LANDMARK_MEASURES,
+    ClipLandmarks,
+    landmark_scores,
+    paired_differences,
+)
+from miketalk.evaluation.landmarks import (
+    delayed,
+    face_landmarks,
+    lip_opening,
+    mouth_lmd,
+    mouth_points,
+    mouth_width,
+)
+
+CLIP = Path(__file__).resolve().parents[1] / "data" / "grid_s1" / "video" / "bbas3a.mpg"
+
+
+@pytest.fixture(scope="module")
+def s1_clip() -> tuple[np.ndarray, ClipLandmarks]:
+    """A committed GRID s1 clip ("bin blue at s three again") and its landmarks."""
+    from miketalk.media.decode import read_video
+
+    frames, _ = read_video(CLIP)
+    return frames, ClipLandmarks(face_landmarks(), frames)
+
+
+def test_the_mouth_points_land_on_the_mouth(s1_clip) -> None:
+    """On a real s1 clip the 20 mouth points lie in the mouth box the project finds from the
+    lips' redness (no landmarks involved), and the inner lips part as he speaks."""
+    from miketalk.mouth.lip_colour import find_mouth_box
+
+    frames, marks = s1_clip
+    x, y, w, h = find_mouth_box(frames)
+    mouth = mouth_points(marks.real)
+    assert mouth.shape == (len(frames), 20, 2)
+    inside = (
+        (mouth[..., 0] >= x)
+        & (mouth[..., 0] < x + w)
+        & (mouth[..., 1] >= y)
+        & (mouth[..., 1] < y + h)
+    )
+    assert inside.mean() > 0.95, inside.mean()
+    # the face box holds the whole face: the mouth in its lower third
+    bx, by, bw, bh = marks.box
+    centre = mouth.mean(axis=(0, 1))
+    assert bx < centre[0] < bx + bw and by + 0.6 * bh < centre[1] < by + bh
+    opening = lip_opening(marks.real)
+    assert opening[0] < 3 and opening.max() > 6  # closed at rest, open in the speech
+    assert (mouth_width(marks.real) > 20).all()
+
+
+def test_a_frame_is_at_no_distance_from_itself(s1_clip) -> None:
+    frames, marks = s1_clip
+    again = marks.of(frames[:10])
+    np.testing.assert_array_equal(again, marks.real[:10])  # the same box, the same points
+    assert (mouth_lmd(again, marks.real[:10]) == 0).all()
+    _, summary = landmark_scores(marks.real, marks.real, speech=slice(15, 60), max_lag=5)
+    assert summary["mouth_lmd"] == 0
+    assert summary["lip_opening_corr_speech"] == pytest.approx(1)
+    assert summary["lip_opening_amplitude_speech"] == pytest.approx(1)
+    assert summary["lip_opening_lag"] == 0
+
+
+def test_the_real_mouth_late_is_near_but_not_the_real_mouth(s1_clip) -> None:
+    frames, marks = s1_clip
+    np.testing.assert_array_equal(marks.late(2)[5:], marks.of(delayed(frames, 2))[5:])
+    scores = {
+        k: landmark_scores(marks.real, marks.late(k), speech=slice(15, 60), max_lag=5)[1]
+        for k in (1, 2)
+    }
+    for k, summary in scores.items():
+        assert summary["lip_opening_corr_speech"] < 1
+        assert summary["mouth_lmd"] > 0
+        assert summary["lip_opening_lag"] == k
+    assert scores[1]["mouth_lmd"] < scores[2]["mouth_lmd"]
+    assert scores[1]["lip_opening_corr_speech"] > scores[2]["lip_opening_corr_speech"]
+
+
+def _talking_points(n: int, seed: int = 0) -> np.ndarray:
+    """Landmarks whose inner lips open and close smoothly at random, straight up and down."""
+    rng = np.random.default_rng(seed)
+    points = np.tile(rng.uniform(100, 200, (1, 68, 2)), (n, 1, 1))
+    opening = np.convolve(rng.uniform(size=n + 8), np.ones(5) / 5, mode="same")[4:-4]
+    for upper, lower in ((61, 67), (62, 66), (63, 65)):
+        points[:, lower] = points[:, upper] + np.stack([0 * opening, 1 + 6 * opening], axis=1)
+    return points
+
+
+@pytest.mark.parametrize("k", [0, 1, 2, 3])
+def test_the_opening_of_a_mouth_k_frames_late_lags_by_k(k: int) -> None:
+    real = _talking_points(80)
+    _, summary = landmark_scores(real, delayed(real, k), speech=slice(10, 70), max_lag=5)
+    assert summary["lip_opening_lag"] == k
+    _, early = landmark_scores(delayed(real, k), real, speech=slice(10, 70), max_lag=5)
+    assert early["lip_opening_lag"] == -k
+
+
+def test_amplitude_and_width() -> None:
+    real = _talking_points(50)
+    half = real.copy()
+    half[:, 65:68] = (real[:, 61:64][:, ::-1] + real[:, 65:68]) / 2  # half as open
+    _, summary = landmark_scores(real, half, speech=slice(0, 50), max_lag=5)
+    assert summary["lip_opening_amplitude_speech"] == pytest.approx(0.5)
+    assert summary["lip_opening_corr_speech"] == pytest.approx(1)
+    assert summary["mouth_width_corr_speech"] == 0  # the width does not move in either
+    _, still = landmark_scores(
+        real, np.repeat(real[:1], 50, axis=0), speech=slice(0, 50), max_lag=5
+    )
+    assert np.isnan(still["lip_opening_lag"])  # a still face has no lag
+    assert still["lip_opening_amplitude_speech"] == 0
+    assert summary["mouth_lmd"] > 0
+    with pytest.raises(MiketalkError, match="68, 2"):
+        landmark_scores(real[:, :20], half[:, :20], speech=slice(0, 50), max_lag=5)
+
+
+def test_delayed() -> None:
+    values = np.arange(5)
+    np.testing.assert_array_equal(delayed(values, 2), [0, 0, 0, 1, 2])
+    np.testing.assert_array_equal(delayed(values, 0), values)
+    np.testing.assert_array_equal(delayed(values, 9), [0, 0, 0, 0, 0])
+    with pytest.raises(MiketalkError):
+        delayed(values, -1)
+
+
+def test_paired_differences_against_the_morph() -> None:
+    rows = []
+    for clip, base in (("a", 2.0), ("b", 3.0)):
+        rows += [
+            {"clip": clip, "renderer": "morph", "model": "m", "mouth_lmd": base},
+            {
+                "clip": clip,
+                "renderer": "still",
+                "model": "m",
+                "mouth_lmd": base + 1 + (clip == "b"),
+            },
+        ]
+    table = pd.DataFrame(rows)
+    paired = paired_differences(table, reference=("morph", "m"))
+    assert paired.loc[("still", "m"), "mouth_lmd_vs_morph_mean"] == pytest.approx(1.5)
+    assert paired.loc[("still", "m"), "mouth_lmd_vs_morph_sd"] == pytest.approx(np.sqrt(0.5))
+    assert paired.loc[("morph", "m"), "mouth_lmd_vs_morph_mean"] == 0
+    summary = summarize(table, reference=("morph", "m")).set_index("renderer")
+    assert summary.loc["still", "mouth_lmd_mean"] == pytest.approx(4.0)
+    assert summary.loc["still", "mouth_lmd_vs_morph_mean"] == pytest.approx(1.5)
+    assert "mouth_lmd_vs_morph_mean" not in summarize(table).columns
+    assert paired_differences(table, reference=("morph", "other")).empty
+    assert "lip_opening_corr_speech" in LANDMARK_MEASURES
+
+
+def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
+    from miketalk.bench.real_face import LANDMARK_FIGURES, landmark_figures
+
+    rows = []
+    for clip, lag in (("a", 0), ("b", 2)):
+        for renderer, model, lmd in (
+            ("morph", "own", 2.0),
+            ("learned", "own", 1.5),
+            ("still", "own", 3.0),
+            ("morph", "other", 9.0),
+        ):
+            rows.append(
+                {"clip": clip, "renderer": renderer, "model": model, "lip_opening_lag": lag}
+                | dict.fromkeys(LANDMARK_FIGURES, lmd + (clip == "b"))
+            )
+    figures = landmark_figures(pd.DataFrame(rows), "own")
+    assert figures["morph_mouth_lmd_mean"] == pytest.approx(2.5)
+    assert figures["learned_minus_morph_mouth_lmd_mean"] == pytest.approx(-0.5)
+    assert figures["learned_minus_morph_mouth_lmd_sd"] == pytest.approx(0)
+    assert figures["learned_lip_opening_lag_within_1_fraction"] == 0.5
+    assert not any(key.startswith("still_") for key in figures)
