@@ -25,7 +25,10 @@ Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
 the same timeline and so the same frames: the silence viseme held (a still
 face), the nearest viseme held (a flip-book, no morph), and a cross-dissolve
 with the morph's alpha; and, for a model that has learned its person's
-coarticulation (``coarticulation.json``), that model (``learned``).
+coarticulation (``coarticulation.json``), that model (``learned``), and for one
+with a trained face (``trained/``, :mod:`miketalk.talk.trained`) its frames
+drawn from the person's own along the trained trajectory (``trained``, and
+``trained_regularized`` with the other trajectory model).
 """
 
 from __future__ import annotations
@@ -41,6 +44,8 @@ from miketalk.evaluation.measures import lag_frames, mouth_opening, psnr, ssim
 from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
+from miketalk.talk.trained.build import DIRECTORY as TRAINED
+from miketalk.talk.trained.build import MANIFEST as TRAINED_MANIFEST
 from miketalk.visemes import SILENCE
 
 Box = tuple[int, int, int, int]
@@ -148,6 +153,20 @@ def render_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
     return render_model_learned(model, timeline)
 
 
+def render_trained(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The trained face (:mod:`miketalk.talk.trained`): his frames along its default trajectory."""
+    from miketalk.talk.trained.build import render_trained as render
+
+    return render(model, timeline)
+
+
+def render_trained_regularized(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The trained face with the MMM-style regularized trajectory (the other trajectory model)."""
+    from miketalk.talk.trained.build import render_trained as render
+
+    return render(model, timeline, kind="regularized")
+
+
 #: Renderers of a timeline, by the name the tables use.
 RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
     "still": render_still,
@@ -155,6 +174,8 @@ RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
     "dissolve": render_dissolve,
     "morph": render_morph,
     "learned": render_learned,
+    "trained": render_trained,
+    "trained_regularized": render_trained_regularized,
 }
 
 
@@ -326,6 +347,8 @@ def evaluate_clip(
         jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
         if (models[baselines_of].directory / COARTICULATION).exists():
             jobs.append(("learned", baselines_of))
+        if (models[baselines_of].directory / TRAINED / TRAINED_MANIFEST).exists():
+            jobs += [("trained", baselines_of), ("trained_regularized", baselines_of)]
     summaries, tables, renders = [], [], {}
     speech = speech_frames(heldout.timeline)
     for renderer, name in jobs:
@@ -352,11 +375,11 @@ def side_by_side(real: np.ndarray, *columns: np.ndarray, gain: float | None = 3.
 
 
 def video_columns(renders: dict[str, np.ndarray], default_model: str) -> list[str]:
-    """What the side-by-side videos show after the real clip: the paper's morph, and the
-    learned coarticulation when the model has it (else ``|real - morph| x 3``)."""
-    if f"learned:{default_model}" in renders:
-        return ["paper", "learned"]
-    return ["paper", "difference"]
+    """What the side-by-side videos show after the real clip: the paper's morph, then the
+    learned coarticulation and the trained face when the model has them (with neither,
+    ``|real - morph| x 3``)."""
+    extra = [name for name in ("learned", "trained") if f"{name}:{default_model}" in renders]
+    return ["paper", *extra] if extra else ["paper", "difference"]
 
 
 def summarize(table: pd.DataFrame) -> pd.DataFrame:
@@ -404,8 +427,8 @@ def heldout_stage(
     frames_csv, clips_csv, summary_csv : path
         Per-frame measures, per-clip summaries, and their mean and spread.
     videos_dir : path
-        One side-by-side mp4 per test clip, real | paper | learned (a model
-        without learned coarticulation: real | paper | difference x3), and its
+        One side-by-side mp4 per test clip, real | paper | learned | trained
+        (those the model has; with neither: real | paper | difference x3), and its
         timeline (``<clip>.json``: the aligned phones, the frames, and the
         names of the video's ``columns``).
 
@@ -441,20 +464,20 @@ def heldout_stage(
         summaries += rows
         frames.append(per_frame)
         synth = renders[f"morph:{default_model}"]
-        learned = renders.get(f"learned:{default_model}")
+        columns = video_columns(renders, default_model)
         write_text_atomic(
             videos / f"{clip.id}.json",
-            json.dumps(
-                heldout.timeline.to_dict()
-                | {"columns": ["real", *video_columns(renders, default_model)]},
-                indent=1,
-            ),
+            json.dumps(heldout.timeline.to_dict() | {"columns": ["real", *columns]}, indent=1),
         )
         write_mp4(
             videos / f"{clip.id}.mp4",
             side_by_side(heldout.real, synth)
-            if learned is None
-            else side_by_side(heldout.real, synth, learned, gain=None),
+            if columns[-1] == "difference"
+            else side_by_side(
+                heldout.real,
+                *(renders[f"{'morph' if c == 'paper' else c}:{default_model}"] for c in columns),
+                gain=None,
+            ),
             fps=heldout.fps,
             audio=heldout.samples,
             rate=heldout.rate,
