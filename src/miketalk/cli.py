@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 log = logging.getLogger("miketalk")
 
 _SAMPLINGS = ("blur", "paper", "none")
-_LIPSYNC_MODELS = ("paper", "learned")
+_LIPSYNC_MODELS = ("paper", "learned", "trained")
 _VOICES = ("kal", "ked", "slt")
 
 
@@ -254,13 +254,22 @@ def cmd_say(args: argparse.Namespace) -> int:
 
 
 def _check_lipsync_model(args: argparse.Namespace) -> None:
-    """``--lipsync-model learned`` needs a model with learned coarticulation: say so now."""
-    if args.lipsync_model != "learned":
+    """``--lipsync-model learned`` (``trained``) needs a model with learned coarticulation (a
+    trained face): say so now, in one line."""
+    if args.lipsync_model not in ("learned", "trained"):
         return
-    from miketalk.talk.coarticulation import read_params
     from miketalk.talk.say import default_model_dir
 
-    read_params(args.model if args.model is not None else default_model_dir())
+    directory = args.model if args.model is not None else default_model_dir()
+    if args.lipsync_model == "learned":
+        from miketalk.talk.coarticulation import read_params
+
+        read_params(directory)
+    else:
+        from miketalk.talk.trained.build import DIRECTORY, MANIFEST, read_trained
+
+        if not (Path(directory) / DIRECTORY / MANIFEST).is_file():
+            read_trained(directory)  # raises the one-line error
 
 
 def _since(started: float) -> float:
@@ -499,8 +508,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=_LIPSYNC_MODELS,
         default=defaults.LIPSYNC_MODEL,
         help="how the mouth moves: paper (each transition from one viseme to the next; "
-        f"default {defaults.LIPSYNC_MODEL}) or learned (the coarticulation a model built from "
-        "recorded clips has learned)",
+        f"default {defaults.LIPSYNC_MODEL}), learned (the coarticulation a model built from "
+        "recorded clips has learned) or trained (his own frames along a trajectory trained on "
+        "all of them)",
     )
     _voice_option(say)
     say.add_argument(

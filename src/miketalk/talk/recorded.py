@@ -171,8 +171,8 @@ def say_recorded(
     sampling : {"blur", "none"}
         ``"blur"`` renders more morphs than frames where the mouth moves fast;
         ``"paper"`` is refused (a recording cannot be lengthened).
-    lipsync_model : {"paper", "learned"}
-        The paper's transitions or the model's learned coarticulation (see
+    lipsync_model : {"paper", "learned", "trained"}
+        The paper's transitions, the model's learned coarticulation or its trained face (see
         :func:`miketalk.talk.say.speak`).
     table : VisemeTable, optional
         Phone -> viseme (default: the paper's).
@@ -188,7 +188,7 @@ def say_recorded(
         errors of :func:`align_recording`.
     """
     from miketalk.talk.output import check_output
-    from miketalk.talk.say import learned_coarticulation, write_utterance
+    from miketalk.talk.say import learned_coarticulation, trained_face, write_utterance
     from miketalk.talk.settings import check_settings
 
     if sampling == "paper":
@@ -201,6 +201,7 @@ def say_recorded(
         lipsync_model=lipsync_model,
     )  # fmt: skip
     coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
+    trained = trained_face(model) if lipsync_model == "trained" else None
     output = check_output(output, overwrite=overwrite)
     aligned = align_recording(audio, text=text, timings=timings)
     timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)
@@ -224,6 +225,7 @@ def say_recorded(
             "lipsync_model": lipsync_model,
         },
         coarticulation=coarticulation,
+        trained=trained,
         progress=progress,
         overwrite=overwrite,
     )

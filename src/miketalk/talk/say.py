@@ -38,6 +38,7 @@ if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
     from miketalk.talk.coarticulation import CoarticulationParams
+    from miketalk.talk.trained import TrainedFace
 
 log = logging.getLogger(__name__)
 
@@ -172,7 +173,7 @@ def speak(
         With ``sampling="paper"``: the speech may become at most this many
         times longer than the engine's own timing (what is then still too fast
         is blurred). None: no cap, as in the paper.
-    lipsync_model : {"paper", "learned"}
+    lipsync_model : {"paper", "learned", "trained"}
         How the mouth moves (:data:`miketalk.defaults.LIPSYNC_MODEL`):
         ``"paper"`` draws each frame on the transition from one viseme to the
         next; ``"learned"`` draws each frame's point between several visemes
@@ -180,7 +181,9 @@ def speak(
         (:func:`miketalk.talk.coarticulation.frame_weights`, drawn by
         :mod:`miketalk.multimorph`) at the frame's middle: ``sampling`` then
         sets only the speech's duration (blur's extra morphs are not drawn;
-        the learned path is smooth of itself).
+        the learned path is smooth of itself); ``"trained"`` draws each frame
+        from the person's own training frames along the trajectory trained on
+        them (:mod:`miketalk.talk.trained`), likewise at the frame's middle.
     backend : SpeechBackend, optional
         The engine for a ``str`` text (default Festival).
     table : VisemeTable, optional
@@ -211,6 +214,7 @@ def speak(
             max_slowdown=max_slowdown, lipsync_model=lipsync_model,
         )  # fmt: skip
         coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
+        trained = trained_face(model) if lipsync_model == "trained" else None
         output = check_output(output, overwrite=overwrite)
         if speech is None:
             speech = (backend or get_backend("festival")).start(str(text))
@@ -267,6 +271,7 @@ def speak(
             "planned_duration": planned_duration,
         },
         coarticulation=coarticulation,
+        trained=trained,
         progress=progress,
         overwrite=overwrite,
     )
@@ -288,6 +293,20 @@ def learned_coarticulation(model: Model) -> CoarticulationParams:
     return read_params(model.directory)
 
 
+def trained_face(model: Model) -> TrainedFace:
+    """The trained face fitted into ``model``'s directory (:mod:`miketalk.talk.trained`).
+
+    Raises
+    ------
+    MiketalkError
+        One line, when the model has none (a synthetic face, or a model built
+        before it was fitted): use the paper's lip-sync.
+    """
+    from miketalk.talk.trained import read_trained
+
+    return read_trained(model.directory)
+
+
 def write_utterance(
     output: Path,
     *,
@@ -298,6 +317,7 @@ def write_utterance(
     natural_duration: float,
     extra: dict,
     coarticulation: CoarticulationParams | None = None,
+    trained: TrainedFace | None = None,
     progress: bool = False,
     overwrite: bool = False,
 ) -> Motion:
@@ -314,6 +334,10 @@ def write_utterance(
         Draw the frames with this learned coarticulation
         (:func:`miketalk.multimorph.render_learned`) instead of the paper's
         transitions; the motion is then measured on its weights.
+    trained : TrainedFace, optional
+        Draw the frames from the person's own frames with this trained face
+        (:func:`miketalk.talk.trained.build.render_trained`); the motion is
+        measured on the paper's timeline.
 
     Returns
     -------
@@ -327,7 +351,11 @@ def write_utterance(
     started = time.perf_counter()
     jerk = JerkMeter()
     weights = None
-    if coarticulation is None:
+    if trained is not None:
+        from miketalk.talk.trained.build import render_trained
+
+        rendered = render_trained(model, timeline, trained=trained)
+    elif coarticulation is None:
         rendered = model.render(timeline)
     else:
         from miketalk.multimorph import render_learned
@@ -393,7 +421,7 @@ class Said:
     max_slowdown : float or None
         The paper mode's cap on lengthening.
     lipsync_model : str
-        ``"paper"`` or ``"learned"`` (``"paper"`` for a JSON from before it
+        ``"paper"``, ``"learned"`` or ``"trained"`` (``"paper"`` for a JSON from before it
         was recorded).
     """
 
