@@ -52,7 +52,7 @@ class SelectionSettings:
     """
 
     candidates: int = 40
-    join: float = 1.0
+    join: float = 0.3
     colour: float = 0.02
     continuation: int = 2
     fade: float = 1.0 / 3.0
