@@ -179,13 +179,13 @@ def fit_trained(
             "explained_variance": [float(v) for v in frames.variance],
             "window": window_report,
             "regularized": regularized_report,
-            "seconds_measuring": round(measured, 1),
         },
     }
     write_text_atomic(out / MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
     log.info(
-        "trained face: %d frames, window ridge %g (cv %.3f), regularized %g (cv %.3f), %.1f s",
-        len(frames.coords), window.ridge, window_report["cv_mse"][str(window.ridge)],
+        "trained face: %d frames (measured in %.1f s), window ridge %g (cv %.3f), "
+        "regularized %g (cv %.3f), %.1f s",
+        len(frames.coords), measured, window.ridge, window_report["cv_mse"][str(window.ridge)],
         regularized.smoothness, regularized_report["cv_mse"][str(regularized.smoothness)],
         time.perf_counter() - started,
     )  # fmt: skip
