@@ -90,9 +90,29 @@ class TrainedFace:
         times = np.array([f.time for f in timeline.frames], float)
         return self.trajectories[kind].predict(timeline.phones, times, self.table)
 
+    def amplified(self, target: np.ndarray, fit: Mapping[str, Any]) -> np.ndarray:
+        """``target`` with its deviation from the frames' mean scaled by each component's gain.
+
+        The gain is ``1 + amplitude (g_d - 1) min(1, R^2_d / gain_r2)``: ``g_d``
+        the component's amplitude gain (:func:`amplitude_gain`) and ``R^2_d``
+        how much of it the phones predict, so that what the phones cannot
+        predict is not amplified.
+        """
+        s = self.selection
+        g, r2 = np.asarray(fit["amplitude_gain"]), np.asarray(fit["cv_r2"])
+        gain = 1.0 + s.amplitude * (g - 1.0) * np.minimum(1.0, r2 / s.gain_r2)
+        mean = self.frames.coords.mean(axis=0)
+        return mean + gain * (target - mean)
+
     def plan(self, timeline: Timeline, *, kind: str | None = None) -> list:
         """Each frame's training frames and weights (:func:`~.selection.drawn`)."""
-        path = select(self.frames, self.trajectory(timeline, kind=kind), self.selection)
+        kind = kind or self.default
+        fit = self.report["fit"][kind]
+        weights = fit.get("cv_r2") if self.selection.weighted else None
+        target = self.trajectory(timeline, kind=kind)
+        if self.selection.amplitude > 0:
+            target = self.amplified(target, fit)
+        path = select(self.frames, target, self.selection, weights=weights)
         return drawn(self.frames, path, self.selection)
 
 
@@ -156,6 +176,8 @@ def fit_trained(
     context = Context(tuple(seen), tuple(table.visemes))
     window, window_report = fit_window(data, context, table)
     regularized, regularized_report = fit_regularized(data, context, table)
+    for model, report in ((window, window_report), (regularized, regularized_report)):
+        report["amplitude_gain"] = amplitude_gain(model, data, table)
     out = Path(model_dir) / DIRECTORY
     frames.save(out)
     arrays: dict[str, np.ndarray] = {}
@@ -190,6 +212,25 @@ def fit_trained(
         time.perf_counter() - started,
     )  # fmt: skip
     return doc
+
+
+def amplitude_gain(
+    model: WindowRegression | RegularizedTrajectory, data: TrainingSet, table: VisemeTable
+) -> list[float]:
+    """Per component, the real spread over the predicted one on the training clips (>= 1).
+
+    A least-squares prediction is shrunk towards the mean where the phones
+    leave the mouth uncertain; the selection, aiming at it, would then choose
+    frames that move less than he does. Scaling the predicted deviation from
+    the mean by this gain gives the target his own amplitude.
+    """
+    predicted = np.concatenate(
+        [model.predict(p, t, table) for p, t in zip(data.phones, data.times, strict=True)]
+    )
+    real = np.concatenate(data.coords)
+    spread = predicted.std(axis=0)
+    gain = real.std(axis=0) / np.where(spread > 0, spread, 1.0)
+    return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
 
 
 def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:

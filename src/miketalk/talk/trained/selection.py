@@ -4,24 +4,28 @@ Wang et al. (2010): given the predicted description ``y_t`` of every output
 frame, choose one training frame ``s_t`` for each by a Viterbi search
 minimizing
 
-.. math:: \\sum_t |c_{s_t} - y_t|^2 / \\bar v
+.. math:: \\sum_t \\sum_d r_d (c_{s_t d} - y_{t d})^2 / \\bar v
           + w_j \\sum_t J(s_{t-1}, s_t)
 
-where ``c`` are the training frames' descriptions and ``v`` the mean
-variance of their components (the target cost), and the join cost ``J`` is
+where ``c`` are the training frames' descriptions, ``v`` the mean variance
+of their components and ``r_d`` how much of component ``d`` the phones
+predict (its cross-validated R^2 at fitting; a component the phones cannot
+predict, such as what differs between recording sessions, does not steer the
+choice) (the target cost), and the join cost ``J`` is
 the visual distance between consecutive chosen frames (their descriptions and
 the mean colour of their borders), nothing when ``s_t`` follows ``s_{t-1}`` in
 the recording (the same frame or the next one or two of the same clip: the
 recording is 25 fps, the video may be faster). Each output frame considers
 its ``candidates`` nearest training frames.
 
-:func:`composite` draws frame ``s_t``'s colour patch onto the face with a
+:class:`Compositor` draws frame ``s_t``'s colour patch onto the face with a
 feathered mask (:func:`miketalk.talk.trained.mouths.feather_mask`), the patch
-first shifted to the face's light (the mean colour of its border band made the
-face's own). Where the selection jumps (``s_t`` does not follow ``s_{t-1}``),
-the two frames about the jump are cross-faded with the frames that continue
-each side (``s_{t-1} + 1`` and ``s_t - 1`` in the recording): a
-third of the way on each side, so that no frame changes all at once.
+first shifted to the face's light: the mean colour of the border band over the
+frame's clip (its recording session) made the face's own. Where the selection
+jumps (``s_t`` does not follow ``s_{t-1}``), the two frames about the jump are
+cross-faded with the frames that continue each side (``s_{t-1} + 1`` and
+``s_t - 1`` in the recording): a third of the way on each side, so that no
+frame changes all at once.
 """
 
 from __future__ import annotations
@@ -49,6 +53,13 @@ class SelectionSettings:
         A frame that follows the previous one by up to this many recording frames joins free.
     fade : float
         How far the frames about a jump are cross-faded towards each other's continuation.
+    weighted : bool
+        Weigh each component's target cost by how much of it the phones predict.
+    amplitude : float
+        How much of the trajectory's amplitude gain (real spread over predicted,
+        :func:`miketalk.talk.trained.build.amplitude_gain`) the target gets: 0 none, 1 all.
+    gain_r2 : float
+        A component whose cross-validated R^2 is under this gets that fraction of its gain.
     """
 
     candidates: int = 40
@@ -56,26 +67,36 @@ class SelectionSettings:
     colour: float = 0.02
     continuation: int = 2
     fade: float = 1.0 / 3.0
+    weighted: bool = False
+    amplitude: float = 1.0
+    gain_r2: float = 0.25
 
     def to_dict(self) -> dict:
         """JSON-ready form."""
         return dict(self.__dict__)
 
 
-def select(frames: MouthFrames, target: np.ndarray, settings: SelectionSettings) -> np.ndarray:
-    """The training frame chosen for each row of ``target`` ``(T, n)``: ``(T,)`` indices."""
+def select(
+    frames: MouthFrames,
+    target: np.ndarray,
+    settings: SelectionSettings,
+    *,
+    weights: np.ndarray | None = None,
+) -> np.ndarray:
+    """The training frame chosen for each row of ``target`` ``(T, n)``: ``(T,)`` indices.
+
+    ``weights`` (``(n,)``, default all 1) weigh the components in the target cost.
+    """
     coords = frames.coords
     n_train = len(coords)
     target = np.asarray(target, float)
     if len(target) == 0:
         return np.zeros(0, np.int64)
     norm = float(frames.variance.mean())
+    root = np.sqrt(np.ones(coords.shape[1]) if weights is None else np.asarray(weights, float))
+    tw, cw = target * root, coords * root
     # target cost of every training frame for every output frame: (T, N)
-    dist = (
-        (target**2).sum(axis=1)[:, None]
-        - 2.0 * target @ coords.T
-        + (coords**2).sum(axis=1)[None, :]
-    ) / norm
+    dist = ((tw**2).sum(axis=1)[:, None] - 2.0 * tw @ cw.T + (cw**2).sum(axis=1)[None, :]) / norm
     k = min(settings.candidates, n_train)
     cand = np.argpartition(dist, k - 1, axis=1)[:, :k]
     cand = np.sort(cand, axis=1)  # deterministic order whatever the partition did
@@ -161,14 +182,21 @@ class Compositor:
         under = self.face[y : y + h, x : x + w].astype(np.float32)
         self.face_border = under[band].mean(axis=0)
         self.under = under
+        # each clip's mean border colour: its session's light (a frame's own border
+        # moves with the jaw, and matching it would cancel the mouth's own shading)
+        count = np.bincount(frames.clip, minlength=len(frames.clip_ids)).astype(np.float64)
+        sums = np.stack(
+            [np.bincount(frames.clip, frames.border[:, c], len(frames.clip_ids)) for c in range(3)],
+            axis=1,
+        )
+        self.shift = (self.face_border - sums / np.maximum(count, 1.0)[:, None]).astype(np.float32)
 
     def patch(self, row) -> np.ndarray:
         """The blended, light-matched patch of one output frame (float32)."""
         total = np.zeros(self.under.shape, np.float32)
         for s, w in row:
             p = np.asarray(self.frames.patches[s], np.float32)
-            shift = self.face_border - self.frames.border[s]
-            total += np.float32(w) * (p + shift.astype(np.float32))
+            total += np.float32(w) * (p + self.shift[self.frames.clip[s]])
         return total
 
     def frame(self, row) -> np.ndarray:

@@ -256,13 +256,27 @@ def fit_window(
                 strength,
             )
             for i in valid:
-                err += float(((xs[i] @ w + b - data.coords[i]) ** 2).sum())
-                count += data.coords[i].size
+                err = err + ((xs[i] @ w + b - data.coords[i]) ** 2).sum(axis=0)
+                count += len(data.coords[i])
         errors[strength] = err / count
-    best = min(errors, key=lambda s: (errors[s], s))
+    best = min(errors, key=lambda s: (float(errors[s].mean()), s))
     w, b = ridge(np.concatenate(xs), np.concatenate(data.coords), best)
-    report = {"cv_mse": {str(k): v for k, v in errors.items()}, "ridge": best}
-    return WindowRegression(context, half, step, w, b, best), report
+    report = _report(errors, best, data)
+    return WindowRegression(context, half, step, w, b, best), report | {"ridge": best}
+
+
+def _report(errors: Mapping[float, np.ndarray], best: float, data: TrainingSet) -> dict:
+    """The cross-validation's mean squared error per setting and, at the best, R^2 per component.
+
+    The R^2 of a component (1 - its held-out squared error / its variance) says
+    how much of it the phones predict: the selection weighs its target cost by it.
+    """
+    var = np.concatenate(data.coords).var(axis=0)
+    r2 = np.clip(1.0 - errors[best] / var, 0.0, 1.0)
+    return {
+        "cv_mse": {str(k): float(v.mean()) for k, v in errors.items()},
+        "cv_r2": [round(float(v), 6) for v in r2],
+    }
 
 
 def fit_regularized(
@@ -294,11 +308,11 @@ def fit_regularized(
             model = fitted(train, smoothness)
             for i in valid:
                 pred = model.predict(data.phones[i], data.times[i], table)
-                err += float(((pred - data.coords[i]) ** 2).sum())
-                count += data.coords[i].size
+                err = err + ((pred - data.coords[i]) ** 2).sum(axis=0)
+                count += len(data.coords[i])
         errors[smoothness] = err / count
-    best = min(errors, key=lambda s: (errors[s], s))
-    report = {"cv_mse": {str(k): v for k, v in errors.items()}, "smoothness": best}
+    best = min(errors, key=lambda s: (float(errors[s].mean()), s))
+    report = _report(errors, best, data) | {"smoothness": best}
     return fitted(range(len(data.phones)), best), report
 
 
