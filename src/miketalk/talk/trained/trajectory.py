@@ -38,6 +38,9 @@ from miketalk.visemes import SILENCE, VisemeTable
 #: The trajectory models, the default first.
 TRAJECTORIES = ("window", "regularized")
 
+#: Edges (s) of the bins of the distance to the speech in a silence (:func:`pause_features`).
+PAUSE_BINS = (0.04, 0.08, 0.16, 0.24, 0.36, 0.5, 0.7, 1.0)
+
 #: Ridge strengths and smoothness weights tried by the cross-validation.
 RIDGE_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0)
 SMOOTHNESS_GRID = (1e-8, 3e-8, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5)
@@ -96,10 +99,13 @@ class WindowRegression:
     weights: np.ndarray  # (n_features, n)
     intercept: np.ndarray  # (n,)
     ridge: float
+    pauses: bool = True
 
     def features(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable):
         """``(len(times), (2 half + 1) (P + V))`` one-hot phone and viseme at each offset."""
-        return window_features(self.context, phones, times, table, half=self.half, step=self.step)
+        return window_features(
+            self.context, phones, times, table, half=self.half, step=self.step, pauses=self.pauses
+        )
 
     def predict(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
         """The description ``(len(times), n)`` along the phones."""
@@ -114,12 +120,14 @@ def window_features(
     *,
     half: int,
     step: float,
+    pauses: bool = True,
 ) -> np.ndarray:
-    """The one-hot phone context of :class:`WindowRegression` (float64)."""
+    """The one-hot phone context of :class:`WindowRegression` (float64), and with ``pauses``
+    the distances to the speech in a silence (:func:`pause_features`)."""
     times = np.asarray(times, float)
     n_p, n_v = len(context.phones), len(context.visemes)
     width = n_p + n_v
-    x = np.zeros((len(times), (2 * half + 1) * width))
+    x = np.zeros((len(times), (2 * half + 1) * width + (2 * len(PAUSE_BINS) + 2) * pauses))
     rows = np.arange(len(times))
     for j, k in enumerate(range(-half, half + 1)):
         pid, vid = context.labels(phones, times + k * step, table)
@@ -127,7 +135,34 @@ def window_features(
         x[rows[ok], j * width + pid[ok]] = 1.0
         ok = vid >= 0
         x[rows[ok], j * width + n_p + vid[ok]] = 1.0
+    if pauses:
+        x[:, (2 * half + 1) * width :] = pause_features(phones, times, table)
     return x
+
+
+def pause_features(phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
+    """In a silence: how long until the speech starts and since it ended, one-hot in bins.
+
+    Before a sentence the mouth takes its first posture well ahead of the
+    first phone, and after it relaxes slowly: farther than the window sees.
+    ``(len(times), 2 (len(PAUSE_BINS) + 1))``; zero in speech.
+    """
+    spoken = [p for p in phones if SILENCE not in table.visemes_of(p.name)]
+    n_bins = len(PAUSE_BINS) + 1
+    out = np.zeros((len(times), 2 * n_bins))
+    if not spoken:
+        return out
+    starts = np.array([p.start for p in spoken])
+    ends = np.array([p.end for p in spoken])
+    inside = ((times[:, None] >= starts[None, :]) & (times[:, None] < ends[None, :])).any(axis=1)
+    ahead = np.where(starts[None, :] >= times[:, None], starts[None, :] - times[:, None], np.inf)
+    behind = np.where(ends[None, :] <= times[:, None], times[:, None] - ends[None, :], np.inf)
+    rows = np.arange(len(times))
+    for column, gap in ((0, ahead.min(axis=1)), (n_bins, behind.min(axis=1))):
+        ok = ~inside & np.isfinite(gap)
+        bins = np.searchsorted(PAUSE_BINS, gap[ok])
+        out[rows[ok], column + bins] = 1.0
+    return out
 
 
 def ridge(x: np.ndarray, y: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
@@ -238,12 +273,13 @@ def fit_window(
     *,
     half: int = 6,
     step: float = 0.04,
+    pauses: bool = True,
     grid: Sequence[float] = RIDGE_GRID,
     folds: int = 5,
 ) -> tuple[WindowRegression, dict]:
     """Fit :class:`WindowRegression` (ridge strength by cross-validation); it and a report."""
     xs = [
-        window_features(context, p, t, table, half=half, step=step)
+        window_features(context, p, t, table, half=half, step=step, pauses=pauses)
         for p, t in zip(data.phones, data.times, strict=True)
     ]
     errors = {}
@@ -262,7 +298,7 @@ def fit_window(
     best = min(errors, key=lambda s: (float(errors[s].mean()), s))
     w, b = ridge(np.concatenate(xs), np.concatenate(data.coords), best)
     report = _report(errors, best, data)
-    return WindowRegression(context, half, step, w, b, best), report | {"ridge": best}
+    return WindowRegression(context, half, step, w, b, best, pauses), report | {"ridge": best}
 
 
 def _report(errors: Mapping[float, np.ndarray], best: float, data: TrainingSet) -> dict:
@@ -323,6 +359,7 @@ def to_arrays(model: WindowRegression | RegularizedTrajectory) -> tuple[dict, di
         arrays = {"weights": model.weights, "intercept": model.intercept}
         return arrays, base | {
             "kind": "window", "half": model.half, "step": model.step, "ridge": model.ridge,
+            "pauses": model.pauses,
         }  # fmt: skip
     arrays = {
         "phone_mean": model.phone_mean, "phone_var": model.phone_var,
@@ -340,7 +377,7 @@ def from_arrays(
     if kind == "window":
         return WindowRegression(
             context, int(settings["half"]), float(settings["step"]), arrays["weights"],
-            arrays["intercept"], float(settings["ridge"]),
+            arrays["intercept"], float(settings["ridge"]), bool(settings.get("pauses", False)),
         )  # fmt: skip
     if kind == "regularized":
         return RegularizedTrajectory(
