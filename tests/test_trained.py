@@ -17,7 +17,7 @@ from miketalk.talk.trained import fit_trained, read_trained
 from miketalk.talk.trained.build import render_trained
 from miketalk.talk.trained.mouths import MouthFrames, feather_mask
 from miketalk.talk.trained.selection import Compositor, SelectionSettings, select
-from miketalk.talk.trained.trajectory import ridge, smooth_targets
+from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
 from miketalk.visemes import default_table
 
 #: Mouth opening (pixels) of each phone of the synthetic speaker.
@@ -41,6 +41,20 @@ def test_smooth_targets_is_the_least_cost_trajectory() -> None:
     assert np.allclose(smooth_targets(mean, var, scale, 0.0, times), mean)
     smooth = smooth_targets(mean, var, scale, 1e-3, times)
     assert np.abs(np.diff(smooth, 2, axis=0)).max() < np.abs(np.diff(out, 2, axis=0)).max()
+
+
+def test_pause_features_say_how_far_the_speech_is_in_a_silence_only() -> None:
+    phones = (Phone("pau", 0.0, 0.5), Phone("m", 0.5, 0.6), Phone("aa", 0.6, 0.8),
+              Phone("pau", 0.8, 2.0))  # fmt: skip
+    times = np.array([0.0, 0.45, 0.55, 0.7, 0.85, 1.9])
+    x = pause_features(phones, times, default_table())
+    n_bins = len(PAUSE_BINS) + 1
+    assert x.shape == (6, 2 * n_bins)
+    assert (x[[2, 3]] == 0).all()  # in speech
+    assert x[0, np.searchsorted(PAUSE_BINS, 0.5)] == 1 and x[0, n_bins:].sum() == 0  # 0.5 s ahead
+    assert x[1, np.searchsorted(PAUSE_BINS, 0.05)] == 1
+    assert x[4, n_bins + np.searchsorted(PAUSE_BINS, 0.05)] == 1 and x[4, :n_bins].sum() == 0
+    assert x[5, n_bins + n_bins - 1] == 1  # more than 1 s after: the last bin
 
 
 def test_ridge_recovers_linear_weights() -> None:
