@@ -188,8 +188,9 @@ def say_recorded(
         errors of :func:`align_recording`.
     """
     from miketalk.talk.output import check_output
-    from miketalk.talk.say import learned_coarticulation, trained_face, write_utterance
+    from miketalk.talk.say import learned_coarticulation, write_utterance
     from miketalk.talk.settings import check_settings
+    from miketalk.talk.trained import read_trained
 
     if sampling == "paper":
         raise MiketalkError(
@@ -201,7 +202,7 @@ def say_recorded(
         lipsync_model=lipsync_model,
     )  # fmt: skip
     coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
-    trained = trained_face(model) if lipsync_model == "trained" else None
+    trained = read_trained(model.directory) if lipsync_model == "trained" else None
     output = check_output(output, overwrite=overwrite)
     aligned = align_recording(audio, text=text, timings=timings)
     timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)

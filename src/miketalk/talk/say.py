@@ -182,8 +182,7 @@ def speak(
         :mod:`miketalk.multimorph`) at the frame's middle: ``sampling`` then
         sets only the speech's duration (blur's extra morphs are not drawn;
         the learned path is smooth of itself); ``"trained"`` draws each frame
-        from the person's own training frames along the trajectory trained on
-        them (:mod:`miketalk.talk.trained`), likewise at the frame's middle.
+        from his own frames along a trained trajectory (:mod:`miketalk.talk.trained`).
     backend : SpeechBackend, optional
         The engine for a ``str`` text (default Festival).
     table : VisemeTable, optional
@@ -214,7 +213,11 @@ def speak(
             max_slowdown=max_slowdown, lipsync_model=lipsync_model,
         )  # fmt: skip
         coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
-        trained = trained_face(model) if lipsync_model == "trained" else None
+        trained = None
+        if lipsync_model == "trained":  # one line for a model without a trained face
+            from miketalk.talk.trained import read_trained
+
+            trained = read_trained(model.directory)
         output = check_output(output, overwrite=overwrite)
         if speech is None:
             speech = (backend or get_backend("festival")).start(str(text))
@@ -293,20 +296,6 @@ def learned_coarticulation(model: Model) -> CoarticulationParams:
     return read_params(model.directory)
 
 
-def trained_face(model: Model) -> TrainedFace:
-    """The trained face fitted into ``model``'s directory (:mod:`miketalk.talk.trained`).
-
-    Raises
-    ------
-    MiketalkError
-        One line, when the model has none (a synthetic face, or a model built
-        before it was fitted): use the paper's lip-sync.
-    """
-    from miketalk.talk.trained import read_trained
-
-    return read_trained(model.directory)
-
-
 def write_utterance(
     output: Path,
     *,
@@ -335,9 +324,8 @@ def write_utterance(
         (:func:`miketalk.multimorph.render_learned`) instead of the paper's
         transitions; the motion is then measured on its weights.
     trained : TrainedFace, optional
-        Draw the frames from the person's own frames with this trained face
-        (:func:`miketalk.talk.trained.build.render_trained`); the motion is
-        measured on the paper's timeline.
+        Draw the frames from the person's own with this trained face
+        (:func:`miketalk.talk.trained.build.render_trained`).
 
     Returns
     -------
