@@ -221,6 +221,9 @@ def test_learned_lipsync_needs_a_model_that_learned_it(
         proc = run("say", "Hello world.", "-o", "v.mp4", "--model", model, "--lipsync-model",
                    "learned", *extra, cwd=work, scratch=scratch)  # fmt: skip
         assert_user_error(proc, "no learned coarticulation", "lipsync model 'paper'")
+        proc = run("say", "Hello world.", "-o", "v.mp4", "--model", model, "--lipsync-model",
+                   "trained", *extra, cwd=work, scratch=scratch)  # fmt: skip
+        assert_user_error(proc, "no trained face", "lipsync model 'paper'")
     bad = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--lipsync-model", "dominance",
               cwd=work, scratch=scratch)  # fmt: skip
     assert_user_error(bad, "--lipsync-model")

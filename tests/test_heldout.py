@@ -70,6 +70,8 @@ def test_side_by_side_columns() -> None:
     assert (with_difference[:, :, 12:] == 30).all()
     assert video_columns({"morph:m": real, "learned:m": real}, "m") == ["paper", "learned"]
     assert video_columns({"morph:m": real}, "m") == ["paper", "difference"]
+    both = {"morph:m": real, "learned:m": real, "trained:m": real}
+    assert video_columns(both, "m") == ["paper", "learned", "trained"]
 
 
 def test_the_strip_puts_each_column_in_its_own_row(tmp_path: Path) -> None:

@@ -27,7 +27,8 @@ MAX_PX_PER_FRAME = 2.5
 
 #: How the mouth moves between visemes: ``"paper"`` (each transition from one
 #: viseme all the way to the next, paper §7) or ``"learned"`` (the model's
-#: fitted coarticulation, :mod:`miketalk.talk.coarticulation`).
+#: fitted coarticulation, :mod:`miketalk.talk.coarticulation`) or ``"trained"`` (the
+#: person's own frames along a trajectory trained on all of them, :mod:`miketalk.talk.trained`).
 LIPSYNC_MODEL = "paper"
 
 #: The face whose model ``miketalk say`` uses when none is given.

@@ -109,10 +109,13 @@ def model_flow(face):
 for _face in FACES:
     _method, _strategy = model_flow(_face)
     get_strategy(_strategy)
-    if lipsync_options(_face)["model"] == "learned" and _face not in CLIP_FACES:
+    if (
+        lipsync_options(_face)["model"] in ("learned", "trained")
+        and _face not in CLIP_FACES
+    ):
         raise ValueError(
-            f"faces.{_face}: lipsync model 'learned' needs a face built from clips "
-            "(its coarticulation is fitted to their aligned frames)"
+            f"faces.{_face}: lipsync model {lipsync_options(_face)['model']!r} needs a face "
+            "built from clips (it is fitted to their aligned frames)"
         )
     if _method not in config["flow"]["methods"]:
         raise ValueError(

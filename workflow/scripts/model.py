@@ -25,12 +25,13 @@ def main() -> None:
         settings={**spec["settings"], "strategy": snakemake.params.strategy},
         fallbacks=fallbacks_of(visemes),
     )
-    if phones := snakemake.input.get("phones"):  # a face from clips: learn its coarticulation
+    if phones := snakemake.input.get("phones"):  # a face from clips: learn from its frames
         from miketalk.talk.coarticulation import fit_coarticulation
+        from miketalk.talk.trained import fit_trained
 
-        fit_coarticulation(
-            Path(phones).parent, snakemake.output[0], grouping=snakemake.params.grouping
-        )
+        corpus = Path(phones).parent
+        fit_coarticulation(corpus, snakemake.output[0], grouping=snakemake.params.grouping)
+        fit_trained(corpus, snakemake.output[0], grouping=snakemake.params.grouping)
 
 
 run_stage(snakemake, main)

@@ -15,7 +15,7 @@ from miketalk.errors import MiketalkError
 _SAMPLINGS = ("blur", "paper", "none")
 
 
-_LIPSYNC_MODELS = ("paper", "learned")
+_LIPSYNC_MODELS = ("paper", "learned", "trained")
 
 
 _VOICES = ("kal", "ked", "slt")
@@ -178,8 +178,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=_LIPSYNC_MODELS,
         default=defaults.LIPSYNC_MODEL,
         help="how the mouth moves: paper (each transition from one viseme to the next; "
-        f"default {defaults.LIPSYNC_MODEL}) or learned (the coarticulation a model built from "
-        "recorded clips has learned)",
+        f"default {defaults.LIPSYNC_MODEL}), learned (the coarticulation a model built from "
+        "recorded clips has learned) or trained (his own frames along a trajectory trained on "
+        "all of them)",
     )
     _voice_option(say)
     say.add_argument(

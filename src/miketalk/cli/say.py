@@ -105,13 +105,22 @@ def cmd_say(args: argparse.Namespace) -> int:
 
 
 def _check_lipsync_model(args: argparse.Namespace) -> None:
-    """``--lipsync-model learned`` needs a model with learned coarticulation: say so now."""
-    if args.lipsync_model != "learned":
+    """``--lipsync-model learned`` (``trained``) needs a model with learned coarticulation (a
+    trained face): say so now, in one line."""
+    if args.lipsync_model not in ("learned", "trained"):
         return
-    from miketalk.talk.coarticulation import read_params
     from miketalk.talk.say import default_model_dir
 
-    read_params(args.model if args.model is not None else default_model_dir())
+    directory = args.model if args.model is not None else default_model_dir()
+    if args.lipsync_model == "learned":
+        from miketalk.talk.coarticulation import read_params
+
+        read_params(directory)
+    else:
+        from miketalk.talk.trained.build import DIRECTORY, MANIFEST, read_trained
+
+        if not (Path(directory) / DIRECTORY / MANIFEST).is_file():
+            read_trained(directory)  # raises the one-line error
 
 
 def _say_recorded(

@@ -27,14 +27,16 @@ Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
 the same timeline and so the same frames: the silence viseme held (a still
 face), the nearest viseme held (a flip-book, no morph), and a cross-dissolve
 with the morph's alpha; and, for a model that has learned its person's
-coarticulation (``coarticulation.json``), that model (``learned``). Calibration
-rows measure the real frames themselves 1 and 2 frames late (``real_late1``,
+coarticulation (``coarticulation.json``), that model (``learned``), and for one
+with a trained face (``trained/``, :mod:`miketalk.talk.trained`) its frames
+drawn from the person's own along the trained trajectory (``trained``, and
+``trained_regularized`` with the other trajectory model). Calibration rows
+measure the real frames themselves 1 and 2 frames late (``real_late1``,
 ``real_late2``; :data:`CALIBRATION_DELAYS`): what a small lag alone costs.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,68 +47,22 @@ from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores, 
 from miketalk.evaluation.landmarks import delayed
 from miketalk.evaluation.measures import correlation as _corr
 from miketalk.evaluation.measures import lag_frames, psnr, ssim
+from miketalk.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
 from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
+from miketalk.talk.trained.build import DIRECTORY as TRAINED
+from miketalk.talk.trained.build import MANIFEST as TRAINED_MANIFEST
 from miketalk.visemes import SILENCE
 
 #: Largest lag (frames) searched by the cross-correlation.
 MAX_LAG = 5
 
+
 #: The calibration rows: the real frames this many frames late (renderer ``real_late<k>``).
 CALIBRATION_DELAYS = (1, 2)
-
-
-def _pairs(model: Model, timeline: Timeline) -> Iterator[tuple[str, str, float]]:
-    for sample in timeline.frames:
-        t = timeline.transitions[sample.transition]
-        yield t.source, t.target, sample.alpha
-
-
-def render_still(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """The silence viseme held: a face that does not speak."""
-    image = model.image(SILENCE)
-    for _ in timeline.frames:
-        yield image
-
-
-def render_flipbook(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """The nearest viseme held, no morph: ``alpha < 0.5`` shows the source, else the target."""
-    for a, b, alpha in _pairs(model, timeline):
-        yield model.image(a if alpha < 0.5 else b)
-
-
-def render_dissolve(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """A cross-dissolve with the morph's alpha: ``(1 - alpha) A + alpha B``, no flow."""
-    for a, b, alpha in _pairs(model, timeline):
-        blend = (1.0 - alpha) * model.image(a).astype(np.float32) + alpha * model.image(b).astype(
-            np.float32
-        )
-        yield np.clip(blend + 0.5, 0, 255).astype(np.uint8)
-
-
-def render_morph(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """The paper's morph (what ``miketalk say`` renders)."""
-    return model.render(timeline)
-
-
-def render_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """Learned coarticulation (:mod:`miketalk.talk.coarticulation`) drawn by the N-way morph."""
-    from miketalk.talk.learned import render_model_learned
-
-    return render_model_learned(model, timeline)
-
-
-#: Renderers of a timeline, by the name the tables use.
-RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
-    "still": render_still,
-    "flipbook": render_flipbook,
-    "dissolve": render_dissolve,
-    "morph": render_morph,
-    "learned": render_learned,
-}
 
 
 @dataclass(frozen=True)
@@ -273,6 +229,8 @@ def evaluate_clip(
         jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
         if (models[baselines_of].directory / COARTICULATION).exists():
             jobs.append(("learned", baselines_of))
+        if (models[baselines_of].directory / TRAINED / TRAINED_MANIFEST).exists():
+            jobs += [("trained", baselines_of), ("trained_regularized", baselines_of)]
         jobs += [(f"real_late{k}", baselines_of) for k in CALIBRATION_DELAYS]
     summaries, tables, renders = [], [], {}
     speech = speech_frames(heldout.timeline)
@@ -311,11 +269,11 @@ def side_by_side(real: np.ndarray, *columns: np.ndarray, gain: float | None = 3.
 
 
 def video_columns(renders: dict[str, np.ndarray], default_model: str) -> list[str]:
-    """What the side-by-side videos show after the real clip: the paper's morph, and the
-    learned coarticulation when the model has it (else ``|real - morph| x 3``)."""
-    if f"learned:{default_model}" in renders:
-        return ["paper", "learned"]
-    return ["paper", "difference"]
+    """What the side-by-side videos show after the real clip: the paper's morph, then the
+    learned coarticulation and the trained face when the model has them (with neither,
+    ``|real - morph| x 3``)."""
+    extra = [name for name in ("learned", "trained") if f"{name}:{default_model}" in renders]
+    return ["paper", *extra] if extra else ["paper", "difference"]
 
 
 def summarize(table: pd.DataFrame, *, reference: tuple[str, str] | None = None) -> pd.DataFrame:
@@ -370,8 +328,8 @@ def heldout_stage(
     frames_csv, clips_csv, summary_csv : path
         Per-frame measures, per-clip summaries, and their mean and spread.
     videos_dir : path
-        One side-by-side mp4 per test clip, real | paper | learned (a model
-        without learned coarticulation: real | paper | difference x3), and its
+        One side-by-side mp4 per test clip, real | paper | learned | trained
+        (those the model has; with neither: real | paper | difference x3), and its
         timeline (``<clip>.json``: the aligned phones, the frames, and the
         names of the video's ``columns``).
 
@@ -415,20 +373,20 @@ def heldout_stage(
         summaries += rows
         frames.append(per_frame)
         synth = renders[f"morph:{default_model}"]
-        learned = renders.get(f"learned:{default_model}")
+        columns = video_columns(renders, default_model)
         write_text_atomic(
             videos / f"{clip.id}.json",
-            json.dumps(
-                heldout.timeline.to_dict()
-                | {"columns": ["real", *video_columns(renders, default_model)]},
-                indent=1,
-            ),
+            json.dumps(heldout.timeline.to_dict() | {"columns": ["real", *columns]}, indent=1),
         )
         write_mp4(
             videos / f"{clip.id}.mp4",
             side_by_side(heldout.real, synth)
-            if learned is None
-            else side_by_side(heldout.real, synth, learned, gain=None),
+            if columns[-1] == "difference"
+            else side_by_side(
+                heldout.real,
+                *(renders[f"{'morph' if c == 'paper' else c}:{default_model}"] for c in columns),
+                gain=None,
+            ),
             fps=heldout.fps,
             audio=heldout.samples,
             rate=heldout.rate,

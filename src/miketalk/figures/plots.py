@@ -330,6 +330,7 @@ def heldout_trajectory(
     curves = (
         ("morph", "-", "paper (morph)"),
         ("learned", "-", "learned"),
+        ("trained", "-", "trained"),
         ("dissolve", ":", "dissolve"),
         ("flipbook", "--", "flip-book"),
     )

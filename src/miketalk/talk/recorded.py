@@ -172,8 +172,8 @@ def say_recorded(
     sampling : {"blur", "none"}
         ``"blur"`` renders more morphs than frames where the mouth moves fast;
         ``"paper"`` is refused (a recording cannot be lengthened).
-    lipsync_model : {"paper", "learned"}
-        The paper's transitions or the model's learned coarticulation (see
+    lipsync_model : {"paper", "learned", "trained"}
+        The paper's transitions, the model's learned coarticulation or its trained face (see
         :func:`miketalk.talk.say.speak`).
     table : VisemeTable, optional
         Phone -> viseme (default: the paper's).
@@ -191,6 +191,7 @@ def say_recorded(
     from miketalk.talk.output import check_output
     from miketalk.talk.say import learned_coarticulation
     from miketalk.talk.settings import check_settings
+    from miketalk.talk.trained import read_trained
     from miketalk.talk.utterance import write_utterance
 
     if sampling == "paper":
@@ -203,6 +204,7 @@ def say_recorded(
         lipsync_model=lipsync_model,
     )  # fmt: skip
     coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
+    trained = read_trained(model.directory) if lipsync_model == "trained" else None
     output = check_output(output, overwrite=overwrite)
     aligned = align_recording(audio, text=text, timings=timings)
     timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)
@@ -226,6 +228,7 @@ def say_recorded(
             "lipsync_model": lipsync_model,
         },
         coarticulation=coarticulation,
+        trained=trained,
         progress=progress,
         overwrite=overwrite,
     )

@@ -147,7 +147,7 @@ def speak(
         With ``sampling="paper"``: the speech may become at most this many
         times longer than the engine's own timing (what is then still too fast
         is blurred). None: no cap, as in the paper.
-    lipsync_model : {"paper", "learned"}
+    lipsync_model : {"paper", "learned", "trained"}
         How the mouth moves (:data:`miketalk.defaults.LIPSYNC_MODEL`):
         ``"paper"`` draws each frame on the transition from one viseme to the
         next; ``"learned"`` draws each frame's point between several visemes
@@ -155,7 +155,8 @@ def speak(
         (:func:`miketalk.talk.coarticulation.frame_weights`, drawn by
         :mod:`miketalk.render.multimorph`) at the frame's middle: ``sampling`` then
         sets only the speech's duration (blur's extra morphs are not drawn;
-        the learned path is smooth of itself).
+        the learned path is smooth of itself); ``"trained"`` draws each frame
+        from his own frames along a trained trajectory (:mod:`miketalk.talk.trained`).
     backend : SpeechBackend, optional
         The engine for a ``str`` text (default Festival).
     table : VisemeTable, optional
@@ -186,6 +187,11 @@ def speak(
             max_slowdown=max_slowdown, lipsync_model=lipsync_model,
         )  # fmt: skip
         coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
+        trained = None
+        if lipsync_model == "trained":  # one line for a model without a trained face
+            from miketalk.talk.trained import read_trained
+
+            trained = read_trained(model.directory)
         output = check_output(output, overwrite=overwrite)
         if speech is None:
             speech = (backend or get_backend("festival")).start(str(text))
@@ -242,6 +248,7 @@ def speak(
             "planned_duration": planned_duration,
         },
         coarticulation=coarticulation,
+        trained=trained,
         progress=progress,
         overwrite=overwrite,
     )

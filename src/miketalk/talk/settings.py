@@ -18,7 +18,7 @@ Sampling = Literal["blur", "paper", "none"]
 SAMPLINGS: tuple[str, ...] = get_args(Sampling)
 
 #: How the mouth moves between visemes (:data:`miketalk.defaults.LIPSYNC_MODEL`).
-LipsyncModel = Literal["paper", "learned"]
+LipsyncModel = Literal["paper", "learned", "trained"]
 LIPSYNC_MODELS: tuple[str, ...] = get_args(LipsyncModel)
 
 #: The frame rates ``say`` accepts, frames per second (inclusive).

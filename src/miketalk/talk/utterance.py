@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
     from miketalk.talk.coarticulation import CoarticulationParams
+    from miketalk.talk.trained import TrainedFace
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +63,7 @@ def write_utterance(
     natural_duration: float,
     extra: dict,
     coarticulation: CoarticulationParams | None = None,
+    trained: TrainedFace | None = None,
     progress: bool = False,
     overwrite: bool = False,
 ) -> Motion:
@@ -78,6 +80,9 @@ def write_utterance(
         Draw the frames with this learned coarticulation
         (:func:`miketalk.talk.learned.render_learned`) instead of the paper's
         transitions; the motion is then measured on its weights.
+    trained : TrainedFace, optional
+        Draw the frames from the person's own with this trained face
+        (:func:`miketalk.talk.trained.build.render_trained`).
 
     Returns
     -------
@@ -91,7 +96,11 @@ def write_utterance(
     started = time.perf_counter()
     jerk = JerkMeter()
     weights = None
-    if coarticulation is None:
+    if trained is not None:
+        from miketalk.talk.trained.build import render_trained
+
+        rendered = render_trained(model, timeline, trained=trained)
+    elif coarticulation is None:
         rendered = model.render(timeline)
     else:
         from miketalk.talk.coarticulation import frame_weights
@@ -157,7 +166,7 @@ class Said:
     max_slowdown : float or None
         The paper mode's cap on lengthening.
     lipsync_model : str
-        ``"paper"`` or ``"learned"`` (``"paper"`` for a JSON from before it
+        ``"paper"``, ``"learned"`` or ``"trained"`` (``"paper"`` for a JSON from before it
         was recorded).
     """
 

@@ -1,0 +1,82 @@
+"""What the held-out evaluation renders: each ``(model, timeline) -> frames``, baselines too.
+
+The paper's morph, the still face (the silence viseme held), the flip-book (the
+nearest viseme held), the cross-dissolve with the morph's alpha, and the models a
+face has learned (``learned``, ``trained``, ``trained_regularized``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import numpy as np
+
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.model import Model
+from miketalk.visemes import SILENCE
+
+
+def _pairs(model: Model, timeline: Timeline) -> Iterator[tuple[str, str, float]]:
+    for sample in timeline.frames:
+        t = timeline.transitions[sample.transition]
+        yield t.source, t.target, sample.alpha
+
+
+def render_still(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The silence viseme held: a face that does not speak."""
+    image = model.image(SILENCE)
+    for _ in timeline.frames:
+        yield image
+
+
+def render_flipbook(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The nearest viseme held, no morph: ``alpha < 0.5`` shows the source, else the target."""
+    for a, b, alpha in _pairs(model, timeline):
+        yield model.image(a if alpha < 0.5 else b)
+
+
+def render_dissolve(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """A cross-dissolve with the morph's alpha: ``(1 - alpha) A + alpha B``, no flow."""
+    for a, b, alpha in _pairs(model, timeline):
+        blend = (1.0 - alpha) * model.image(a).astype(np.float32) + alpha * model.image(b).astype(
+            np.float32
+        )
+        yield np.clip(blend + 0.5, 0, 255).astype(np.uint8)
+
+
+def render_morph(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The paper's morph (what ``miketalk say`` renders)."""
+    return model.render(timeline)
+
+
+def render_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """Learned coarticulation (:mod:`miketalk.talk.coarticulation`) drawn by the N-way morph."""
+    from miketalk.talk.learned import render_model_learned
+
+    return render_model_learned(model, timeline)
+
+
+def render_trained(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The trained face (:mod:`miketalk.talk.trained`): his frames along its default trajectory."""
+    from miketalk.talk.trained.build import render_trained as render
+
+    return render(model, timeline)
+
+
+def render_trained_regularized(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The trained face with the MMM-style regularized trajectory (the other trajectory model)."""
+    from miketalk.talk.trained.build import render_trained as render
+
+    return render(model, timeline, kind="regularized")
+
+
+#: Renderers of a timeline, by the name the tables use.
+RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
+    "still": render_still,
+    "flipbook": render_flipbook,
+    "dissolve": render_dissolve,
+    "morph": render_morph,
+    "learned": render_learned,
+    "trained": render_trained,
+    "trained_regularized": render_trained_regularized,
+}

@@ -1,0 +1,294 @@
+"""The trained face in a model directory: fitted by the workflow, read by ``say``.
+
+``<model>/trained/`` holds
+
+``patches.npy``, ``description.npz``, ``frames.json``
+    every training frame's description and patch (:mod:`~miketalk.talk.trained.mouths`);
+``trajectory.npz``
+    both trajectory models' arrays, their keys prefixed ``window.`` and ``regularized.``;
+``trained.json``
+    ``format``, the default trajectory model, each model's settings and its
+    cross-validation report, the selection settings.
+
+:func:`fit_trained` writes it (``trained.json`` last: without it the face has
+no trained model); :func:`read_trained` reads it back, refusing in one line a
+model that lacks it; :func:`render_trained` draws a timeline with it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
+from miketalk.talk.trained.selection import Compositor, SelectionSettings, drawn, select
+from miketalk.talk.trained.trajectory import (
+    TRAJECTORIES,
+    Context,
+    RegularizedTrajectory,
+    TrainingSet,
+    WindowRegression,
+    fit_regularized,
+    fit_window,
+    from_arrays,
+    to_arrays,
+)
+from miketalk.visemes import SILENCE, VisemeTable
+
+log = logging.getLogger(__name__)
+
+#: The trained face's folder in a model directory, and its description file.
+DIRECTORY, MANIFEST = "trained", "trained.json"
+
+#: Format tag of :data:`MANIFEST`.
+FORMAT = "miketalk-trained/1"
+
+
+@dataclass(frozen=True)
+class TrainedFace:
+    """A trained face read from a model directory.
+
+    Attributes
+    ----------
+    frames : MouthFrames
+        Every training frame.
+    trajectories : dict
+        ``name -> model`` (:data:`~miketalk.talk.trained.trajectory.TRAJECTORIES`).
+    default : str
+        The trajectory model used unless another is asked for.
+    selection : SelectionSettings
+    table : VisemeTable
+        The phone-to-viseme table it was fitted with.
+    report : dict
+        How it was fitted (``trained.json``).
+    """
+
+    frames: MouthFrames
+    trajectories: dict[str, WindowRegression | RegularizedTrajectory]
+    default: str
+    selection: SelectionSettings
+    table: VisemeTable
+    report: dict
+
+    def trajectory(self, timeline: Timeline, *, kind: str | None = None) -> np.ndarray:
+        """The predicted description at each frame's time, ``(n_frames, n)``."""
+        kind = kind or self.default
+        if kind not in self.trajectories:
+            raise MiketalkError(
+                f"unknown trajectory model {kind!r} (known: {', '.join(self.trajectories)})"
+            )
+        times = np.array([f.time for f in timeline.frames], float)
+        return self.trajectories[kind].predict(timeline.phones, times, self.table)
+
+    def amplified(self, target: np.ndarray, fit: Mapping[str, Any]) -> np.ndarray:
+        """``target`` with its deviation from the frames' mean scaled by each component's gain.
+
+        The gain is ``1 + amplitude (g_d - 1) min(1, R^2_d / gain_r2)``: ``g_d``
+        the component's amplitude gain (:func:`amplitude_gain`) and ``R^2_d``
+        how much of it the phones predict, so that what the phones cannot
+        predict is not amplified.
+        """
+        s = self.selection
+        g, r2 = np.asarray(fit["amplitude_gain"]), np.asarray(fit["cv_r2"])
+        gain = 1.0 + s.amplitude * (g - 1.0) * np.minimum(1.0, r2 / s.gain_r2)
+        mean = self.frames.coords.mean(axis=0)
+        return mean + gain * (target - mean)
+
+    def plan(self, timeline: Timeline, *, kind: str | None = None) -> list:
+        """Each frame's training frames and weights (:func:`~.selection.drawn`)."""
+        kind = kind or self.default
+        fit = self.report["fit"][kind]
+        weights = fit.get("cv_r2") if self.selection.weighted else None
+        target = self.trajectory(timeline, kind=kind)
+        if self.selection.amplitude > 0:
+            target = self.amplified(target, fit)
+        path = select(self.frames, target, self.selection, weights=weights)
+        return drawn(self.frames, path, self.selection)
+
+
+def fit_trained(
+    corpus_dir: str | os.PathLike[str],
+    model_dir: str | os.PathLike[str],
+    *,
+    grouping: Mapping[str, str] | None = None,
+    default: str = TRAJECTORIES[0],
+    components: int = 16,
+    selection: SelectionSettings | None = None,
+) -> dict:
+    """Measure every training frame, fit both trajectory models, write ``<model>/trained/``.
+
+    Parameters
+    ----------
+    corpus_dir : path
+        The face's corpus folder (training clips only).
+    model_dir : path
+        The face's model directory.
+    grouping : dict, optional
+        Viseme grouping overrides (the configuration's ``visemes.grouping``).
+    default : str
+        The trajectory model ``say`` uses (``window`` or ``regularized``).
+    components : int
+        Principal components of the description.
+    selection : SelectionSettings, optional
+
+    Returns
+    -------
+    dict
+        What ``trained.json`` holds.
+    """
+    import pandas as pd
+
+    from miketalk.media.atomic import atomic_path, write_text_atomic
+    from miketalk.speech.types import Phone
+
+    if default not in TRAJECTORIES:
+        raise MiketalkError(f"trajectory model must be one of {', '.join(TRAJECTORIES)}")
+    started = time.perf_counter()
+    table = VisemeTable(grouping=grouping)
+    selection = selection or SelectionSettings()
+    frames = measure_frames(corpus_dir, components=components)
+    measured = time.perf_counter() - started
+    phones_table = pd.read_csv(Path(corpus_dir) / "phones.tsv", sep="\t", dtype={"clip": str})
+    phones, times, coords = [], [], []
+    for c, clip_id in enumerate(frames.clip_ids):
+        own = phones_table[phones_table["clip"] == clip_id].sort_values("index")
+        phones.append(
+            tuple(
+                Phone(str(p.phone), float(p.clip_start), float(p.clip_end))
+                for p in own.itertuples()
+            )
+        )
+        rows = np.flatnonzero(frames.clip == c)
+        times.append(frames.clip_frame[rows] / frames.fps)
+        coords.append(frames.coords[rows])
+    data = TrainingSet(tuple(phones), tuple(times), tuple(coords))
+    seen = sorted({p.name for clip in phones for p in clip} | {"pau"})
+    context = Context(tuple(seen), tuple(table.visemes))
+    window, window_report = fit_window(data, context, table)
+    regularized, regularized_report = fit_regularized(data, context, table)
+    for model, report in ((window, window_report), (regularized, regularized_report)):
+        report["amplitude_gain"] = amplitude_gain(model, data, table)
+    out = Path(model_dir) / DIRECTORY
+    frames.save(out)
+    arrays: dict[str, np.ndarray] = {}
+    settings: dict[str, Any] = {}
+    for name, model in (("window", window), ("regularized", regularized)):
+        a, s = to_arrays(model)
+        arrays |= {f"{name}.{k}": v for k, v in a.items()}
+        settings[name] = s
+    with atomic_path(out / "trajectory.npz") as tmp, open(tmp, "wb") as f:
+        np.savez(f, **arrays)
+    doc = {
+        "format": FORMAT,
+        "default": default,
+        "trajectories": settings,
+        "selection": selection.to_dict(),
+        "grouping": dict(grouping or {}),
+        "fit": {
+            "frames": len(frames.coords),
+            "clips": len(frames.clip_ids),
+            "components": components,
+            "explained_variance": [float(v) for v in frames.variance],
+            "window": window_report,
+            "regularized": regularized_report,
+        },
+    }
+    write_text_atomic(out / MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
+    log.info(
+        "trained face: %d frames (measured in %.1f s), window ridge %g (cv %.3f), "
+        "regularized %g (cv %.3f), %.1f s",
+        len(frames.coords), measured, window.ridge, window_report["cv_mse"][str(window.ridge)],
+        regularized.smoothness, regularized_report["cv_mse"][str(regularized.smoothness)],
+        time.perf_counter() - started,
+    )  # fmt: skip
+    return doc
+
+
+def amplitude_gain(
+    model: WindowRegression | RegularizedTrajectory, data: TrainingSet, table: VisemeTable
+) -> list[float]:
+    """Per component, the real spread over the predicted one on the training clips (>= 1).
+
+    A least-squares prediction is shrunk towards the mean where the phones
+    leave the mouth uncertain; the selection, aiming at it, would then choose
+    frames that move less than he does. Scaling the predicted deviation from
+    the mean by this gain gives the target his own amplitude.
+    """
+    predicted = np.concatenate(
+        [model.predict(p, t, table) for p, t in zip(data.phones, data.times, strict=True)]
+    )
+    real = np.concatenate(data.coords)
+    spread = predicted.std(axis=0)
+    gain = real.std(axis=0) / np.where(spread > 0, spread, 1.0)
+    return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
+
+
+def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
+    """The trained face :func:`fit_trained` wrote into a model directory.
+
+    Raises
+    ------
+    MiketalkError
+        In one line, when the model has none (a synthetic face, or a model
+        built before it was fitted), or it is malformed.
+    """
+    d = Path(model_dir) / DIRECTORY
+    if not (d / MANIFEST).is_file():
+        raise MiketalkError(
+            f"the model at {model_dir} has no trained face ({DIRECTORY}/{MANIFEST}): the "
+            "workflow fits one into a model built from recorded clips (e.g. results/model/s1); "
+            "or use lipsync model 'paper'"
+        )
+    try:
+        doc = json.loads((d / MANIFEST).read_text(encoding="utf-8"))
+        if doc.get("format") != FORMAT:
+            raise MiketalkError(f"{d / MANIFEST} is not {FORMAT} (format {doc.get('format')!r})")
+        with np.load(d / "trajectory.npz", allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        trajectories = {
+            name: from_arrays(
+                {
+                    k.removeprefix(f"{name}."): v
+                    for k, v in arrays.items()
+                    if k.startswith(f"{name}.")
+                },
+                doc["trajectories"][name],
+            )
+            for name in TRAJECTORIES
+        }
+        selection = SelectionSettings(**doc["selection"])
+        table = VisemeTable(grouping=doc.get("grouping") or None)
+        default = str(doc["default"])
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise MiketalkError(f"cannot read the trained face in {d}: {err!r}") from None
+    return TrainedFace(load_frames(d), trajectories, default, selection, table, doc)
+
+
+def render_trained(
+    model: Any, timeline: Timeline, *, trained: TrainedFace | None = None, kind: str | None = None
+) -> Iterator[np.ndarray]:
+    """The frames of ``timeline`` drawn from the person's own frames.
+
+    Each frame's time (its middle sample; a motion-blurred frame's samples
+    are not used) gets the trajectory's prediction; the selection chooses the
+    training frames and they are composited onto the model's silence image.
+    The ``(model, timeline)`` signature of the held-out evaluation's renderers.
+    """
+    trained = trained or read_trained(model.directory)
+    rows = trained.plan(timeline, kind=kind)
+    compositor = Compositor(trained.frames, model.image(SILENCE))
+    for row in rows:
+        yield compositor.frame(row)
+
+
+__all__ = ["DIRECTORY", "FORMAT", "TrainedFace", "fit_trained", "read_trained", "render_trained"]

@@ -1,0 +1,208 @@
+"""Trajectory-guided selection: the person's own frames along a predicted trajectory.
+
+Wang et al. (2010): given the predicted description ``y_t`` of every output
+frame, choose one training frame ``s_t`` for each by a Viterbi search
+minimizing
+
+.. math:: \\sum_t \\sum_d r_d (c_{s_t d} - y_{t d})^2 / \\bar v
+          + w_j \\sum_t J(s_{t-1}, s_t)
+
+where ``c`` are the training frames' descriptions, ``v`` the mean variance
+of their components and ``r_d`` how much of component ``d`` the phones
+predict (its cross-validated R^2 at fitting; a component the phones cannot
+predict, such as what differs between recording sessions, does not steer the
+choice) (the target cost), and the join cost ``J`` is
+the visual distance between consecutive chosen frames (their descriptions and
+the mean colour of their borders), nothing when ``s_t`` follows ``s_{t-1}`` in
+the recording (the same frame or the next one or two of the same clip: the
+recording is 25 fps, the video may be faster). Each output frame considers
+its ``candidates`` nearest training frames.
+
+:class:`Compositor` draws frame ``s_t``'s colour patch onto the face with a
+feathered mask (:func:`miketalk.talk.trained.mouths.feather_mask`), the patch
+first shifted to the face's light: the mean colour of the border band over the
+frame's clip (its recording session) made the face's own. Where the selection
+jumps (``s_t`` does not follow ``s_{t-1}``), the two frames about the jump are
+cross-faded with the frames that continue each side (``s_{t-1} + 1`` and
+``s_t - 1`` in the recording): a third of the way on each side, so that no
+frame changes all at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from miketalk.talk.trained.mouths import MouthFrames, feather_mask
+
+
+@dataclass(frozen=True)
+class SelectionSettings:
+    """The selection's weights (see the module docstring).
+
+    Attributes
+    ----------
+    candidates : int
+        Training frames considered per output frame.
+    join : float
+        Weight of the join cost against the target cost.
+    colour : float
+        Weight of the border colour difference (per grey level squared) in the join cost.
+    continuation : int
+        A frame that follows the previous one by up to this many recording frames joins free.
+    fade : float
+        How far the frames about a jump are cross-faded towards each other's continuation.
+    weighted : bool
+        Weigh each component's target cost by how much of it the phones predict.
+    amplitude : float
+        How much of the trajectory's amplitude gain (real spread over predicted,
+        :func:`miketalk.talk.trained.build.amplitude_gain`) the target gets: 0 none, 1 all.
+    gain_r2 : float
+        A component whose cross-validated R^2 is under this gets that fraction of its gain.
+    """
+
+    candidates: int = 40
+    join: float = 0.3
+    colour: float = 0.02
+    continuation: int = 2
+    fade: float = 1.0 / 3.0
+    weighted: bool = False
+    amplitude: float = 1.0
+    gain_r2: float = 0.25
+
+    def to_dict(self) -> dict:
+        """JSON-ready form."""
+        return dict(self.__dict__)
+
+
+def select(
+    frames: MouthFrames,
+    target: np.ndarray,
+    settings: SelectionSettings,
+    *,
+    weights: np.ndarray | None = None,
+) -> np.ndarray:
+    """The training frame chosen for each row of ``target`` ``(T, n)``: ``(T,)`` indices.
+
+    ``weights`` (``(n,)``, default all 1) weigh the components in the target cost.
+    """
+    coords = frames.coords
+    n_train = len(coords)
+    target = np.asarray(target, float)
+    if len(target) == 0:
+        return np.zeros(0, np.int64)
+    norm = float(frames.variance.mean())
+    root = np.sqrt(np.ones(coords.shape[1]) if weights is None else np.asarray(weights, float))
+    tw, cw = target * root, coords * root
+    # target cost of every training frame for every output frame: (T, N)
+    dist = ((tw**2).sum(axis=1)[:, None] - 2.0 * tw @ cw.T + (cw**2).sum(axis=1)[None, :]) / norm
+    k = min(settings.candidates, n_train)
+    cand = np.argpartition(dist, k - 1, axis=1)[:, :k]
+    cand = np.sort(cand, axis=1)  # deterministic order whatever the partition did
+    cost_t = np.take_along_axis(dist, cand, axis=1)
+    continues = _continues_table(frames, settings.continuation)
+    best = cost_t[0].copy()
+    back = np.zeros((len(target), k), np.int64)
+    for t in range(1, len(target)):
+        prev, cur = cand[t - 1], cand[t]
+        join = _join(frames, prev, cur, norm, settings.colour)
+        step = cur[None, :] - prev[:, None]
+        same_clip = frames.clip[prev][:, None] == frames.clip[cur][None, :]
+        free = same_clip & (step >= 0) & (step <= settings.continuation)
+        free &= continues[prev][:, None] >= step  # no clip boundary crossed
+        total = best[:, None] + settings.join * np.where(free, 0.0, join)
+        back[t] = np.argmin(total, axis=0)
+        best = total[back[t], np.arange(k)] + cost_t[t]
+    path = np.empty(len(target), np.int64)
+    j = int(np.argmin(best))
+    for t in range(len(target) - 1, -1, -1):
+        path[t] = cand[t, j]
+        j = int(back[t, j])
+    return path
+
+
+def _continues_table(frames: MouthFrames, span: int) -> np.ndarray:
+    """``(N,)``: how many of the next ``span`` frames continue the same clip."""
+    follows = frames.continues()
+    out = np.zeros(len(follows), np.int64)
+    run = np.ones(len(follows), bool)
+    for s in range(span):
+        shifted = np.zeros(len(follows), bool)
+        shifted[: len(follows) - s] = follows[s:]
+        run &= shifted
+        out += run
+    return out
+
+
+def _join(
+    frames: MouthFrames, prev: np.ndarray, cur: np.ndarray, norm: float, colour: float
+) -> np.ndarray:
+    """The visual distance ``(len(prev), len(cur))`` of every pair of candidates."""
+    a, b = frames.coords[prev], frames.coords[cur]
+    shape = ((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2) / norm
+    ca, cb = frames.border[prev], frames.border[cur]
+    light = ((ca[:, None, :] - cb[None, :, :]) ** 2).mean(axis=2)
+    return shape + colour * light
+
+
+def drawn(frames: MouthFrames, path: np.ndarray, settings: SelectionSettings) -> list:
+    """Each output frame as ``((frame, weight), ...)``: the chosen one, cross-faded at jumps."""
+    follows = frames.continues()
+    n = len(path)
+    rows: list[list[tuple[int, float]]] = [[(int(s), 1.0)] for s in path]
+    for t in range(1, n):
+        a, b = int(path[t - 1]), int(path[t])
+        step = b - a
+        joined = frames.clip[a] == frames.clip[b] and 0 <= step <= settings.continuation
+        if joined:
+            continue
+        after_a = a + 1 if follows[a] else a
+        before_b = b - 1 if b > 0 and follows[b - 1] else b
+        f = settings.fade
+        rows[t - 1] = _mix(rows[t - 1], before_b, f)
+        rows[t] = _mix(rows[t], after_a, f)
+    return [tuple(r) for r in rows]
+
+
+def _mix(row: list[tuple[int, float]], other: int, amount: float) -> list[tuple[int, float]]:
+    out = [(s, w * (1.0 - amount)) for s, w in row]
+    return [*out, (other, amount)]
+
+
+class Compositor:
+    """Draws rows of weighted training frames onto a face (see the module docstring)."""
+
+    def __init__(self, frames: MouthFrames, face: np.ndarray) -> None:
+        x, y, w, h = frames.patch
+        self.frames = frames
+        self.face = np.ascontiguousarray(face)
+        self.mask = feather_mask(h, w)[..., None]
+        band = (self.mask[..., 0] > 0.02) & (self.mask[..., 0] < 0.98)
+        under = self.face[y : y + h, x : x + w].astype(np.float32)
+        self.face_border = under[band].mean(axis=0)
+        self.under = under
+        # each clip's mean border colour: its session's light (a frame's own border
+        # moves with the jaw, and matching it would cancel the mouth's own shading)
+        count = np.bincount(frames.clip, minlength=len(frames.clip_ids)).astype(np.float64)
+        sums = np.stack(
+            [np.bincount(frames.clip, frames.border[:, c], len(frames.clip_ids)) for c in range(3)],
+            axis=1,
+        )
+        self.shift = (self.face_border - sums / np.maximum(count, 1.0)[:, None]).astype(np.float32)
+
+    def patch(self, row) -> np.ndarray:
+        """The blended, light-matched patch of one output frame (float32)."""
+        total = np.zeros(self.under.shape, np.float32)
+        for s, w in row:
+            p = np.asarray(self.frames.patches[s], np.float32)
+            total += np.float32(w) * (p + self.shift[self.frames.clip[s]])
+        return total
+
+    def frame(self, row) -> np.ndarray:
+        """The face with the output frame's mouth, (H, W, 3) uint8."""
+        x, y, w, h = self.frames.patch
+        blended = self.mask * self.patch(row) + (1.0 - self.mask) * self.under
+        out = self.face.copy()
+        out[y : y + h, x : x + w] = np.clip(np.rint(blended), 0, 255).astype(np.uint8)
+        return out

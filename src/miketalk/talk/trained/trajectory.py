@@ -1,0 +1,387 @@
+"""Trajectories: from timed phones to the mouth's description at every frame.
+
+Two models, fitted to every training frame (:mod:`miketalk.talk.trained.mouths`),
+with coarticulation learned from the data rather than assumed:
+
+``window`` (:class:`WindowRegression`)
+    a ridge regression from the phone context (Taylor et al. 2017's sliding
+    window): for a frame at time ``t``, the phone and its viseme class at
+    ``t + k * step`` for ``k = -half .. half``, one-hot, predict the frame's
+    description. Anticipation and carry-over are whatever weights the data
+    give the phones before and after. The ridge strength is chosen by
+    cross-validation over clips.
+``regularized`` (:class:`RegularizedTrajectory`)
+    MMM's trajectory synthesis (Ezzat, Geiger & Poggio 2002): each phone has a
+    mean and a variance of the description over its training frames; the
+    trajectory ``y`` minimizes, in each component ``d``,
+    ``sum_t (y_t - mu_p(t))^2 / var_p(t) + lambda sum_t (y''_t)^2 / var_d``
+    (second differences in seconds, so the same ``lambda`` holds at any
+    frame rate): a phone of small variance (a closure) is reached, one of
+    large variance yields to its neighbours. ``lambda`` is chosen by
+    cross-validation over clips.
+
+Both give :meth:`predict` ``(phones, times) -> (len(times), n)``; both are
+kept as arrays and a JSON-ready dict (:func:`to_arrays`, :func:`from_arrays`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.types import Phone
+from miketalk.visemes import SILENCE, VisemeTable
+
+#: The trajectory models, the default first.
+TRAJECTORIES = ("window", "regularized")
+
+#: Edges (s) of the bins of the distance to the speech in a silence (:func:`pause_features`).
+PAUSE_BINS = (0.04, 0.08, 0.16, 0.24, 0.36, 0.5, 0.7, 1.0)
+
+#: Ridge strengths and smoothness weights tried by the cross-validation.
+RIDGE_GRID = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0)
+SMOOTHNESS_GRID = (1e-8, 3e-8, 1e-7, 3e-7, 1e-6, 3e-6, 1e-5)
+
+
+def phone_at(phones: Sequence[Phone], times: np.ndarray) -> np.ndarray:
+    """Index of the phone spoken at each time (-1 before the first or after the last)."""
+    starts = np.array([p.start for p in phones], float)
+    ends = np.array([p.end for p in phones], float)
+    idx = np.searchsorted(starts, times, side="right") - 1
+    inside = (idx >= 0) & (times < ends[np.clip(idx, 0, None)] if len(ends) else False)
+    return np.where(inside, idx, -1)
+
+
+def _viseme_at(phones: Sequence[Phone], idx: np.ndarray, times: np.ndarray, table) -> list[str]:
+    """The viseme shown at each time: a diphthong's first nucleus in its first half."""
+    out = []
+    for i, t in zip(idx, times, strict=True):
+        if i < 0:
+            out.append(SILENCE)
+            continue
+        p = phones[i]
+        visemes = table.visemes_of(p.name)
+        second = len(visemes) > 1 and t >= (p.start + p.end) / 2
+        out.append(visemes[1] if second else visemes[0])
+    return out
+
+
+@dataclass(frozen=True)
+class Context:
+    """The phone and viseme vocabularies the models were fitted with."""
+
+    phones: tuple[str, ...]
+    visemes: tuple[str, ...]
+
+    def labels(
+        self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Each time's phone and viseme index (-1: a phone the training never saw)."""
+        idx = phone_at(phones, times)
+        names = ["pau" if i < 0 else phones[i].name for i in idx]
+        p_index = {p: k for k, p in enumerate(self.phones)}
+        v_index = {v: k for k, v in enumerate(self.visemes)}
+        pid = np.array([p_index.get(n, -1) for n in names], np.int64)
+        vid = np.array([v_index.get(v, -1) for v in _viseme_at(phones, idx, times, table)])
+        return pid, vid
+
+
+@dataclass(frozen=True)
+class WindowRegression:
+    """Ridge regression from a window of phone context (see the module docstring)."""
+
+    context: Context
+    half: int
+    step: float
+    weights: np.ndarray  # (n_features, n)
+    intercept: np.ndarray  # (n,)
+    ridge: float
+    pauses: bool = True
+
+    def features(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable):
+        """``(len(times), (2 half + 1) (P + V))`` one-hot phone and viseme at each offset."""
+        return window_features(
+            self.context, phones, times, table, half=self.half, step=self.step, pauses=self.pauses
+        )
+
+    def predict(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
+        """The description ``(len(times), n)`` along the phones."""
+        return self.features(phones, times, table) @ self.weights + self.intercept
+
+
+def window_features(
+    context: Context,
+    phones: Sequence[Phone],
+    times: np.ndarray,
+    table: VisemeTable,
+    *,
+    half: int,
+    step: float,
+    pauses: bool = True,
+) -> np.ndarray:
+    """The one-hot phone context of :class:`WindowRegression` (float64), and with ``pauses``
+    the distances to the speech in a silence (:func:`pause_features`)."""
+    times = np.asarray(times, float)
+    n_p, n_v = len(context.phones), len(context.visemes)
+    width = n_p + n_v
+    x = np.zeros((len(times), (2 * half + 1) * width + (2 * len(PAUSE_BINS) + 2) * pauses))
+    rows = np.arange(len(times))
+    for j, k in enumerate(range(-half, half + 1)):
+        pid, vid = context.labels(phones, times + k * step, table)
+        ok = pid >= 0
+        x[rows[ok], j * width + pid[ok]] = 1.0
+        ok = vid >= 0
+        x[rows[ok], j * width + n_p + vid[ok]] = 1.0
+    if pauses:
+        x[:, (2 * half + 1) * width :] = pause_features(phones, times, table)
+    return x
+
+
+def pause_features(phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
+    """In a silence: how long until the speech starts and since it ended, one-hot in bins.
+
+    Before a sentence the mouth takes its first posture well ahead of the
+    first phone, and after it relaxes slowly: farther than the window sees.
+    ``(len(times), 2 (len(PAUSE_BINS) + 1))``; zero in speech.
+    """
+    spoken = [p for p in phones if SILENCE not in table.visemes_of(p.name)]
+    n_bins = len(PAUSE_BINS) + 1
+    out = np.zeros((len(times), 2 * n_bins))
+    if not spoken:
+        return out
+    starts = np.array([p.start for p in spoken])
+    ends = np.array([p.end for p in spoken])
+    inside = ((times[:, None] >= starts[None, :]) & (times[:, None] < ends[None, :])).any(axis=1)
+    ahead = np.where(starts[None, :] >= times[:, None], starts[None, :] - times[:, None], np.inf)
+    behind = np.where(ends[None, :] <= times[:, None], times[:, None] - ends[None, :], np.inf)
+    rows = np.arange(len(times))
+    for column, gap in ((0, ahead.min(axis=1)), (n_bins, behind.min(axis=1))):
+        ok = ~inside & np.isfinite(gap)
+        bins = np.searchsorted(PAUSE_BINS, gap[ok])
+        out[rows[ok], column + bins] = 1.0
+    return out
+
+
+def ridge(x: np.ndarray, y: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
+    """Ridge regression of ``y`` on ``x`` with an unpenalized intercept: (weights, intercept)."""
+    mx, my = x.mean(axis=0), y.mean(axis=0)
+    xc = x - mx
+    gram = xc.T @ xc + strength * np.eye(x.shape[1])
+    weights = np.linalg.solve(gram, xc.T @ (y - my))
+    return weights, my - mx @ weights
+
+
+@dataclass(frozen=True)
+class RegularizedTrajectory:
+    """MMM-style regularized trajectory synthesis (see the module docstring)."""
+
+    context: Context
+    phone_mean: np.ndarray  # (P, n)
+    phone_var: np.ndarray  # (P, n)
+    viseme_mean: np.ndarray  # (V, n): phones never seen fall back to their viseme
+    viseme_var: np.ndarray
+    scale: np.ndarray  # (n,) the components' variance
+    smoothness: float
+
+    def targets(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable):
+        """Each time's target mean and variance ``(len(times), n)`` each."""
+        pid, vid = self.context.labels(phones, times, table)
+        mean = np.where((pid >= 0)[:, None], self.phone_mean[pid], self.viseme_mean[vid])
+        var = np.where((pid >= 0)[:, None], self.phone_var[pid], self.viseme_var[vid])
+        unknown = (pid < 0) & (vid < 0)
+        mean[unknown], var[unknown] = 0.0, self.scale
+        return mean, var
+
+    def predict(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
+        """The trajectory ``(len(times), n)`` of least regularized cost along the phones."""
+        times = np.asarray(times, float)
+        mean, var = self.targets(phones, times, table)
+        return smooth_targets(mean, var, self.scale, self.smoothness, times)
+
+
+def smooth_targets(
+    mean: np.ndarray, var: np.ndarray, scale: np.ndarray, smoothness: float, times: np.ndarray
+) -> np.ndarray:
+    """Solve ``(W + lambda_d D'D) y = W mu`` per component (banded, symmetric positive)."""
+    from scipy.linalg import solveh_banded
+
+    n = len(mean)
+    if n < 3:
+        return mean.copy()
+    dt = float(np.median(np.diff(times))) if n > 1 else 1.0
+    # D: second differences in 1/s^2; the cost sums over frames weighted by dt
+    # D'D of the second difference, as its upper bands (diagonal last row)
+    ones = np.ones(n)
+    d0 = 6.0 * ones
+    d0[[0, -1]], d0[[1, -2]] = 1.0, 5.0
+    d1 = -4.0 * ones[:-1]
+    d1[[0, -1]] = -2.0
+    d2 = ones[:-2]
+    out = np.empty_like(mean)
+    for d in range(mean.shape[1]):
+        lam = smoothness / scale[d] / dt**4
+        weight = 1.0 / var[:, d]
+        bands = np.zeros((3, n))
+        bands[2] = weight + lam * d0
+        bands[1, 1:] = lam * d1
+        bands[0, 2:] = lam * d2
+        out[:, d] = solveh_banded(bands, weight * mean[:, d])
+    return out
+
+
+def _stats(
+    labels: np.ndarray, y: np.ndarray, count: int, floor: np.ndarray, prior: float = 3.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and variance of ``y`` per label, shrunk towards the global ones by ``prior`` frames."""
+    mean = np.zeros((count, y.shape[1]))
+    var = np.zeros((count, y.shape[1]))
+    g_mean, g_var = y.mean(axis=0), y.var(axis=0)
+    for k in range(count):
+        rows = y[labels == k]
+        m = len(rows)
+        mk = rows.mean(axis=0) if m else g_mean
+        vk = rows.var(axis=0) if m else g_var
+        mean[k] = (m * mk + prior * g_mean) / (m + prior)
+        var[k] = np.maximum((m * vk + prior * g_var) / (m + prior), floor)
+    return mean, var
+
+
+@dataclass(frozen=True)
+class TrainingSet:
+    """The training frames as the models see them: per clip, phones, frame times, descriptions."""
+
+    phones: tuple[tuple[Phone, ...], ...]
+    times: tuple[np.ndarray, ...]
+    coords: tuple[np.ndarray, ...]
+
+    def folds(self, k: int) -> list[tuple[list[int], list[int]]]:
+        """``k`` (train, validation) splits of the clips, every ``k``-th clip held out."""
+        n = len(self.phones)
+        return [
+            ([i for i in range(n) if i % k != f], [i for i in range(n) if i % k == f])
+            for f in range(min(k, n))
+        ]
+
+
+def fit_window(
+    data: TrainingSet,
+    context: Context,
+    table: VisemeTable,
+    *,
+    half: int = 6,
+    step: float = 0.04,
+    pauses: bool = True,
+    grid: Sequence[float] = RIDGE_GRID,
+    folds: int = 5,
+) -> tuple[WindowRegression, dict]:
+    """Fit :class:`WindowRegression` (ridge strength by cross-validation); it and a report."""
+    xs = [
+        window_features(context, p, t, table, half=half, step=step, pauses=pauses)
+        for p, t in zip(data.phones, data.times, strict=True)
+    ]
+    errors = {}
+    for strength in grid:
+        err, count = 0.0, 0
+        for train, valid in data.folds(folds):
+            w, b = ridge(
+                np.concatenate([xs[i] for i in train]),
+                np.concatenate([data.coords[i] for i in train]),
+                strength,
+            )
+            for i in valid:
+                err = err + ((xs[i] @ w + b - data.coords[i]) ** 2).sum(axis=0)
+                count += len(data.coords[i])
+        errors[strength] = err / count
+    best = min(errors, key=lambda s: (float(errors[s].mean()), s))
+    w, b = ridge(np.concatenate(xs), np.concatenate(data.coords), best)
+    report = _report(errors, best, data)
+    return WindowRegression(context, half, step, w, b, best, pauses), report | {"ridge": best}
+
+
+def _report(errors: Mapping[float, np.ndarray], best: float, data: TrainingSet) -> dict:
+    """The cross-validation's mean squared error per setting and, at the best, R^2 per component.
+
+    The R^2 of a component (1 - its held-out squared error / its variance) says
+    how much of it the phones predict: the selection weighs its target cost by it.
+    """
+    var = np.concatenate(data.coords).var(axis=0)
+    r2 = np.clip(1.0 - errors[best] / var, 0.0, 1.0)
+    return {
+        "cv_mse": {str(k): float(v.mean()) for k, v in errors.items()},
+        "cv_r2": [round(float(v), 6) for v in r2],
+    }
+
+
+def fit_regularized(
+    data: TrainingSet,
+    context: Context,
+    table: VisemeTable,
+    *,
+    grid: Sequence[float] = SMOOTHNESS_GRID,
+    folds: int = 5,
+) -> tuple[RegularizedTrajectory, dict]:
+    """Fit :class:`RegularizedTrajectory` (smoothness by cross-validation); it and a report."""
+    labels = [context.labels(p, t, table) for p, t in zip(data.phones, data.times, strict=True)]
+    y_all = np.concatenate(data.coords)
+    scale = y_all.var(axis=0)
+    floor = 1e-3 * scale
+
+    def fitted(clips: Sequence[int], smoothness: float) -> RegularizedTrajectory:
+        pid = np.concatenate([labels[i][0] for i in clips])
+        vid = np.concatenate([labels[i][1] for i in clips])
+        y = np.concatenate([data.coords[i] for i in clips])
+        pm, pv = _stats(pid, y, len(context.phones), floor)
+        vm, vv = _stats(vid, y, len(context.visemes), floor)
+        return RegularizedTrajectory(context, pm, pv, vm, vv, scale, smoothness)
+
+    errors = {}
+    for smoothness in grid:
+        err, count = 0.0, 0
+        for train, valid in data.folds(folds):
+            model = fitted(train, smoothness)
+            for i in valid:
+                pred = model.predict(data.phones[i], data.times[i], table)
+                err = err + ((pred - data.coords[i]) ** 2).sum(axis=0)
+                count += len(data.coords[i])
+        errors[smoothness] = err / count
+    best = min(errors, key=lambda s: (float(errors[s].mean()), s))
+    report = _report(errors, best, data) | {"smoothness": best}
+    return fitted(range(len(data.phones)), best), report
+
+
+def to_arrays(model: WindowRegression | RegularizedTrajectory) -> tuple[dict, dict]:
+    """``(arrays, settings)``: the model as numpy arrays and a JSON-ready dict."""
+    base = {"phones": list(model.context.phones), "visemes": list(model.context.visemes)}
+    if isinstance(model, WindowRegression):
+        arrays = {"weights": model.weights, "intercept": model.intercept}
+        return arrays, base | {
+            "kind": "window", "half": model.half, "step": model.step, "ridge": model.ridge,
+            "pauses": model.pauses,
+        }  # fmt: skip
+    arrays = {
+        "phone_mean": model.phone_mean, "phone_var": model.phone_var,
+        "viseme_mean": model.viseme_mean, "viseme_var": model.viseme_var, "scale": model.scale,
+    }  # fmt: skip
+    return arrays, base | {"kind": "regularized", "smoothness": model.smoothness}
+
+
+def from_arrays(
+    arrays: Mapping[str, np.ndarray], settings: Mapping
+) -> WindowRegression | RegularizedTrajectory:
+    """The model :func:`to_arrays` described."""
+    context = Context(tuple(settings["phones"]), tuple(settings["visemes"]))
+    kind = settings.get("kind")
+    if kind == "window":
+        return WindowRegression(
+            context, int(settings["half"]), float(settings["step"]), arrays["weights"],
+            arrays["intercept"], float(settings["ridge"]), bool(settings.get("pauses", False)),
+        )  # fmt: skip
+    if kind == "regularized":
+        return RegularizedTrajectory(
+            context, arrays["phone_mean"], arrays["phone_var"], arrays["viseme_mean"],
+            arrays["viseme_var"], arrays["scale"], float(settings["smoothness"]),
+        )  # fmt: skip
+    raise MiketalkError(f"unknown trajectory model {kind!r} (known: {', '.join(TRAJECTORIES)})")

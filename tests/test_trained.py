@@ -1,0 +1,194 @@
+"""The trained face (miketalk.talk.trained): trajectories, selection, compositing, end to end."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import cv2
+import numpy as np
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.types import Phone
+from miketalk.talk.lipsync import plan
+from miketalk.talk.trained import fit_trained, read_trained
+from miketalk.talk.trained.build import render_trained
+from miketalk.talk.trained.mouths import MouthFrames, feather_mask
+from miketalk.talk.trained.selection import Compositor, SelectionSettings, select
+from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
+from miketalk.visemes import default_table
+
+#: Mouth opening (pixels) of each phone of the synthetic speaker.
+OPENING = {"pau": 1, "m": 0, "p": 0, "aa": 9, "iy": 3, "s": 2, "uw": 5}
+FPS = 25.0
+SIZE = (120, 160)  # (H, W)
+MOUTH_BOX = (70, 70, 20, 6)
+
+
+def test_smooth_targets_is_the_least_cost_trajectory() -> None:
+    rng = np.random.default_rng(0)
+    n, dims = 30, 2
+    mean, var = rng.normal(size=(n, dims)), rng.uniform(0.5, 2.0, size=(n, dims))
+    scale, times = np.array([1.0, 2.0]), np.arange(n) / 25.0
+    out = smooth_targets(mean, var, scale, 1e-6, times)
+    d2 = np.diff(np.eye(n), 2, axis=0) * 25.0**2  # second differences in 1/s^2
+    for d in range(dims):
+        lam = 1e-6 / scale[d]
+        a = np.diag(1 / var[:, d]) + lam * d2.T @ d2
+        assert np.allclose(out[:, d], np.linalg.solve(a, mean[:, d] / var[:, d]), atol=1e-8)
+    assert np.allclose(smooth_targets(mean, var, scale, 0.0, times), mean)
+    smooth = smooth_targets(mean, var, scale, 1e-3, times)
+    assert np.abs(np.diff(smooth, 2, axis=0)).max() < np.abs(np.diff(out, 2, axis=0)).max()
+
+
+def test_pause_features_say_how_far_the_speech_is_in_a_silence_only() -> None:
+    phones = (Phone("pau", 0.0, 0.5), Phone("m", 0.5, 0.6), Phone("aa", 0.6, 0.8),
+              Phone("pau", 0.8, 2.0))  # fmt: skip
+    times = np.array([0.0, 0.45, 0.55, 0.7, 0.85, 1.9])
+    x = pause_features(phones, times, default_table())
+    n_bins = len(PAUSE_BINS) + 1
+    assert x.shape == (6, 2 * n_bins)
+    assert (x[[2, 3]] == 0).all()  # in speech
+    assert x[0, np.searchsorted(PAUSE_BINS, 0.5)] == 1 and x[0, n_bins:].sum() == 0  # 0.5 s ahead
+    assert x[1, np.searchsorted(PAUSE_BINS, 0.05)] == 1
+    assert x[4, n_bins + np.searchsorted(PAUSE_BINS, 0.05)] == 1 and x[4, :n_bins].sum() == 0
+    assert x[5, n_bins + n_bins - 1] == 1  # more than 1 s after: the last bin
+
+
+def test_ridge_recovers_linear_weights() -> None:
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(400, 5))
+    w = rng.normal(size=(5, 3))
+    weights, intercept = ridge(x, x @ w + 2.0, 1e-6)
+    assert np.allclose(weights, w, atol=1e-6) and np.allclose(intercept, 2.0, atol=1e-6)
+
+
+def _frames(coords: np.ndarray, clips: np.ndarray) -> MouthFrames:
+    n = len(coords)
+    clip_frame = np.concatenate([np.arange((clips == c).sum()) for c in np.unique(clips)])
+    return MouthFrames(
+        coords=coords, patches=np.zeros((n, 30, 30, 3), np.uint8), border=np.zeros((n, 3)),
+        clip=clips, clip_frame=clip_frame, clip_ids=tuple(map(str, np.unique(clips))),
+        mean=np.zeros(1), components=np.zeros((coords.shape[1], 1)),
+        variance=coords.var(axis=0), region=(0, 0, 1, 1), patch=(0, 0, 30, 30), fps=FPS,
+    )  # fmt: skip
+
+
+def test_selection_follows_a_recorded_run_and_prefers_it_to_jumps() -> None:
+    rng = np.random.default_rng(2)
+    coords = rng.normal(size=(200, 4))
+    frames = _frames(coords, np.repeat([0, 1], 100))
+    path = select(frames, coords[20:50], SelectionSettings())
+    assert path.tolist() == list(range(20, 50))
+    # a noisy target: joins keep the recording's own runs
+    noisy = coords[120:160] + rng.normal(scale=0.3, size=(40, 4))
+    chosen = select(frames, noisy, SelectionSettings(join=1.0))
+    steps = np.diff(chosen)
+    assert np.mean((steps >= 0) & (steps <= 2)) > 0.8
+
+
+def test_feathered_composite_has_no_seam() -> None:
+    mask = feather_mask(40, 50)
+    assert mask[20, 25] > 0.98 and mask[0].max() < 2e-3 and mask[:, 0].max() < 2e-3
+    face = np.full((60, 70, 3), 100, np.uint8)
+    patches = np.full((1, 40, 50, 3), 160, np.uint8)
+    patches[0, 15:25, 15:35] = 20  # a dark mouth inside
+    frames = _frames(np.zeros((1, 1)), np.zeros(1, int))
+    frames = MouthFrames(**{**frames.__dict__, "patches": patches, "border": np.full((1, 3), 160.0),
+                            "patch": (10, 10, 50, 40)})  # fmt: skip
+    out = Compositor(frames, face).frame(((0, 1.0),))
+    # light matched: the patch's 160 becomes the face's 100 at the border and inside
+    assert np.abs(out.astype(int) - 100)[:, :, 0][out[..., 0] > 50].max() <= 1
+    assert out[30, 35, 0] < 50  # the mouth is drawn
+    assert (out[:10] == 100).all() and (out[:, :10] == 100).all()
+
+
+def _synthetic_corpus(root: Path, n_clips: int = 8, seed: int = 3) -> Path:
+    """A tiny corpus folder as the corpus stage writes it: a dark mouth that opens by phone."""
+    from miketalk.corpus.folder import frame_path, words_doc
+    from miketalk.media.audio import write_wav
+    from miketalk.media.images import write_png
+
+    rng = np.random.default_rng(seed)
+    corpus = root / "corpus"
+    (corpus / "frames").mkdir(parents=True)
+    texture = cv2.GaussianBlur(rng.uniform(90, 200, size=SIZE).astype(np.float32), (0, 0), 3)
+    clips, phones_rows, k = [], [], 0
+    for c in range(n_clips):
+        phones = _sentence(rng)
+        n = round(phones[-1].end * FPS)
+        for j in range(n):
+            write_png(frame_path(corpus / "frames", k + j), face_with(texture, phones, j / FPS))
+        clips.append(f"c{c}\t{k}\t{n}\t{k / FPS:.6f}\t{n / FPS:.6f}\tx")
+        phones_rows += [
+            f"c{c}\t{i}\t{p.name}\t{p.start + k / FPS:.6f}\t{p.end + k / FPS:.6f}\t"
+            f"{p.start:.6f}\t{p.end:.6f}"
+            for i, p in enumerate(phones)
+        ]
+        k += n
+    (corpus / "clips.tsv").write_text(
+        "clip\tfirst_frame\tframes\tstart\tduration\ttext\n" + "\n".join(clips) + "\n"
+    )
+    (corpus / "phones.tsv").write_text(
+        "clip\tindex\tphone\tstart\tend\tclip_start\tclip_end\n" + "\n".join(phones_rows) + "\n"
+    )
+    regions = {"mouth_box": list(MOUTH_BOX), "size": list(SIZE), "clips": n_clips}
+    (corpus / "regions.json").write_text(json.dumps(regions))
+    (corpus / "words.json").write_text(words_doc(fps=FPS, size=list(SIZE), rate=16000, words=[]))
+    write_wav(corpus / "audio.wav", np.zeros(1600, np.int16), 16000)
+    return corpus
+
+
+def _sentence(rng: np.random.Generator) -> tuple[Phone, ...]:
+    names = ["pau", *rng.choice(["m", "p", "aa", "iy", "s", "uw"], size=10).tolist(), "pau"]
+    t, out = 0.0, []
+    for name in names:
+        d = 0.3 if name == "pau" else float(rng.uniform(0.08, 0.2))
+        out.append(Phone(name, t, t + d))
+        t += d
+    return tuple(out)
+
+
+def face_with(texture: np.ndarray, phones: tuple[Phone, ...], t: float) -> np.ndarray:
+    """The synthetic face at ``t``: a dark ellipse of the phone's opening, eased between phones."""
+    mids = np.array([(p.start + p.end) / 2 for p in phones])
+    opening = float(np.interp(t, mids, [OPENING[p.name] for p in phones]))
+    image = texture.copy()
+    x, y, w, h = MOUTH_BOX
+    cv2.ellipse(image, (x + w // 2, y + h // 2), (9, round(opening) // 2 + 1), 0, 0, 360,
+                30.0, -1)  # fmt: skip
+    return np.repeat(np.clip(image, 0, 255).astype(np.uint8)[..., None], 3, axis=2)
+
+
+def test_trained_face_learns_and_draws_a_new_sentence(tmp_path: Path) -> None:
+    corpus = _synthetic_corpus(tmp_path)
+    model = tmp_path / "model"
+    doc = fit_trained(corpus, model, components=6)
+    assert doc["default"] == "window" and doc["fit"]["clips"] == 8
+    again = fit_trained(corpus, tmp_path / "again", components=6)
+    a = np.load(model / "trained" / "trajectory.npz")
+    b = np.load(tmp_path / "again" / "trained" / "trajectory.npz")
+    assert all(np.array_equal(a[k], b[k]) for k in a.files) and again["fit"] == doc["fit"]
+    trained = read_trained(model)
+    rng = np.random.default_rng(99)
+    texture = cv2.GaussianBlur(rng.uniform(90, 200, size=SIZE).astype(np.float32), (0, 0), 3)
+    phones = _sentence(np.random.default_rng(7))
+    timeline = plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
+    face = SimpleNamespace(directory=model, image=lambda _: face_with(texture, phones, 0.0))
+    frames = np.stack(list(render_trained(face, timeline, trained=trained)))
+    assert frames.shape == (len(timeline.frames), *SIZE, 3)
+    x, y, w, h = MOUTH_BOX
+    dark = (frames[:, y - 8 : y + h + 8, x : x + w, 0] < 60).sum(axis=(1, 2))
+    truth = [
+        (face_with(texture, phones, f.time)[y - 8 : y + h + 8, x : x + w, 0] < 60).sum()
+        for f in timeline.frames
+    ]
+    assert np.corrcoef(dark, truth)[0, 1] > 0.8
+
+
+def test_a_model_without_a_trained_face_is_refused_in_one_line(tmp_path: Path) -> None:
+    with pytest.raises(MiketalkError, match="no trained face") as err:
+        read_trained(tmp_path)
+    assert "\n" not in str(err.value)
