@@ -1,0 +1,1 @@
+"""Rendering: drawing frames of the face (compositing a mouth into video frames)."""
