@@ -81,9 +81,9 @@ BACKGROUND = "auto"
 #: the mouth box's centre (:func:`miketalk.render.composite.blend_mask`): half its width,
 #: how far above the centre it starts (below the nose) and how far below it ends (past
 #: the chin), and the feathered edge's Gaussian sigma.
-BLEND_HALF_WIDTH = 1.05
+BLEND_HALF_WIDTH = 1.15
 BLEND_ABOVE = 0.42
-BLEND_BELOW = 0.8
+BLEND_BELOW = 0.85
 BLEND_FEATHER = 0.1
 
 #: Seconds of the person's own frames a model built from clips keeps as the background

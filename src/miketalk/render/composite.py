@@ -238,6 +238,29 @@ class Compositor:
         """:func:`place` of this compositor's blend mask."""
         return place(self.alpha, transform, frame_shape, field=field, support=self.support)
 
+    def colour_field(self, render: np.ndarray, steady: np.ndarray) -> np.ndarray:
+        """One colour offset for a whole background, in the reference's coordinates.
+
+        Parameters
+        ----------
+        render : numpy.ndarray
+            (H, W, 3) a typical render (the model's silence image).
+        steady : numpy.ndarray
+            (H, W, 3) the background's frames stabilized onto the reference,
+            their median.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W, 3) float32 :func:`colour_offset` of the two on the blend's
+            edge band: constant over the background, so the colour of the
+            mouth does not flicker with what the frames' own jaw does there.
+        """
+        band = 4.0 * self.alpha * (1.0 - self.alpha)
+        return colour_offset(
+            render.astype(np.float32), steady.astype(np.float32), band, sigma=self._sigma
+        )
+
     def __call__(
         self,
         frame: np.ndarray,
@@ -245,6 +268,7 @@ class Compositor:
         transform: np.ndarray,
         *,
         field: np.ndarray | None = None,
+        offset: np.ndarray | None = None,
     ) -> np.ndarray:
         """``render`` blended into a copy of ``frame`` where the mouth is.
 
@@ -258,6 +282,9 @@ class Compositor:
             (2, 3) the frame's stabilization transform.
         field : numpy.ndarray, optional
             (H, W, 2) the conform field of the frame's clip.
+        offset : numpy.ndarray, optional
+            (H, W, 3) float32 colour offset in the reference's coordinates
+            (:meth:`colour_field`), used instead of matching this frame's colour.
 
         Returns
         -------
@@ -280,7 +307,12 @@ class Compositor:
         ).astype(np.float32)  # fmt: skip
         here = out[y0:y1, x0:x1].astype(np.float32)
         a = placement.alpha[..., None]
-        if self.colour_match:
+        if offset is not None:
+            mouth += cv2.remap(
+                offset, placement.map_x, placement.map_y, cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_REPLICATE,
+            )  # fmt: skip
+        elif self.colour_match:
             band = 4.0 * placement.alpha * (1.0 - placement.alpha)
             mouth += colour_offset(mouth, here, band, sigma=self._sigma)
         blended = here + a * (mouth - here)

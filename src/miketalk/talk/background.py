@@ -1,0 +1,385 @@
+"""Background sequences: the person's own frames, with their head motion and blinks, under the mouth.
+
+A model built from clips keeps a few seconds of one training clip as it was
+recorded (:func:`write_background`, in ``<model>/background/``): the frames,
+each frame's stabilization transform and the clip's conform field
+(:mod:`miketalk.corpus.stabilize`), where the eyes blink, and what is needed
+to stabilize other video of the same person (the reference frame, the face
+mask and the mouth box). :func:`composited` plays such a sequence under the
+synthesized mouth (:class:`miketalk.render.composite.Compositor`): output
+frame ``k`` at ``k / fps`` shows the background frame of that time, the
+sequence played forwards, then backwards, then forwards again (ping-pong), so
+an utterance longer than the background loops without a jump: a
+frame is always followed by one of its neighbours.
+
+:func:`background_from_video` makes the same from any video of the person
+(``say --background VIDEO`` and ``miketalk dub``): every frame registered to
+the model's reference; frames that do not register (a hand over the face, a
+cut) take the nearest registered frame's transform; a video in which no frame
+registers does not show the model's person, and is refused in one line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from miketalk import defaults
+from miketalk.errors import MiketalkError
+
+__all__ = [
+    "Background",
+    "background_from_video",
+    "composited",
+    "find_blinks",
+    "model_stabilizer",
+    "pingpong",
+    "read_background",
+    "write_background",
+]
+
+DIRECTORY = "background"
+META = "background.json"
+FIELD = "field.npy"
+REFERENCE = "reference.png"
+FACE_MASK = "face_mask.png"
+STEADY = "steady.png"
+
+#: The shortest video ``dub`` and ``--background VIDEO`` take, seconds.
+MIN_SECONDS = 1.0
+
+#: A frame blinks when its eye band differs from the sequence's median by this many
+#: times the band's median difference (and at least 3 grey levels).
+BLINK_FACTOR = 3.0
+
+
+@dataclass(frozen=True)
+class Background:
+    """Frames of the person with their stabilization.
+
+    Attributes
+    ----------
+    frames : numpy.ndarray
+        (N, H, W, 3) uint8 RGB as recorded.
+    transforms : numpy.ndarray
+        (N, 2, 3): reference pixel ``p`` shows in frame ``i`` at
+        ``transforms[i] @ (p + field(p), 1)``.
+    field : numpy.ndarray or None
+        (h, w, 2) float32 conform field in the reference's coordinates.
+    fps : float
+        The frames' rate.
+    blinks : tuple of int
+        Frames where the eyes are closed or closing.
+    source : str
+        Where the frames come from (a clip id or a path).
+    steady : numpy.ndarray or None
+        (h, w, 3) uint8 the median of the frames stabilized onto the
+        reference: the background's light, to match the mouth's colour to.
+    """
+
+    frames: np.ndarray
+    transforms: np.ndarray
+    field: np.ndarray | None
+    fps: float
+    blinks: tuple[int, ...] = ()
+    source: str = ""
+    steady: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(H, W)`` of the frames."""
+        return int(self.frames.shape[1]), int(self.frames.shape[2])
+
+    def index(self, k: int, fps: float) -> int:
+        """The background frame shown at output frame ``k`` of a video at ``fps``."""
+        return pingpong(round(k * self.fps / fps), len(self))
+
+
+def pingpong(i: int, n: int) -> int:
+    """Frame ``i`` of ``0, 1, ..., n-1, n-2, ..., 1, 0, 1, ...``: a sequence looped without a jump."""
+    if n <= 1:
+        return 0
+    period = 2 * (n - 1)
+    m = i % period
+    return m if m < n else period - m
+
+
+def composited(
+    renders: Iterable[np.ndarray],
+    background: Background,
+    compositor,
+    *,
+    fps: float,
+    rest: np.ndarray | None = None,
+) -> Iterator[np.ndarray]:
+    """Each render (reference coordinates) blended into its background frame.
+
+    Parameters
+    ----------
+    renders : iterable of numpy.ndarray
+        The model's frames, (H, W, 3) uint8, output frame ``k`` at ``k / fps``.
+    background : Background
+    compositor : miketalk.render.composite.Compositor
+    fps : float
+        The output's frame rate.
+    rest : numpy.ndarray, optional
+        (H, W, 3) the model's silence image: the mouth's colour is then
+        matched once for the whole background (:meth:`Compositor.colour_field`
+        of it and ``background.steady``) instead of frame by frame.
+    """
+    offset = None
+    if rest is not None and background.steady is not None:
+        offset = compositor.colour_field(rest, background.steady)
+    for k, render in enumerate(renders):
+        i = background.index(k, fps)
+        yield compositor(
+            background.frames[i],
+            render,
+            background.transforms[i],
+            field=background.field,
+            offset=offset,
+        )
+
+
+def find_blinks(
+    stabilized: np.ndarray, mouth_box: tuple[int, int, int, int], *, factor: float = BLINK_FACTOR
+) -> tuple[int, ...]:
+    """Frames whose eyes differ from the sequence's usual eyes: blinks.
+
+    Parameters
+    ----------
+    stabilized : numpy.ndarray
+        (N, H, W, 3) frames on the reference.
+    mouth_box : tuple of int
+        The mouth box: the eyes are 0.8 to 1.4 mouth widths above it (a face's
+        proportions, as :mod:`miketalk.corpus.stabilize` uses them), across
+        two mouth widths about its centre.
+    factor : float
+        See :data:`BLINK_FACTOR`.
+    """
+    x, y, w, _ = mouth_box
+    top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
+    left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
+    band = stabilized[:, top:bottom, left:right].astype(np.float32).mean(axis=3)
+    change = np.abs(band - np.median(band, axis=0)).mean(axis=(1, 2))
+    threshold = max(factor * float(np.median(change)), 3.0)
+    return tuple(int(i) for i in np.flatnonzero(change > threshold))
+
+
+def model_stabilizer(model_dir: str | os.PathLike[str]):
+    """A :class:`~miketalk.corpus.stabilize.Stabilizer` for the model's person.
+
+    Raises
+    ------
+    MiketalkError
+        If the model keeps no background (it was not built from clips of a person).
+    """
+    from miketalk.corpus.stabilize import Stabilizer
+    from miketalk.media.images import read_image
+
+    where = Path(model_dir) / DIRECTORY
+    if not (where / META).is_file():
+        raise MiketalkError(
+            f"the model {model_dir} was not built from video of a person (it has no "
+            f"{DIRECTORY}/{META}): only such a model can play over a video"
+        )
+    meta = json.loads((where / META).read_text(encoding="utf-8"))
+    face = read_image(where / FACE_MASK)[..., 0] > 127
+    return Stabilizer.from_reference(
+        read_image(where / REFERENCE), face=face, mouth_box=tuple(meta["mouth_box"])
+    )
+
+
+def mouth_box_of(model_dir: str | os.PathLike[str]) -> tuple[int, int, int, int]:
+    """The mouth box ``(x, y, w, h)`` of the model's reference."""
+    meta = json.loads((Path(model_dir) / DIRECTORY / META).read_text(encoding="utf-8"))
+    return tuple(int(v) for v in meta["mouth_box"])
+
+
+def has_background(model_dir: str | os.PathLike[str]) -> bool:
+    """Whether the model keeps a background sequence (built from clips of a person)."""
+    return (Path(model_dir) / DIRECTORY / META).is_file()
+
+
+def _fill(transforms: np.ndarray) -> np.ndarray:
+    """NaN transforms replaced by the nearest registered frame's (earlier on a tie)."""
+    ok = np.flatnonzero(np.isfinite(transforms[:, 0, 0]))
+    idx = np.arange(len(transforms))
+    pos = np.clip(np.searchsorted(ok, idx), 1, len(ok) - 1) if len(ok) > 1 else np.zeros_like(idx)
+    if len(ok) > 1:
+        left, right = ok[pos - 1], ok[pos]
+        nearest = np.where(idx - left <= right - idx, left, right)
+    else:
+        nearest = np.full_like(idx, ok[0])
+    return transforms[nearest]
+
+
+def check_video(path: str | os.PathLike[str]) -> tuple[np.ndarray, float]:
+    """Read a video of the person, refusing one shorter than :data:`MIN_SECONDS`.
+
+    Raises
+    ------
+    MiketalkError
+        Missing, unreadable, without video, or too short (one line each).
+    """
+    from miketalk.corpus.media_video import read_video
+
+    frames, fps = read_video(path)
+    if len(frames) / fps < MIN_SECONDS:
+        raise MiketalkError(
+            f"{path} lasts {len(frames) / fps:.2f} s ({len(frames)} frames at {fps:g} fps): "
+            f"a video to play under the mouth must last at least {MIN_SECONDS:g} s"
+        )
+    return frames, fps
+
+
+def background_from_video(
+    frames: np.ndarray, fps: float, stabilizer, *, source: str = "the video"
+) -> Background:
+    """Register a video's frames to the model's reference (see the module docstring).
+
+    Parameters
+    ----------
+    frames : numpy.ndarray
+        (N, H, W, 3) uint8 RGB (:func:`check_video`); of another size than the
+        reference, the frames are registered scaled to the reference's size
+        and the transforms scaled back.
+    fps : float
+    stabilizer : miketalk.corpus.stabilize.Stabilizer
+        The model's (:func:`model_stabilizer`).
+    source : str
+        Named in errors.
+
+    Raises
+    ------
+    MiketalkError
+        When the first frame, or fewer than half of all frames, register: the
+        video does not show the model's person frontally (or no one).
+    """
+    import cv2
+
+    h, w = stabilizer.mask.shape
+    fh, fw = frames.shape[1:3]
+    scale = np.diag([fw / w, fh / h, 1.0])
+    small = frames
+    if (fh, fw) != (h, w):
+        small = np.stack([cv2.resize(f, (w, h), interpolation=cv2.INTER_AREA) for f in frames])
+    first = stabilizer.register(small[:1], clip=source, on_failure="nan")
+    if not np.isfinite(first).all():
+        raise MiketalkError(
+            f"{source}: its first frame does not show the model's person (correlation "
+            f"{stabilizer.correlations[0]:.2f} with the model's reference, at least "
+            f"{stabilizer.min_correlation} needed): give a frontal video of the same person"
+        )
+    transforms = stabilizer.register(small, clip=source, init=first[0], on_failure="nan")
+    ok = np.isfinite(transforms[:, 0, 0])
+    if ok.mean() < 0.5:
+        raise MiketalkError(
+            f"{source}: only {int(ok.sum())} of its {len(ok)} frames show the model's person "
+            "(register to its reference): give a frontal video of the same person"
+        )
+    field = stabilizer.conform(small, transforms, clip=source)
+    transforms = _fill(transforms)
+    full = np.array([(scale @ np.vstack([t, [0, 0, 1]]))[:2] for t in transforms])
+    steady = stabilizer.apply(small, transforms, field=field)
+    blinks = find_blinks(steady, stabilizer.mouth_box)
+    median = np.median(steady, axis=0).astype(np.uint8)
+    return Background(frames, full, field, float(fps), blinks, source, median)
+
+
+def write_background(
+    model_dir: str | os.PathLike[str],
+    *,
+    corpus_dir: str | os.PathLike[str],
+    media: str,
+    seconds: float = defaults.BACKGROUND_SECONDS,
+) -> dict:
+    """Keep the reference clip's first ``seconds`` as the model's background (``background/``).
+
+    Parameters
+    ----------
+    model_dir : path
+        The model being built.
+    corpus_dir : path
+        Its corpus of clips (the reference, the face mask, the mouth box).
+    media : str
+        The clips' media pattern with ``{id}``.
+    seconds : float
+        How much of the clip to keep.
+
+    Returns
+    -------
+    dict
+        What ``background.json`` records.
+    """
+    from miketalk.corpus.clips import FACE_MASK as CORPUS_FACE
+    from miketalk.corpus.clips import REFERENCE as CORPUS_REFERENCE
+    from miketalk.corpus.clips import corpus_stabilizer, mouth_box
+    from miketalk.media.atomic import atomic_path, write_text_atomic
+    from miketalk.media.images import write_png
+
+    corpus_dir = Path(corpus_dir)
+    regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
+    clip = regions["reference"]["clip"]
+    frames, fps = check_video(media.replace("{id}", clip))
+    frames = frames[: max(2, round(seconds * fps))]
+    stabilizer = corpus_stabilizer(corpus_dir)
+    background = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
+    out = Path(model_dir) / DIRECTORY
+    out.mkdir(parents=True, exist_ok=True)
+    for i, frame in enumerate(background.frames):
+        write_png(out / f"{i:04d}.png", frame)
+    with atomic_path(out / FIELD) as tmp, tmp.open("wb") as fh:
+        np.save(fh, np.zeros((0,), np.float32) if background.field is None else background.field)
+    write_png(out / STEADY, background.steady)
+    for name, src in ((REFERENCE, CORPUS_REFERENCE), (FACE_MASK, CORPUS_FACE)):
+        (out / name).write_bytes((corpus_dir / src).read_bytes())
+    meta = {
+        "clip": clip,
+        "fps": background.fps,
+        "frames": len(background),
+        "blinks": list(background.blinks),
+        "mouth_box": list(mouth_box(corpus_dir)),
+        "transforms": [[round(float(v), 6) for v in t.ravel()] for t in background.transforms],
+    }
+    write_text_atomic(out / META, json.dumps(meta, indent=1))
+    return meta
+
+
+def read_background(model_dir: str | os.PathLike[str]) -> Background:
+    """The background sequence :func:`write_background` kept in a model.
+
+    Raises
+    ------
+    MiketalkError
+        If the model keeps none, or a frame is missing.
+    """
+    from miketalk.media.images import read_image
+
+    where = Path(model_dir) / DIRECTORY
+    if not (where / META).is_file():
+        raise MiketalkError(
+            f"the model {model_dir} keeps no background (not built from clips of a person): "
+            "use --background still or a video"
+        )
+    meta = json.loads((where / META).read_text(encoding="utf-8"))
+    frames = np.stack([read_image(where / f"{i:04d}.png") for i in range(meta["frames"])])
+    field = np.load(where / FIELD)
+    transforms = np.array(meta["transforms"], np.float64).reshape(-1, 2, 3)
+    return Background(
+        frames,
+        transforms,
+        field if field.size else None,
+        float(meta["fps"]),
+        tuple(meta["blinks"]),
+        f"clip {meta['clip']}",
+        read_image(where / STEADY),
+    )
