@@ -1,4 +1,4 @@
-"""The ``miketalk`` command line: ``say``, ``cues`` and ``phones``.
+"""The ``miketalk`` command line: ``say``, ``cues``, ``phones``; ``dub`` in :mod:`miketalk.cli_dub`.
 
 Every user mistake (a bad setting, an output that cannot be written, a text
 Festival cannot read, a broken model) is one line on stderr and exit status 2,
@@ -214,6 +214,9 @@ def cmd_say(args: argparse.Namespace) -> int:
 
         with open_model(args.model) as model:
             log.info("model %s opened, %.2f s after start", model.directory, _since(started))
+            from miketalk.cli_dub import resolve_background
+
+            background = resolve_background(args.background, model, progress=args.progress)
             long_text = len(text.split()) > 40
             spoken = speak(
                 speech,
@@ -226,6 +229,7 @@ def cmd_say(args: argparse.Namespace) -> int:
                 lipsync_model=args.lipsync_model,
                 progress=args.progress or (long_text and sys.stderr.isatty()),
                 overwrite=args.force,
+                background=background,
             )
     motion = spoken.motion
     if args.json:
@@ -283,10 +287,12 @@ def _say_recorded(
     text = _read_text(args) if _has_text(args) else None
     check_output(args.output, overwrite=args.force)
     _check_lipsync_model(args)
+    from miketalk.cli_dub import resolve_background
     from miketalk.talk.recorded import say_recorded
     from miketalk.talk.say import open_model
 
     with open_model(args.model) as model:
+        background = resolve_background(args.background, model, progress=args.progress)
         said = say_recorded(
             args.audio,
             args.output,
@@ -299,6 +305,7 @@ def _say_recorded(
             lipsync_model=args.lipsync_model,
             progress=args.progress,
             overwrite=args.force,
+            background=background,
         )
     motion = said.motion
     if args.json:
@@ -516,6 +523,13 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument(
         "--timings", help="with --audio: its word timings (GRID .align or Praat .TextGrid)"
     )
+    say.add_argument(
+        "--background",
+        default=None,
+        help="what plays under the mouth: auto (default: a model built from clips plays its "
+        "person's own frames, head motion and blinks; other models are still), still (the "
+        "model's face as it is), or a video of the model's person",
+    )
     _verbose_option(say)
     say.set_defaults(func=cmd_say)
 
@@ -555,6 +569,9 @@ def build_parser() -> argparse.ArgumentParser:
     _voice_option(cues)
     _verbose_option(cues)
     cues.set_defaults(func=cmd_cues)
+    from miketalk.cli_dub import add_dub_parser
+
+    add_dub_parser(sub)
     return parser
 
 

@@ -28,6 +28,7 @@ render uncomposited (``render``).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import cv2
 import numpy as np
@@ -125,7 +126,7 @@ def nose_jitter(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) ->
     dis = cv2.DISOpticalFlow_create(cv2.DISOpticalFlow_PRESET_MEDIUM)
     grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in stabilized]
     moves = []
-    for a, b in zip(grey, grey[1:], strict=False):
+    for a, b in pairwise(grey):
         flow = dis.calc(a, b, None)[top:bottom, left:right].reshape(-1, 2)
         moves.append(np.median(flow, axis=0))
     m = np.asarray(moves)

@@ -1,4 +1,4 @@
-"""Background sequences: the person's own frames, with their head motion and blinks, under the mouth.
+"""Background sequences: the person's own frames, head motion and blinks, under the mouth.
 
 A model built from clips keeps a few seconds of one training clip as it was
 recorded (:func:`write_background`, in ``<model>/background/``): the frames,
@@ -104,7 +104,7 @@ class Background:
 
 
 def pingpong(i: int, n: int) -> int:
-    """Frame ``i`` of ``0, 1, ..., n-1, n-2, ..., 1, 0, 1, ...``: a sequence looped without a jump."""
+    """Frame ``i`` of ``0, 1, ..., n-1, n-2, ..., 1, 0, 1, ...``: a loop without a jump."""
     if n <= 1:
         return 0
     period = 2 * (n - 1)
@@ -147,6 +147,45 @@ def composited(
             field=background.field,
             offset=offset,
         )
+
+
+def composite_renders(
+    renders: Iterable[np.ndarray], background: Background, model, *, fps: float
+) -> Iterator[np.ndarray]:
+    """:func:`composited` with the model's mouth box, size and silence image.
+
+    Parameters
+    ----------
+    renders : iterable of numpy.ndarray
+        The model's frames.
+    background : Background
+    model : miketalk.talk.model.Model
+        A model built from clips (:func:`has_background`).
+    fps : float
+        The output's frame rate.
+    """
+    from miketalk.render.composite import Compositor
+    from miketalk.visemes import SILENCE
+
+    compositor = Compositor(mouth_box_of(model.directory), model.size)
+    rest = model.image(SILENCE) if SILENCE in model.visemes else None
+    return composited(renders, background, compositor, fps=fps, rest=rest)
+
+
+def background_doc(background: Background | None) -> dict:
+    """What the timeline JSON records of a background (nothing for a still face)."""
+    if background is None:
+        return {}
+    return {
+        "background": {
+            "source": background.source,
+            "frames": len(background),
+            "fps": background.fps,
+            "size": list(background.size),
+            "blinks": list(background.blinks),
+            "loop": "pingpong",
+        }
+    }
 
 
 def find_blinks(
@@ -242,7 +281,12 @@ def check_video(path: str | os.PathLike[str]) -> tuple[np.ndarray, float]:
 
 
 def background_from_video(
-    frames: np.ndarray, fps: float, stabilizer, *, source: str = "the video"
+    frames: np.ndarray,
+    fps: float,
+    stabilizer,
+    *,
+    source: str = "the video",
+    progress: bool = False,
 ) -> Background:
     """Register a video's frames to the model's reference (see the module docstring).
 
@@ -257,6 +301,8 @@ def background_from_video(
         The model's (:func:`model_stabilizer`).
     source : str
         Named in errors.
+    progress : bool
+        Draw a progress bar of the registration on stderr.
 
     Raises
     ------
@@ -279,7 +325,7 @@ def background_from_video(
             f"{stabilizer.correlations[0]:.2f} with the model's reference, at least "
             f"{stabilizer.min_correlation} needed): give a frontal video of the same person"
         )
-    transforms = stabilizer.register(small, clip=source, init=first[0], on_failure="nan")
+    transforms = _register(stabilizer, small, first[0], source=source, progress=progress)
     ok = np.isfinite(transforms[:, 0, 0])
     if ok.mean() < 0.5:
         raise MiketalkError(
@@ -293,6 +339,28 @@ def background_from_video(
     blinks = find_blinks(steady, stabilizer.mouth_box)
     median = np.median(steady, axis=0).astype(np.uint8)
     return Background(frames, full, field, float(fps), blinks, source, median)
+
+
+def _register(stabilizer, frames: np.ndarray, init: np.ndarray, *, source: str, progress: bool):
+    """:meth:`Stabilizer.register` in chunks, each starting from the last registered frame."""
+    chunk = 50
+    out = np.empty((len(frames), 2, 3))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(frames), desc="registering", unit="frame")
+    start = init
+    for i in range(0, len(frames), chunk):
+        part = stabilizer.register(frames[i : i + chunk], clip=source, init=start, on_failure="nan")
+        out[i : i + chunk] = part
+        ok = np.flatnonzero(np.isfinite(part[:, 0, 0]))
+        start = part[ok[-1]] if len(ok) else None
+        if bar is not None:
+            bar.update(len(part))
+    if bar is not None:
+        bar.close()
+    return out
 
 
 def write_background(

@@ -28,15 +28,17 @@ from miketalk.media.video import write_mp4
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.lipsync import Timeline, keyframes, speak_in_sync
-from miketalk.talk.model import Model, strict_json
+from miketalk.talk.model import Model
 from miketalk.talk.motion import JerkMeter, Motion, measure
 from miketalk.talk.output import TIMELINE_FORMAT, check_output
+from miketalk.talk.said import Said, read_said  # noqa: F401 (reading back what say wrote)
 from miketalk.talk.settings import LipsyncModel, Sampling, check_settings
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
+    from miketalk.talk.background import Background
     from miketalk.talk.coarticulation import CoarticulationParams
 
 log = logging.getLogger(__name__)
@@ -108,6 +110,7 @@ def say(
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> tuple[Utterance, Timeline]:
     """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
 
@@ -117,6 +120,7 @@ def say(
         text, output, model=model, fps=fps, max_px_per_frame=max_px_per_frame,
         sampling=sampling, max_slowdown=max_slowdown, lipsync_model=lipsync_model,
         backend=backend, table=table, progress=progress, overwrite=overwrite,
+        background=background,
     )  # fmt: skip
     return spoken.utterance, spoken.timeline
 
@@ -135,6 +139,7 @@ def speak(
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> Spoken:
     """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
 
@@ -189,6 +194,9 @@ def speak(
         Draw a progress bar on stderr.
     overwrite : bool
         Replace a ``NAME.json`` that is not a miketalk timeline.
+    background : Background, optional
+        Frames of the person the mouth is composited into
+        (:mod:`miketalk.talk.background`); None: the model's still face.
 
     Returns
     -------
@@ -265,13 +273,21 @@ def speak(
             "planned_phones": [asdict(p) for p in planned_phones],
             # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
             "planned_duration": planned_duration,
-        },
+        }
+        | _background_doc(background),
         coarticulation=coarticulation,
         progress=progress,
         overwrite=overwrite,
+        background=background,
     )
     log.info("speak took %.2f s", time.perf_counter() - started)
     return Spoken(utterance, timeline, motion, output, output.with_suffix(".json"))
+
+
+def _background_doc(background: Background | None) -> dict:
+    from miketalk.talk.background import background_doc
+
+    return background_doc(background)
 
 
 def learned_coarticulation(model: Model) -> CoarticulationParams:
@@ -300,6 +316,7 @@ def write_utterance(
     coarticulation: CoarticulationParams | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> Motion:
     """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
 
@@ -314,6 +331,10 @@ def write_utterance(
         Draw the frames with this learned coarticulation
         (:func:`miketalk.multimorph.render_learned`) instead of the paper's
         transitions; the motion is then measured on its weights.
+    background : Background, optional
+        Frames of the person to composite each rendered mouth into
+        (:func:`miketalk.talk.background.composited`); the video then has the
+        background's size. None: the model's frames as they are (a still face).
 
     Returns
     -------
@@ -336,6 +357,10 @@ def write_utterance(
         weights = frame_weights(timeline, coarticulation)
         rendered = render_learned(model, timeline, coarticulation, weights=weights)
     frames = jerk.watch(rendered)
+    if background is not None:
+        from miketalk.talk.background import composite_renders
+
+        frames = composite_renders(frames, background, model, fps=timeline.fps)
     if progress:
         from tqdm import tqdm
 
@@ -368,82 +393,3 @@ def write_utterance(
         len(timeline.frames), motion.morphs, output, time.perf_counter() - started,
     )  # fmt: skip
     return motion
-
-
-@dataclass(frozen=True)
-class Said:
-    """What :func:`say` wrote beside an mp4: enough to render its frames again and check them.
-
-    Attributes
-    ----------
-    text : str
-        The text as spoken.
-    timeline : Timeline
-        The timeline of the mp4's frames (``Model.render(timeline)`` made them).
-    planned_phones : tuple of Phone
-        The phones at the engine's own timing, before the paper's mode
-        lengthened any.
-    planned_duration : float
-        Seconds of audio the planned phones make.
-    max_px_per_frame : float or None
-        The limit ``say`` was given.
-    sampling : str
-        ``"blur"``, ``"paper"`` or ``"none"`` (``"paper"`` for a JSON from
-        before sampling was recorded, ``"none"`` when there was no limit).
-    max_slowdown : float or None
-        The paper mode's cap on lengthening.
-    lipsync_model : str
-        ``"paper"`` or ``"learned"`` (``"paper"`` for a JSON from before it
-        was recorded).
-    """
-
-    text: str
-    timeline: Timeline
-    planned_phones: tuple[Phone, ...]
-    planned_duration: float
-    max_px_per_frame: float | None
-    sampling: str = "paper"
-    max_slowdown: float | None = None
-    lipsync_model: str = "paper"
-
-
-def read_said(path: str | os.PathLike[str]) -> Said:
-    """Read the timeline JSON :func:`say` wrote (``<name>.json`` beside ``<name>.mp4``).
-
-    Raises
-    ------
-    MiketalkError
-        If the file is missing, is not JSON, or lacks a field (for example a
-        JSON from before ``planned_phones`` was recorded: make the utterance again).
-    """
-    path = Path(path)
-    try:
-        doc = strict_json(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise MiketalkError(f"no timeline at {path}") from None
-    except (OSError, UnicodeDecodeError, ValueError) as err:
-        raise MiketalkError(f"cannot read the timeline {path}: {err}") from None
-    if not isinstance(doc, dict):
-        raise MiketalkError(f"{path} is not a timeline (not a JSON object)")
-    missing = [k for k in ("text", "planned_phones", "planned_duration") if k not in doc]
-    if missing:
-        raise MiketalkError(f"{path} has no {', '.join(missing)}: make the utterance again")
-    try:
-        planned = tuple(Phone(**p) for p in doc["planned_phones"])
-    except TypeError as err:
-        raise MiketalkError(f"{path}: malformed planned_phones ({err})") from None
-    try:
-        timeline = Timeline.from_dict(doc)
-    except MiketalkError as err:
-        raise MiketalkError(f"{path}: {err}") from None
-    max_px = doc.get("max_px_per_frame")
-    return Said(
-        text=doc["text"],
-        timeline=timeline,
-        planned_phones=planned,
-        planned_duration=doc["planned_duration"],
-        max_px_per_frame=max_px,
-        sampling=doc.get("sampling", "paper" if max_px is not None else "none"),
-        max_slowdown=doc.get("max_slowdown"),
-        lipsync_model=doc.get("lipsync_model", "paper"),
-    )
