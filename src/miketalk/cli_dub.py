@@ -47,13 +47,8 @@ def resolve_background(choice: str | None, model, *, progress: bool = False):
         A video with a model not built from a person, or a video that cannot
         be read, is shorter than a second, or does not show the model's person.
     """
-    from miketalk.talk.background import (
-        background_from_video,
-        check_video,
-        has_background,
-        model_stabilizer,
-        read_background,
-    )
+    from miketalk.talk.background import background_from_video, check_video
+    from miketalk.talk.background_files import has_background, model_stabilizer, read_background
 
     choice = choice or defaults.BACKGROUND
     if choice == "still":
@@ -68,7 +63,8 @@ def resolve_background(choice: str | None, model, *, progress: bool = False):
 def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
     from miketalk.cli import _backend, _check_lipsync_model, _has_text, _read_text, _since
-    from miketalk.talk.background import background_from_video, check_video, has_background
+    from miketalk.talk.background import background_from_video, check_video
+    from miketalk.talk.background_files import has_background, model_stabilizer
     from miketalk.talk.output import check_output
     from miketalk.talk.say import default_model_dir, open_model
     from miketalk.talk.settings import check_fps
@@ -97,8 +93,6 @@ def cmd_dub(args: argparse.Namespace) -> int:
         raise MiketalkError(f"{args.video}: its frame rate: {err}") from None
     long_work = len(frames) > _LONG_WORK and sys.stderr.isatty()
     progress = args.progress or long_work
-    from miketalk.talk.background import model_stabilizer
-
     if args.audio is not None:
         from miketalk.talk.recorded import say_recorded
 

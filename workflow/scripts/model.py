@@ -32,7 +32,7 @@ def main() -> None:
             Path(phones).parent, snakemake.output[0], grouping=snakemake.params.grouping
         )
         if media := snakemake.params.get("media"):  # its person's own frames, for say and dub
-            from miketalk.talk.background import write_background
+            from miketalk.talk.background_files import write_background
 
             write_background(snakemake.output[0], corpus_dir=Path(phones).parent, media=media)
 

@@ -53,7 +53,7 @@ def dub_heldout(
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.render.composite import Compositor
-    from miketalk.talk.background import model_stabilizer, mouth_box_of
+    from miketalk.talk.background_files import model_stabilizer, mouth_box_of
     from miketalk.talk.lipsync import plan
     from miketalk.talk.model import Model
     from miketalk.visemes import SILENCE, default_table

@@ -1,7 +1,8 @@
 """Background sequences: the person's own frames, head motion and blinks, under the mouth.
 
 A model built from clips keeps a few seconds of one training clip as it was
-recorded (:func:`write_background`, in ``<model>/background/``): the frames,
+recorded (:func:`miketalk.talk.background_files.write_background`, in
+``<model>/background/``): the frames,
 each frame's stabilization transform and the clip's conform field
 (:mod:`miketalk.corpus.stabilize`), where the eyes blink, and what is needed
 to stabilize other video of the same person (the reference frame, the face
@@ -21,34 +22,25 @@ registers does not show the model's person, and is refused in one line.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from miketalk import defaults
 from miketalk.errors import MiketalkError
 
 __all__ = [
     "Background",
+    "background_doc",
     "background_from_video",
+    "check_video",
+    "composite_renders",
     "composited",
     "find_blinks",
-    "model_stabilizer",
     "pingpong",
-    "read_background",
-    "write_background",
 ]
 
-DIRECTORY = "background"
-META = "background.json"
-FIELD = "field.npy"
-REFERENCE = "reference.png"
-FACE_MASK = "face_mask.png"
-STEADY = "steady.png"
 
 #: The shortest video ``dub`` and ``--background VIDEO`` take, seconds.
 MIN_SECONDS = 1.0
@@ -165,6 +157,7 @@ def composite_renders(
         The output's frame rate.
     """
     from miketalk.render.composite import Compositor
+    from miketalk.talk.background_files import mouth_box_of
     from miketalk.visemes import SILENCE
 
     compositor = Compositor(mouth_box_of(model.directory), model.size)
@@ -211,41 +204,6 @@ def find_blinks(
     change = np.abs(band - np.median(band, axis=0)).mean(axis=(1, 2))
     threshold = max(factor * float(np.median(change)), 3.0)
     return tuple(int(i) for i in np.flatnonzero(change > threshold))
-
-
-def model_stabilizer(model_dir: str | os.PathLike[str]):
-    """A :class:`~miketalk.corpus.stabilize.Stabilizer` for the model's person.
-
-    Raises
-    ------
-    MiketalkError
-        If the model keeps no background (it was not built from clips of a person).
-    """
-    from miketalk.corpus.stabilize import Stabilizer
-    from miketalk.media.images import read_image
-
-    where = Path(model_dir) / DIRECTORY
-    if not (where / META).is_file():
-        raise MiketalkError(
-            f"the model {model_dir} was not built from video of a person (it has no "
-            f"{DIRECTORY}/{META}): only such a model can play over a video"
-        )
-    meta = json.loads((where / META).read_text(encoding="utf-8"))
-    face = read_image(where / FACE_MASK)[..., 0] > 127
-    return Stabilizer.from_reference(
-        read_image(where / REFERENCE), face=face, mouth_box=tuple(meta["mouth_box"])
-    )
-
-
-def mouth_box_of(model_dir: str | os.PathLike[str]) -> tuple[int, int, int, int]:
-    """The mouth box ``(x, y, w, h)`` of the model's reference."""
-    meta = json.loads((Path(model_dir) / DIRECTORY / META).read_text(encoding="utf-8"))
-    return tuple(int(v) for v in meta["mouth_box"])
-
-
-def has_background(model_dir: str | os.PathLike[str]) -> bool:
-    """Whether the model keeps a background sequence (built from clips of a person)."""
-    return (Path(model_dir) / DIRECTORY / META).is_file()
 
 
 def _fill(transforms: np.ndarray) -> np.ndarray:
@@ -361,93 +319,3 @@ def _register(stabilizer, frames: np.ndarray, init: np.ndarray, *, source: str, 
     if bar is not None:
         bar.close()
     return out
-
-
-def write_background(
-    model_dir: str | os.PathLike[str],
-    *,
-    corpus_dir: str | os.PathLike[str],
-    media: str,
-    seconds: float = defaults.BACKGROUND_SECONDS,
-) -> dict:
-    """Keep the reference clip's first ``seconds`` as the model's background (``background/``).
-
-    Parameters
-    ----------
-    model_dir : path
-        The model being built.
-    corpus_dir : path
-        Its corpus of clips (the reference, the face mask, the mouth box).
-    media : str
-        The clips' media pattern with ``{id}``.
-    seconds : float
-        How much of the clip to keep.
-
-    Returns
-    -------
-    dict
-        What ``background.json`` records.
-    """
-    from miketalk.corpus.clips import FACE_MASK as CORPUS_FACE
-    from miketalk.corpus.clips import REFERENCE as CORPUS_REFERENCE
-    from miketalk.corpus.clips import corpus_stabilizer, mouth_box
-    from miketalk.media.atomic import atomic_path, write_text_atomic
-    from miketalk.media.images import write_png
-
-    corpus_dir = Path(corpus_dir)
-    regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
-    clip = regions["reference"]["clip"]
-    frames, fps = check_video(media.replace("{id}", clip))
-    frames = frames[: max(2, round(seconds * fps))]
-    stabilizer = corpus_stabilizer(corpus_dir)
-    background = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
-    out = Path(model_dir) / DIRECTORY
-    out.mkdir(parents=True, exist_ok=True)
-    for i, frame in enumerate(background.frames):
-        write_png(out / f"{i:04d}.png", frame)
-    with atomic_path(out / FIELD) as tmp, tmp.open("wb") as fh:
-        np.save(fh, np.zeros((0,), np.float32) if background.field is None else background.field)
-    write_png(out / STEADY, background.steady)
-    for name, src in ((REFERENCE, CORPUS_REFERENCE), (FACE_MASK, CORPUS_FACE)):
-        (out / name).write_bytes((corpus_dir / src).read_bytes())
-    meta = {
-        "clip": clip,
-        "fps": background.fps,
-        "frames": len(background),
-        "blinks": list(background.blinks),
-        "mouth_box": list(mouth_box(corpus_dir)),
-        "transforms": [[round(float(v), 6) for v in t.ravel()] for t in background.transforms],
-    }
-    write_text_atomic(out / META, json.dumps(meta, indent=1))
-    return meta
-
-
-def read_background(model_dir: str | os.PathLike[str]) -> Background:
-    """The background sequence :func:`write_background` kept in a model.
-
-    Raises
-    ------
-    MiketalkError
-        If the model keeps none, or a frame is missing.
-    """
-    from miketalk.media.images import read_image
-
-    where = Path(model_dir) / DIRECTORY
-    if not (where / META).is_file():
-        raise MiketalkError(
-            f"the model {model_dir} keeps no background (not built from clips of a person): "
-            "use --background still or a video"
-        )
-    meta = json.loads((where / META).read_text(encoding="utf-8"))
-    frames = np.stack([read_image(where / f"{i:04d}.png") for i in range(meta["frames"])])
-    field = np.load(where / FIELD)
-    transforms = np.array(meta["transforms"], np.float64).reshape(-1, 2, 3)
-    return Background(
-        frames,
-        transforms,
-        field if field.size else None,
-        float(meta["fps"]),
-        tuple(meta["blinks"]),
-        f"clip {meta['clip']}",
-        read_image(where / STEADY),
-    )
