@@ -214,7 +214,7 @@ def cmd_say(args: argparse.Namespace) -> int:
 
         with open_model(args.model) as model:
             log.info("model %s opened, %.2f s after start", model.directory, _since(started))
-            from miketalk.cli_dub import resolve_background
+            from miketalk.talk.background_files import resolve_background
 
             background = resolve_background(args.background, model, progress=args.progress)
             long_text = len(text.split()) > 40
@@ -287,7 +287,7 @@ def _say_recorded(
     text = _read_text(args) if _has_text(args) else None
     check_output(args.output, overwrite=args.force)
     _check_lipsync_model(args)
-    from miketalk.cli_dub import resolve_background
+    from miketalk.talk.background_files import resolve_background
     from miketalk.talk.recorded import say_recorded
     from miketalk.talk.say import open_model
 

@@ -26,38 +26,10 @@ from pathlib import Path
 from miketalk import defaults
 from miketalk.errors import MiketalkError
 
-__all__ = ["add_dub_parser", "cmd_dub", "resolve_background"]
+__all__ = ["add_dub_parser", "cmd_dub"]
 
 #: Frames of work past which a progress bar is drawn on a terminal.
 _LONG_WORK = 300
-
-
-def resolve_background(choice: str | None, model, *, progress: bool = False):
-    """The background of ``--background``: ``auto``, ``still`` or a video's path.
-
-    Returns
-    -------
-    miketalk.talk.background.Background or None
-        None for a still face (``still``, or ``auto`` with a model that keeps
-        no background: the output is then exactly ``say``'s without one).
-
-    Raises
-    ------
-    MiketalkError
-        A video with a model not built from a person, or a video that cannot
-        be read, is shorter than a second, or does not show the model's person.
-    """
-    from miketalk.talk.background import background_from_video, check_video
-    from miketalk.talk.background_files import has_background, model_stabilizer, read_background
-
-    choice = choice or defaults.BACKGROUND
-    if choice == "still":
-        return None
-    if choice == "auto":
-        return read_background(model.directory) if has_background(model.directory) else None
-    stabilizer = model_stabilizer(model.directory)
-    frames, fps = check_video(choice)
-    return background_from_video(frames, fps, stabilizer, source=str(choice), progress=progress)
 
 
 def cmd_dub(args: argparse.Namespace) -> int:

@@ -27,6 +27,7 @@ def dub_heldout(
     renderer: str = "learned",
     morph: dict | None = None,
     colour: str = "clip",
+    blend: dict | None = None,
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
 
@@ -45,6 +46,8 @@ def dub_heldout(
         The face's morph settings.
     colour : {"clip", "frame"}
         Match the mouth's colour once per clip or frame by frame.
+    blend : dict, optional
+        Settings of :func:`miketalk.render.composite.blend_mask` (its defaults otherwise).
     """
     from miketalk.corpus.clips import decode_clip, mouth_region
     from miketalk.corpus.folder import open_corpus
@@ -64,7 +67,7 @@ def dub_heldout(
     eigenlips = Eigenlips(train)
     stabilizer = model_stabilizer(model_dir)
     model = Model(model_dir, morph_options=morph)
-    compositor = Compositor(mouth_box_of(model_dir), model.size)
+    compositor = Compositor(mouth_box_of(model_dir), model.size, **(blend or {}))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -118,6 +121,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--renderer", default="learned", choices=("learned", "morph"))
     parser.add_argument("--colour", default="clip", choices=("clip", "frame"))
+    parser.add_argument(
+        "--blend",
+        type=float,
+        nargs=4,
+        metavar=("HALF_WIDTH", "ABOVE", "BELOW", "FEATHER"),
+        help="the blend ellipse in mouth widths (default: miketalk.defaults)",
+    )
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
     args = parser.parse_args(argv)
     face = yaml.safe_load(Path(args.config).read_text())["faces"][args.face]
@@ -131,6 +141,8 @@ def main(argv: list[str] | None = None) -> int:
     dub_heldout(
         model_dir=args.model, corpus_dir=args.corpus, clips=clips, out_dir=args.out,
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
+        blend=dict(zip(("half_width", "above", "below", "feather"), args.blend, strict=True))
+        if args.blend else None,
     )  # fmt: skip
     return 0
 

@@ -25,6 +25,7 @@ __all__ = [
     "model_stabilizer",
     "mouth_box_of",
     "read_background",
+    "resolve_background",
     "save_background",
     "write_background",
 ]
@@ -202,3 +203,28 @@ def read_background(model_dir: str | os.PathLike[str]) -> Background:
         f"clip {meta['clip']}",
         read_image(where / STEADY),
     )
+
+
+def resolve_background(choice: str | None, model, *, progress: bool = False):
+    """The background of ``--background``: ``auto``, ``still`` or a video's path.
+
+    Returns
+    -------
+    miketalk.talk.background.Background or None
+        None for a still face (``still``, or ``auto`` with a model that keeps
+        no background: the output is then exactly ``say``'s without one).
+
+    Raises
+    ------
+    MiketalkError
+        A video with a model not built from a person, or a video that cannot
+        be read, is shorter than a second, or does not show the model's person.
+    """
+    choice = choice or defaults.BACKGROUND
+    if choice == "still":
+        return None
+    if choice == "auto":
+        return read_background(model.directory) if has_background(model.directory) else None
+    stabilizer = model_stabilizer(model.directory)
+    frames, fps = check_video(choice)
+    return background_from_video(frames, fps, stabilizer, source=str(choice), progress=progress)
