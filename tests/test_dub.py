@@ -207,3 +207,12 @@ def test_say_background_auto_moves_the_head(capsys, tmp_path, person, video):
                       "--background", str(video))  # fmt: skip
     assert code == 0
     assert read_video(video_bg)[0].shape[1:] == (H, W, 3)
+
+
+def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
+    from miketalk.talk.background import lower_face_correlation
+
+    frame = _head(4)
+    box = (74, 100, 28, 8)  # the synthetic mouth: centre (88, 104), 28 px wide
+    assert lower_face_correlation(frame, frame, box) == pytest.approx(1.0)
+    assert lower_face_correlation(np.roll(frame, 30, axis=0), frame, box) < 0.4
