@@ -213,6 +213,8 @@ def heldout_tables():
             f"{FIGURES}/heldout/{face}/trajectory.png",
             f"{FIGURES}/heldout/{face}/psnr.png",
             f"{FIGURES}/heldout/{face}/strip.png",
+            f"{METRICS}/dub/{face}/summary.csv",
+            f"{FIGURES}/dub/{face}/strip.png",
         ]
         if sweep_of(face):
             out += [

@@ -1,14 +1,16 @@
 """Held-out clips dubbed with their own audio: the measures of :mod:`miketalk.evaluation.dubbing`
-per clip, a side-by-side mp4 (real | dubbed) per clip, and a summary.
+per clip, a side-by-side mp4 (real | dubbed) per clip, a strip of the first, and a summary.
 
+The workflow's ``dub_heldout`` rule runs :func:`dub_heldout`; by hand:
 ``python -m miketalk.evaluation.dub_heldout --model results/model/s1 --corpus
-results/corpus/s1 --config config.yaml --face s1 --out results/dub/s1``
+results/corpus/s1 --config config.yaml --face s1 --out results/dub/s1``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import time
 from pathlib import Path
 
@@ -17,6 +19,8 @@ import pandas as pd
 
 from miketalk.errors import MiketalkError
 
+log = logging.getLogger(__name__)
+
 
 def dub_heldout(
     *,
@@ -24,6 +28,9 @@ def dub_heldout(
     corpus_dir: str | Path,
     clips: list,
     out_dir: str | Path,
+    clips_csv: str | Path | None = None,
+    summary_csv: str | Path | None = None,
+    strip_png: str | Path | None = None,
     renderer: str = "learned",
     morph: dict | None = None,
     colour: str = "clip",
@@ -38,8 +45,13 @@ def dub_heldout(
     clips : list of Clip
         The test clips.
     out_dir : path
-        ``<clip>.mp4`` (real | dubbed, the clip's own audio), ``clips.csv``,
-        ``summary.csv``.
+        ``<clip>.mp4`` (real | dubbed, the clip's own audio).
+    clips_csv, summary_csv : path, optional
+        Per-clip measures and their mean and standard deviation over clips
+        (default ``clips.csv`` and ``summary.csv`` in ``out_dir``).
+    strip_png : path, optional
+        Every 5th frame of the first clip, real above dubbed, whole and the
+        mouth (:func:`miketalk.figures.dub_strip.strip`).
     renderer : {"learned", "morph"}
         How the model draws the mouth (:data:`miketalk.evaluation.heldout.RENDERERS`).
     morph : dict, optional
@@ -49,7 +61,7 @@ def dub_heldout(
     blend : dict, optional
         Settings of :func:`miketalk.render.composite.blend_mask` (its defaults otherwise).
     """
-    from miketalk.corpus.clips import decode_clip, mouth_region
+    from miketalk.corpus.clips import RATE, decode_clip, mouth_region
     from miketalk.corpus.folder import open_corpus
     from miketalk.evaluation.dubbing import dub_clip, dub_measures
     from miketalk.evaluation.heldout import RENDERERS, Eigenlips, grey_mouths, speech_frames
@@ -96,14 +108,32 @@ def dub_heldout(
             np.concatenate([dubbed.real, dubbed.dubbed], axis=2),
             fps=decoded.fps,
             audio=decoded.samples,
-            rate=16000,
+            rate=RATE,
         )
-        np.save(out / f"{clip.id}_dubbed.npy", dubbed.dubbed)
-        print(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}))
+        if strip_png is not None and len(rows) == 1:
+            from miketalk.figures.dub_strip import strip
+            from miketalk.media.images import write_png
+
+            x, y, w, h = compositor.support
+            write_png(
+                strip_png,
+                strip(np.concatenate([dubbed.real[:40], dubbed.dubbed[:40]], axis=2), split=2,
+                      mouth=(x, y, w, h)),
+            )  # fmt: skip
+        log.info(
+            "%s",
+            json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}),
+        )
     table = pd.DataFrame(rows)
-    write_text_atomic(out / "clips.csv", table.to_csv(index=False, float_format="%.5f"))
-    means = table.drop(columns=["clip"]).mean(numeric_only=True).to_frame("mean").T
-    write_text_atomic(out / "summary.csv", means.to_csv(index=False, float_format="%.4f"))
+    write_text_atomic(
+        clips_csv or out / "clips.csv", table.to_csv(index=False, float_format="%.5f")
+    )
+    numbers = table.drop(columns=["clip"]).select_dtypes("number")
+    summary = pd.concat([numbers.mean().add_suffix("_mean"), numbers.std(ddof=1).add_suffix("_sd")])
+    summary = summary.to_frame().T.assign(clips=len(table))
+    write_text_atomic(
+        summary_csv or out / "summary.csv", summary.to_csv(index=False, float_format="%.4f")
+    )
     return table
 
 
@@ -130,6 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
     args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
     face = yaml.safe_load(Path(args.config).read_text())["faces"][args.face]
     corpus = face["corpus"]
     if corpus.get("source") != "clips":
