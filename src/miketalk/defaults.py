@@ -80,10 +80,11 @@ BACKGROUND = "auto"
 #: The region a synthesized mouth is blended into a frame over, in mouth widths about
 #: the mouth box's centre (:func:`miketalk.render.composite.blend_mask`): half its width,
 #: how far above the centre it starts (below the nose) and how far below it ends (past
-#: the chin), and the feathered edge's Gaussian sigma.
+#: the chin), half the width of its lower half, and the feathered edge's Gaussian sigma.
 BLEND_HALF_WIDTH = 1.15
 BLEND_ABOVE = 0.42
 BLEND_BELOW = 0.85
+BLEND_CHIN_WIDTH = 1.15
 BLEND_FEATHER = 0.1
 
 #: Seconds of the person's own frames a model built from clips keeps as the background

@@ -154,8 +154,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--blend",
         type=float,
-        nargs=4,
-        metavar=("HALF_WIDTH", "ABOVE", "BELOW", "FEATHER"),
+        nargs=5,
+        metavar=("HALF_WIDTH", "ABOVE", "BELOW", "CHIN_WIDTH", "FEATHER"),
         help="the blend ellipse in mouth widths (default: miketalk.defaults)",
     )
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
@@ -169,11 +169,11 @@ def main(argv: list[str] | None = None) -> int:
         args.clips or corpus["test"], media=corpus["media"], transcripts=corpus["transcripts"],
         timings=corpus.get("timings"),
     )  # fmt: skip
+    names = ("half_width", "above", "below", "chin_width", "feather")
     dub_heldout(
         model_dir=args.model, corpus_dir=args.corpus, clips=clips, out_dir=args.out,
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
-        blend=dict(zip(("half_width", "above", "below", "feather"), args.blend, strict=True))
-        if args.blend else None,
+        blend=dict(zip(names, args.blend, strict=True)) if args.blend else None,
     )  # fmt: skip
     return 0
 

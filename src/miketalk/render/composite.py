@@ -49,6 +49,7 @@ def blend_mask(
     half_width: float = defaults.BLEND_HALF_WIDTH,
     above: float = defaults.BLEND_ABOVE,
     below: float = defaults.BLEND_BELOW,
+    chin_width: float = defaults.BLEND_CHIN_WIDTH,
     feather: float = defaults.BLEND_FEATHER,
 ) -> np.ndarray:
     """Where the render replaces the frame, in the reference's coordinates.
@@ -63,6 +64,9 @@ def blend_mask(
         The ellipse where the alpha is one half, in mouth widths ``w`` about
         the box's centre: half its width, how far above the centre it starts
         and how far below it ends.
+    chin_width : float
+        Half the width of its lower half (an egg: the jaw line beside the
+        mouth, the chin below it, not the neck beside the chin).
     feather : float
         Gaussian sigma of the edge, in mouth widths.
 
@@ -79,8 +83,11 @@ def blend_mask(
     top, bottom = cy - above * w, cy + below * w
     mask = np.zeros(size, np.uint8)
     centre = (round(cx * 16), round((top + bottom) / 2 * 16))  # 4 fractional bits
-    axes = (round(half_width * w * 16), round((bottom - top) / 2 * 16))
-    cv2.ellipse(mask, centre, axes, 0, 0, 360, 255, -1, cv2.LINE_AA, shift=4)
+    height = round((bottom - top) / 2 * 16)
+    cv2.ellipse(mask, centre, (round(half_width * w * 16), height), 0, 180, 360, 255, -1,
+                cv2.LINE_AA, shift=4)  # fmt: skip
+    cv2.ellipse(mask, centre, (round(chin_width * w * 16), height), 0, 0, 180, 255, -1,
+                cv2.LINE_AA, shift=4)  # fmt: skip
     alpha = cv2.GaussianBlur(mask.astype(np.float32) / 255, (0, 0), feather * w)
     alpha[alpha < _EMPTY] = 0
     return alpha
