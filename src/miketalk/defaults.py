@@ -83,8 +83,8 @@ BACKGROUND = "auto"
 #: the chin), half the width of its lower half, and the feathered edge's Gaussian sigma.
 BLEND_HALF_WIDTH = 1.15
 BLEND_ABOVE = 0.42
-BLEND_BELOW = 0.85
-BLEND_CHIN_WIDTH = 1.15
+BLEND_BELOW = 1.0
+BLEND_CHIN_WIDTH = 0.7
 BLEND_FEATHER = 0.1
 
 #: Seconds of the person's own frames a model built from clips keeps as the background
