@@ -121,3 +121,17 @@ def test_a_region_outside_the_frame_leaves_it_as_it_was():
     frame = _texture()
     far = _affine(shift=(1000.0, 0.0))
     assert np.array_equal(Compositor(MOUTH, SIZE)(frame, frame, far), frame)
+
+
+def test_poisson_blend_gives_back_the_frame_and_keeps_the_frames_light():
+    frame = _texture(seed=11)
+    transform = _affine()
+    stabilized = _stabilizer().apply(frame[None], transform[None])[0]
+    compositor = Compositor(MOUTH, SIZE, blend="poisson", colour_match=False)
+    inside = compositor.place(transform, SIZE).full_alpha(SIZE) > 0.5
+    assert _psnr(compositor(frame, stabilized, transform), frame, inside) > 44.0  # 47.8
+    # a render 40 grey levels darker: the gradient-domain blend takes the frame's level
+    darker = np.clip(stabilized.astype(np.int16) - 40, 0, 255).astype(np.uint8)
+    assert _psnr(compositor(frame, darker, transform), frame, inside) > 44.0  # 46.5; 16.9 feathered
+    with pytest.raises(MiketalkError, match="blend"):
+        Compositor(MOUTH, SIZE, blend="median")

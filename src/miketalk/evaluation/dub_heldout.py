@@ -35,6 +35,7 @@ def dub_heldout(
     morph: dict | None = None,
     colour: str = "clip",
     blend: dict | None = None,
+    method: str = "feather",
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
 
@@ -60,6 +61,8 @@ def dub_heldout(
         Match the mouth's colour once per clip or frame by frame.
     blend : dict, optional
         Settings of :func:`miketalk.render.composite.blend_mask` (its defaults otherwise).
+    method : {"feather", "poisson"}
+        How the render is blended (:class:`miketalk.render.composite.Compositor`).
     """
     from miketalk.corpus.clips import RATE, decode_clip, mouth_region
     from miketalk.corpus.folder import open_corpus
@@ -79,7 +82,7 @@ def dub_heldout(
     eigenlips = Eigenlips(train)
     stabilizer = model_stabilizer(model_dir)
     model = Model(model_dir, morph_options=morph)
-    compositor = Compositor(mouth_box_of(model_dir), model.size, **(blend or {}))
+    compositor = Compositor(mouth_box_of(model_dir), model.size, blend=method, **(blend or {}))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -158,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         metavar=("HALF_WIDTH", "ABOVE", "BELOW", "CHIN_WIDTH", "FEATHER"),
         help="the blend ellipse in mouth widths (default: miketalk.defaults)",
     )
+    parser.add_argument("--method", default="feather", choices=("feather", "poisson"))
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -174,6 +178,7 @@ def main(argv: list[str] | None = None) -> int:
         model_dir=args.model, corpus_dir=args.corpus, clips=clips, out_dir=args.out,
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
         blend=dict(zip(names, args.blend, strict=True)) if args.blend else None,
+        method=args.method,
     )  # fmt: skip
     return 0
 

@@ -221,13 +221,27 @@ class Compositor:
         ``(H, W)`` of the reference (and of the renders).
     colour_match : bool
         Match the render's colour to each frame's (:func:`colour_offset`).
+    blend : {"feather", "poisson"}
+        ``"feather"``: alpha blending over the mask's Gaussian edge;
+        ``"poisson"``: ``cv2.seamlessClone`` (Poisson image editing, Perez et
+        al. 2003) of the render inside the mask's half-alpha contour, the
+        frame's own pixels on its border.
     **mask
         Keyword settings of :func:`blend_mask`.
     """
 
     def __init__(
-        self, mouth_box: Box, size: tuple[int, int], *, colour_match: bool = True, **mask: float
+        self,
+        mouth_box: Box,
+        size: tuple[int, int],
+        *,
+        colour_match: bool = True,
+        blend: str = "feather",
+        **mask: float,
     ) -> None:
+        if blend not in ("feather", "poisson"):
+            raise MiketalkError(f"blend must be feather or poisson, not {blend!r}")
+        self.blend = blend
         self.mouth_box = tuple(int(v) for v in mouth_box)
         self.size = (int(size[0]), int(size[1]))
         self.alpha = blend_mask(self.mouth_box, self.size, **mask)
@@ -322,6 +336,21 @@ class Compositor:
         elif self.colour_match:
             band = 4.0 * placement.alpha * (1.0 - placement.alpha)
             mouth += colour_offset(mouth, here, band, sigma=self._sigma)
+        if self.blend == "poisson":
+            return _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
         blended = here + a * (mouth - here)
         out[y0:y1, x0:x1] = np.clip(blended + 0.5, 0, 255).astype(np.uint8)
         return out
+
+
+def _seamless(frame: np.ndarray, mouth: np.ndarray, placement: Placement) -> np.ndarray:
+    """``cv2.seamlessClone`` of ``mouth`` (the placement's box) into ``frame`` where alpha > 1/2."""
+    x0, y0 = placement.box[:2]
+    inside = np.where(placement.alpha > 0.5, 255, 0).astype(np.uint8)
+    inside[[0, -1], :] = 0  # seamlessClone needs the mask inside the source
+    inside[:, [0, -1]] = 0
+    if not inside.any():
+        return frame
+    bx, by, bw, bh = cv2.boundingRect(inside)
+    centre = (x0 + bx + bw // 2, y0 + by + bh // 2)
+    return cv2.seamlessClone(mouth, frame, inside, centre, cv2.NORMAL_CLONE)
