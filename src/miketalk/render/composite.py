@@ -19,6 +19,14 @@ matched to the frame's (:func:`colour_offset`): the difference frame - render
 in the blend's edge band (skin in both) is spread over the region by
 normalized convolution, a smooth per-channel offset that follows a lighting
 gradient, as the guidance field of Poisson blending would.
+
+``blend="poisson"`` uses ``cv2.seamlessClone`` instead. On s1's 8 held-out
+clips dubbed with their own audio it scores a higher whole-frame PSNR (40.2
+against 39.2 dB) and a seam gradient ratio nearer 1 (0.99 against 0.93), but
+the mouth's opening stops following the synthesized mouth (its correlation
+with the real opening over the speech 0.16 against 0.65): the
+gradient-domain blend takes each frame's level from the border, where the
+real jaw moves. So the feathered blend is the default.
 """
 
 from __future__ import annotations
