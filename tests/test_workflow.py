@@ -132,6 +132,17 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert said["lipsync_model"] == "learned"
     assert said["motion"]["morphs"] == said["motion"]["frames"]
     assert abs(said["motion"]["duration_ratio"] - 1) < 0.1
+    # ... over its own frames (the model keeps 3 s of its reference clip), and the
+    # synthetic face stays still
+    assert said["background"]["source"] == "clip bbaf2n"
+    assert said["background"]["frames"] == 75
+    assert "background" not in json.loads((results / "utterances/synthetic/hello.json").read_text())
+    # the held-out clips dubbed with their own audio
+    dub = pd.read_csv(results / "metrics/dub/s1/clips.csv")
+    assert list(dub["clip"]) == ["bbas3a", "srau3s"]
+    assert (dub["psnr_frame"] > 25).all() and dub["seam_ratio"].between(0.3, 3).all()
+    assert (results / "dub/s1/srau3s.mp4").stat().st_size > 0
+    assert (results / "figures/dub/s1/strip.png").stat().st_size > 0
 
 
 def test_metrics_within_bounds(run: Path) -> None:

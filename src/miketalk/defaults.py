@@ -71,3 +71,23 @@ def metrics_dir(*, root: Path = RESULTS) -> Path:
 def figures_dir(*, root: Path = RESULTS) -> Path:
     """``results/figures``."""
     return root / "figures"
+
+
+#: The background ``say`` plays under the mouth: ``"auto"`` (a model built from clips
+#: plays its person's own frames, any other model is still), ``"still"`` (the model's
+#: reference image, the paper's output) or the path of a video of the person.
+BACKGROUND = "auto"
+
+#: The region a synthesized mouth is blended into a frame over, in mouth widths about
+#: the mouth box's centre (:func:`miketalk.render.composite.blend_mask`): half its width,
+#: how far above the centre it starts (below the nose) and how far below it ends (past
+#: the chin), half the width of its lower half, and the feathered edge's Gaussian sigma.
+BLEND_HALF_WIDTH = 1.15
+BLEND_ABOVE = 0.42
+BLEND_BELOW = 1.0
+BLEND_CHIN_WIDTH = 0.7
+BLEND_FEATHER = 0.1
+
+#: Seconds of the person's own frames a model built from clips keeps as the background
+#: ``say`` plays (:mod:`miketalk.talk.background`).
+BACKGROUND_SECONDS = 3.0

@@ -96,6 +96,12 @@ def lipsync_options(face):
     return {**config["lipsync"], **own}
 
 
+def face_background(face):
+    """What a face's utterances play under the mouth: auto, still or a video (absolute)."""
+    choice = FACES[face].get("background", "auto") if face in FACES else "still"
+    return choice if choice in ("auto", "still") else project_path(choice)
+
+
 def model_flow(face):
     """The flow method and strategy of a face's model (the configured ones for no face)."""
     own = FACES[face].get("flow", {}) if face in FACES else {}
@@ -210,6 +216,8 @@ def heldout_tables():
             f"{FIGURES}/heldout/{face}/trajectory.png",
             f"{FIGURES}/heldout/{face}/psnr.png",
             f"{FIGURES}/heldout/{face}/strip.png",
+            f"{METRICS}/dub/{face}/summary.csv",
+            f"{FIGURES}/dub/{face}/strip.png",
         ]
         if sweep_of(face):
             out += [

@@ -55,6 +55,40 @@ rule heldout:
         "../scripts/heldout.py"
 
 
+rule dub_heldout:
+    input:
+        model=rules.model.output[0],
+        words=rules.corpus_clips.output.words,
+        regions=rules.corpus_clips.output.regions,
+    output:
+        clips=f"{METRICS}/dub/{{face}}/clips.csv",
+        summary=report(
+            f"{METRICS}/dub/{{face}}/summary.csv",
+            caption="../report/dub.rst",
+            category="Real person",
+        ),
+        strip=report(
+            f"{FIGURES}/dub/{{face}}/strip.png",
+            caption="../report/dub.rst",
+            category="Real person",
+        ),
+        videos=directory("results/dub/{face}"),
+    log:
+        "results/logs/dub_heldout/{face}.log",
+    benchmark:
+        "results/benchmarks/dub_heldout/{face}.tsv"
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    params:
+        corpus=lambda wildcards: corpus_settings(wildcards.face),
+        lipsync_model=lambda wildcards: lipsync_options(wildcards.face)["model"],
+        morph=lambda wildcards: morph_options(wildcards.face),
+    script:
+        "../scripts/dub_heldout.py"
+
+
 rule training_clips_table:
     input:
         training_clip_summaries,

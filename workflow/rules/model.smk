@@ -19,5 +19,6 @@ rule model:
         spec=lambda wildcards: method_json(model_flow(wildcards.face)[0]),
         strategy=lambda wildcards: model_flow(wildcards.face)[1],
         grouping=config["visemes"]["grouping"],
+        media=lambda wildcards: corpus_settings(wildcards.face).get("media"),
     script:
         "../scripts/model.py"

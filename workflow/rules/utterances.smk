@@ -29,6 +29,7 @@ rule utterance:
         lipsync=lambda wildcards: lipsync_options(wildcards.face),
         morph=lambda wildcards: morph_options(wildcards.face),
         grouping=config["visemes"]["grouping"],
+        background=lambda wildcards: face_background(wildcards.face),
     script:
         "../scripts/utterance.py"
 

@@ -32,6 +32,10 @@ def main() -> None:
         corpus = Path(phones).parent
         fit_coarticulation(corpus, snakemake.output[0], grouping=snakemake.params.grouping)
         fit_trained(corpus, snakemake.output[0], grouping=snakemake.params.grouping)
+        if media := snakemake.params.get("media"):  # its person's own frames, for say and dub
+            from miketalk.talk.background_files import write_background
+
+            write_background(snakemake.output[0], corpus_dir=corpus, media=media)
 
 
 run_stage(snakemake, main)

@@ -1,24 +1,26 @@
-"""The command line's parser: every subcommand, its options and their checks."""
+"""The command line's parser: every subcommand and its options."""
 
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
 from typing import NoReturn
 
 from miketalk import __version__, defaults
 from miketalk.cli.cues import cmd_cues
+from miketalk.cli.dub import add_dub_parser
+from miketalk.cli.options import (
+    LIPSYNC_MODELS,
+    SAMPLINGS,
+    checked,
+    fps_value,
+    max_px_value,
+    max_slowdown_value,
+    text_options,
+    verbose_option,
+    voice_option,
+)
 from miketalk.cli.phones import cmd_phones
 from miketalk.cli.say import cmd_say
-from miketalk.errors import MiketalkError
-
-_SAMPLINGS = ("blur", "paper", "none")
-
-
-_LIPSYNC_MODELS = ("paper", "learned", "trained")
-
-
-_VOICES = ("kal", "ked", "slt")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -26,67 +28,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
-def _checked(check: Callable[[object], object]) -> Callable[[str], float]:
-    """An argparse type: a float, then ``check`` (its message says the range)."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-        try:
-            check(value)
-        except MiketalkError as err:
-            raise argparse.ArgumentTypeError(str(err)) from None
-        return value
-
-    return parse
-
-
-def _fps(value: object) -> object:
-    from miketalk.talk.settings import check_fps
-
-    return check_fps(value)
-
-
-def _max_px(value: object) -> object:
-    from miketalk.talk.settings import check_max_px
-
-    return check_max_px(value)
-
-
-def _max_slowdown(value: object) -> object:
-    from miketalk.talk.settings import check_max_slowdown
-
-    return check_max_slowdown(value)
-
-
-def _voice_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--voice",
-        choices=_VOICES,
-        default=None,
-        help="Festival's voice: kal (male diphone, default; festvox-kallpc16k), ked (male "
-        "diphone; festvox-kdlpc16k), slt (female HTS, the most natural; festvox-us-slt-hts)",
-    )
-
-
-def _verbose_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "-v",
-        "--verbose",
-        action="store_true",
-        default=argparse.SUPPRESS,
-        help="log progress and timings on stderr",
-    )
-
-
-def _text_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("text", nargs="?", help="the text (or use --file)")
-    parser.add_argument("-f", "--file", help="read the text from this UTF-8 file")
-    parser.add_argument("--text", dest="text_option", help="the text (the same as the argument)")
 
 
 _SAY_HELP = """\
@@ -127,8 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
     phones.add_argument("text", nargs="?", help="the text (or use --file)")
     phones.add_argument("-f", "--file", help="read the text from this UTF-8 file")
     phones.add_argument("--json", action="store_true", help="print JSON")
-    _voice_option(phones)
-    _verbose_option(phones)
+    voice_option(phones)
+    verbose_option(phones)
     phones.set_defaults(func=cmd_phones)
 
     say = sub.add_parser(
@@ -137,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
         description=_SAY_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _text_options(say)
+    text_options(say)
     say.add_argument(
         "-o",
         "--output",
@@ -147,27 +88,27 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument("--model", help="model directory (default: the one `make run` builds)")
     say.add_argument(
         "--fps",
-        type=_checked(_fps),
+        type=checked(fps_value),
         default=defaults.FPS,
         help=f"frame rate, {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (default {defaults.FPS:g})",
     )
     say.add_argument(
         "--sampling",
-        choices=_SAMPLINGS,
+        choices=SAMPLINGS,
         default=None,
         help="how transitions too fast for --max-px-per-frame are drawn: blur (default: "
         "natural speed, motion blur), paper (lengthen the speech), none",
     )
     say.add_argument(
         "--max-px-per-frame",
-        type=_checked(_max_px),
+        type=checked(max_px_value),
         default=None,
         help="the largest step between consecutive morphs, pixels, "
         f"{MAX_PX_RANGE[0]:g} to {MAX_PX_RANGE[1]:g} (default {defaults.MAX_PX_PER_FRAME:g})",
     )
     say.add_argument(
         "--max-slowdown",
-        type=_checked(_max_slowdown),
+        type=checked(max_slowdown_value),
         default=None,
         help="with --sampling paper: the speech becomes at most this many times longer "
         "(default: as long as the limit needs); what is still too fast is blurred",
@@ -175,14 +116,14 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument("--no-oversampling", action="store_true", help="the same as --sampling none")
     say.add_argument(
         "--lipsync-model",
-        choices=_LIPSYNC_MODELS,
+        choices=LIPSYNC_MODELS,
         default=defaults.LIPSYNC_MODEL,
         help="how the mouth moves: paper (each transition from one viseme to the next; "
         f"default {defaults.LIPSYNC_MODEL}), learned (the coarticulation a model built from "
         "recorded clips has learned) or trained (his own frames along a trajectory trained on "
         "all of them)",
     )
-    _voice_option(say)
+    voice_option(say)
     say.add_argument(
         "--force",
         action="store_true",
@@ -199,7 +140,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--timings",
         help="with --audio: its word timings (GRID .align or Praat .TextGrid)",
     )
-    _verbose_option(say)
+    say.add_argument(
+        "--background",
+        default=None,
+        help="what plays under the mouth: auto (default: a model built from clips plays its "
+        "person's own frames, head motion and blinks; other models are still), still (the "
+        "model's face as it is), or a video of the model's person",
+    )
+    verbose_option(say)
     say.set_defaults(func=cmd_say)
 
     cues = sub.add_parser(
@@ -213,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
         "the cues belong to. With --audio, a recording's phones are found by forced "
         "alignment instead.",
     )
-    _text_options(cues)
+    text_options(cues)
     cues.add_argument(
         "-o",
         "--output",
@@ -235,7 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cues.add_argument("--audio", help="time this recording instead of Festival's speech")
     cues.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
-    _voice_option(cues)
-    _verbose_option(cues)
+    voice_option(cues)
+    verbose_option(cues)
     cues.set_defaults(func=cmd_cues)
+    add_dub_parser(sub)
     return parser

@@ -57,7 +57,7 @@ def cmd_say(args: argparse.Namespace) -> int:
         )
     text = read_text(args)
     output = check_output(args.output, overwrite=args.force)
-    _check_lipsync_model(args)
+    check_lipsync_model(args)
     # Festival starts first and analyses the text while the rest loads
     with festival_backend(args).start(text) as speech:
         log.info("Festival started (%s voice)", voice.name)
@@ -65,6 +65,9 @@ def cmd_say(args: argparse.Namespace) -> int:
 
         with open_model(args.model) as model:
             log.info("model %s opened, %.2f s after start", model.directory, seconds_since(started))
+            from miketalk.talk.background_files import resolve_background
+
+            background = resolve_background(args.background, model, progress=args.progress)
             long_text = len(text.split()) > 40
             spoken = speak(
                 speech,
@@ -77,6 +80,7 @@ def cmd_say(args: argparse.Namespace) -> int:
                 lipsync_model=args.lipsync_model,
                 progress=args.progress or (long_text and sys.stderr.isatty()),
                 overwrite=args.force,
+                background=background,
             )
     motion = spoken.motion
     if args.json:
@@ -104,7 +108,7 @@ def cmd_say(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_lipsync_model(args: argparse.Namespace) -> None:
+def check_lipsync_model(args: argparse.Namespace) -> None:
     """``--lipsync-model learned`` (``trained``) needs a model with learned coarticulation (a
     trained face): say so now, in one line."""
     if args.lipsync_model not in ("learned", "trained"):
@@ -138,11 +142,13 @@ def _say_recorded(
         raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
     text = read_text(args) if has_text(args) else None
     check_output(args.output, overwrite=args.force)
-    _check_lipsync_model(args)
+    check_lipsync_model(args)
+    from miketalk.talk.background_files import resolve_background
     from miketalk.talk.recorded import say_recorded
     from miketalk.talk.say import open_model
 
     with open_model(args.model) as model:
+        background = resolve_background(args.background, model, progress=args.progress)
         said = say_recorded(
             args.audio,
             args.output,
@@ -155,6 +161,7 @@ def _say_recorded(
             lipsync_model=args.lipsync_model,
             progress=args.progress,
             overwrite=args.force,
+            background=background,
         )
     motion = said.motion
     if args.json:

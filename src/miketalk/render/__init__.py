@@ -5,7 +5,9 @@
 - :mod:`~miketalk.render.splat`: forward warping with a named collision rule and
   splat, and scanline hole filling;
 - :mod:`~miketalk.render.multimorph`: the N-way morph of several visemes' weights;
-- :mod:`~miketalk.render.kernels`: the C kernels behind the splat and blend.
+- :mod:`~miketalk.render.kernels`: the C kernels behind the splat and blend;
+- :mod:`~miketalk.render.composite`: a mouth rendered in the reference frame carried
+  into a video frame and blended in.
 """
 
 from miketalk.render.morph import Morpher, MorphStages, cross_dissolve, morph, morph_stages

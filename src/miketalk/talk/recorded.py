@@ -34,6 +34,8 @@ from miketalk.visemes import VisemeTable, default_table
 if TYPE_CHECKING:
     import numpy as np
 
+    from miketalk.talk.background import Background
+
 #: Rate the recording is decoded at (the aligner's).
 RATE = 16000
 
@@ -151,6 +153,7 @@ def say_recorded(
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> RecordedSpeech:
     """Make the model's face speak a recording: an mp4 at ``output``, its timeline JSON beside it.
 
@@ -181,6 +184,9 @@ def say_recorded(
         Draw a progress bar on stderr.
     overwrite : bool
         Replace a ``NAME.json`` that is not a miketalk timeline.
+    background : Background, optional
+        Frames of the person the mouth is composited into
+        (:mod:`miketalk.talk.background`); None: the model's still face.
 
     Raises
     ------
@@ -188,6 +194,7 @@ def say_recorded(
         A bad setting or output name (before the recording is read), and the
         errors of :func:`align_recording`.
     """
+    from miketalk.talk.background import background_doc
     from miketalk.talk.output import check_output
     from miketalk.talk.say import learned_coarticulation
     from miketalk.talk.settings import check_settings
@@ -226,10 +233,12 @@ def say_recorded(
             "max_px_per_frame": max_px_per_frame,
             "max_slowdown": None,
             "lipsync_model": lipsync_model,
-        },
+        }
+        | background_doc(background),
         coarticulation=coarticulation,
         trained=trained,
         progress=progress,
         overwrite=overwrite,
+        background=background,
     )
     return RecordedSpeech(aligned.words, timeline, motion.largest_step_px, aligned.duration, motion)

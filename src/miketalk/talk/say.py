@@ -32,6 +32,7 @@ from miketalk.talk.utterance import Spoken, write_utterance
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
+    from miketalk.talk.background import Background
     from miketalk.talk.coarticulation import CoarticulationParams
 
 
@@ -83,6 +84,7 @@ def say(
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> tuple[Utterance, Timeline]:
     """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
 
@@ -92,6 +94,7 @@ def say(
         text, output, model=model, fps=fps, max_px_per_frame=max_px_per_frame,
         sampling=sampling, max_slowdown=max_slowdown, lipsync_model=lipsync_model,
         backend=backend, table=table, progress=progress, overwrite=overwrite,
+        background=background,
     )  # fmt: skip
     return spoken.utterance, spoken.timeline
 
@@ -110,6 +113,7 @@ def speak(
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> Spoken:
     """Speak ``text`` as an mp4 at ``output``, with its timeline JSON beside it.
 
@@ -165,6 +169,9 @@ def speak(
         Draw a progress bar on stderr.
     overwrite : bool
         Replace a ``NAME.json`` that is not a miketalk timeline.
+    background : Background, optional
+        Frames of the person the mouth is composited into
+        (:mod:`miketalk.talk.background`); None: the model's still face.
 
     Returns
     -------
@@ -246,14 +253,22 @@ def speak(
             "planned_phones": [asdict(p) for p in planned_phones],
             # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
             "planned_duration": planned_duration,
-        },
+        }
+        | _background_doc(background),
         coarticulation=coarticulation,
         trained=trained,
         progress=progress,
         overwrite=overwrite,
+        background=background,
     )
     log.info("speak took %.2f s", time.perf_counter() - started)
     return Spoken(utterance, timeline, motion, output, output.with_suffix(".json"))
+
+
+def _background_doc(background: Background | None) -> dict:
+    from miketalk.talk.background import background_doc
+
+    return background_doc(background)
 
 
 def learned_coarticulation(model: Model) -> CoarticulationParams:

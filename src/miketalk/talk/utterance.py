@@ -24,6 +24,7 @@ from miketalk.talk.output import TIMELINE_FORMAT, check_output
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
+    from miketalk.talk.background import Background
     from miketalk.talk.coarticulation import CoarticulationParams
     from miketalk.talk.trained import TrainedFace
 
@@ -66,6 +67,7 @@ def write_utterance(
     trained: TrainedFace | None = None,
     progress: bool = False,
     overwrite: bool = False,
+    background: Background | None = None,
 ) -> Motion:
     """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
 
@@ -83,6 +85,10 @@ def write_utterance(
     trained : TrainedFace, optional
         Draw the frames from the person's own with this trained face
         (:func:`miketalk.talk.trained.build.render_trained`).
+    background : Background, optional
+        Frames of the person to composite each rendered mouth into
+        (:func:`miketalk.talk.background.composited`); the video then has the
+        background's size. None: the model's frames as they are (a still face).
 
     Returns
     -------
@@ -109,6 +115,10 @@ def write_utterance(
         weights = frame_weights(timeline, coarticulation)
         rendered = render_learned(model, timeline, coarticulation, weights=weights)
     frames = jerk.watch(rendered)
+    if background is not None:
+        from miketalk.talk.background_files import composite_renders
+
+        frames = composite_renders(frames, background, model, fps=timeline.fps)
     if progress:
         from tqdm import tqdm
 

@@ -1,0 +1,77 @@
+"""Options several subcommands share, and the checks of their values."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+
+from miketalk.errors import MiketalkError
+
+SAMPLINGS = ("blur", "paper", "none")
+
+
+LIPSYNC_MODELS = ("paper", "learned", "trained")
+
+
+VOICES = ("kal", "ked", "slt")
+
+
+def checked(check: Callable[[object], object]) -> Callable[[str], float]:
+    """An argparse type: a float, then ``check`` (its message says the range)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        try:
+            check(value)
+        except MiketalkError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        return value
+
+    return parse
+
+
+def fps_value(value: object) -> object:
+    from miketalk.talk.settings import check_fps
+
+    return check_fps(value)
+
+
+def max_px_value(value: object) -> object:
+    from miketalk.talk.settings import check_max_px
+
+    return check_max_px(value)
+
+
+def max_slowdown_value(value: object) -> object:
+    from miketalk.talk.settings import check_max_slowdown
+
+    return check_max_slowdown(value)
+
+
+def voice_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--voice",
+        choices=VOICES,
+        default=None,
+        help="Festival's voice: kal (male diphone, default; festvox-kallpc16k), ked (male "
+        "diphone; festvox-kdlpc16k), slt (female HTS, the most natural; festvox-us-slt-hts)",
+    )
+
+
+def verbose_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        default=argparse.SUPPRESS,
+        help="log progress and timings on stderr",
+    )
+
+
+def text_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("text", nargs="?", help="the text (or use --file)")
+    parser.add_argument("-f", "--file", help="read the text from this UTF-8 file")
+    parser.add_argument("--text", dest="text_option", help="the text (the same as the argument)")

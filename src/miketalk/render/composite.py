@@ -1,0 +1,364 @@
+"""A mouth rendered in the reference frame, composited into a video frame of the person.
+
+The model draws every frame in the *reference* frame's coordinates (the
+corpus's stabilized frames). A video frame of the same person shows reference
+pixel ``p`` at ``T @ (p + F(p), 1)``, where ``T`` is the frame's affine
+stabilization transform and ``F`` the clip's smooth conform field
+(:meth:`miketalk.stabilize.Stabilizer.register`, ``conform``). So
+compositing is that mapping run backwards: for each pixel ``q`` of the frame
+near the mouth, ``u = T^-1 q`` and ``p = u - F(p)`` (two fixed-point steps:
+the field is smooth and a few pixels at most), and the render is sampled at
+``p`` (bilinear).
+
+The blend (:func:`blend_mask`) is an ellipse about the mouth box from just
+below the nose to past the chin, wide enough for the jaw line beside the
+chin, with a Gaussian edge: inside it the render, outside the frame, so the
+lips, the chin and the jaw move together and the nose, the eyes and the rest
+of the head are the frame's own. Before blending, the render's colour is
+matched to the frame's (:func:`colour_offset`): the difference frame - render
+in the blend's edge band (skin in both) is spread over the region by
+normalized convolution, a smooth per-channel offset that follows a lighting
+gradient, as the guidance field of Poisson blending would.
+
+``blend="poisson"`` uses ``cv2.seamlessClone`` instead. On s1's 8 held-out
+clips dubbed with their own audio it scores a higher whole-frame PSNR (40.2
+against 39.2 dB) and a seam gradient ratio nearer 1 (0.99 against 0.93), but
+the mouth's opening stops following the synthesized mouth (its correlation
+with the real opening over the speech 0.16 against 0.65): the
+gradient-domain blend takes each frame's level from the border, where the
+real jaw moves. So the feathered blend is the default.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from miketalk import defaults
+from miketalk.errors import MiketalkError
+
+__all__ = ["Compositor", "Placement", "blend_mask", "colour_offset", "place"]
+
+Box = tuple[int, int, int, int]
+
+#: Fixed-point steps inverting ``p + F(p)`` (the conform field moves a few pixels).
+_FIELD_STEPS = 3
+
+#: Alpha below which a pixel of the blend mask counts as outside it.
+_EMPTY = 1e-3
+
+
+def blend_mask(
+    mouth_box: Box,
+    size: tuple[int, int],
+    *,
+    half_width: float = defaults.BLEND_HALF_WIDTH,
+    above: float = defaults.BLEND_ABOVE,
+    below: float = defaults.BLEND_BELOW,
+    chin_width: float = defaults.BLEND_CHIN_WIDTH,
+    feather: float = defaults.BLEND_FEATHER,
+) -> np.ndarray:
+    """Where the render replaces the frame, in the reference's coordinates.
+
+    Parameters
+    ----------
+    mouth_box : tuple of int
+        ``(x, y, w, h)`` where the lips move most (the corpus's mouth box).
+    size : tuple of int
+        ``(H, W)`` of the reference.
+    half_width, above, below : float
+        The ellipse where the alpha is one half, in mouth widths ``w`` about
+        the box's centre: half its width, how far above the centre it starts
+        and how far below it ends.
+    chin_width : float
+        Half the width of its lower half (an egg: the jaw line beside the
+        mouth, the chin below it, not the neck beside the chin).
+    feather : float
+        Gaussian sigma of the edge, in mouth widths.
+
+    Returns
+    -------
+    numpy.ndarray
+        (H, W) float32 alpha in [0, 1]: one over the lips and the chin, zero
+        beyond about three sigmas outside the ellipse.
+    """
+    x, y, w, _h = mouth_box
+    if w <= 0:
+        raise MiketalkError(f"the mouth box {mouth_box} has no width")
+    cx, cy = x + w / 2, y + _h / 2
+    top, bottom = cy - above * w, cy + below * w
+    mask = np.zeros(size, np.uint8)
+    centre = (round(cx * 16), round((top + bottom) / 2 * 16))  # 4 fractional bits
+    height = round((bottom - top) / 2 * 16)
+    cv2.ellipse(mask, centre, (round(half_width * w * 16), height), 0, 180, 360, 255, -1,
+                cv2.LINE_AA, shift=4)  # fmt: skip
+    cv2.ellipse(mask, centre, (round(chin_width * w * 16), height), 0, 0, 180, 255, -1,
+                cv2.LINE_AA, shift=4)  # fmt: skip
+    alpha = cv2.GaussianBlur(mask.astype(np.float32) / 255, (0, 0), feather * w)
+    alpha[alpha < _EMPTY] = 0
+    return alpha
+
+
+def colour_offset(
+    render: np.ndarray, frame: np.ndarray, band: np.ndarray, *, sigma: float
+) -> np.ndarray:
+    """A smooth offset that brings ``render``'s colour to ``frame``'s, learned on ``band``.
+
+    Parameters
+    ----------
+    render, frame : numpy.ndarray
+        (h, w, 3) float32, the same pixels of the render (in the frame's
+        coordinates) and of the frame.
+    band : numpy.ndarray
+        (h, w) float32 weights: where the two should agree (the blend's edge).
+    sigma : float
+        Gaussian sigma (pixels) of the normalized convolution.
+
+    Returns
+    -------
+    numpy.ndarray
+        (h, w, 3) float32: ``G * (band (frame - render)) / G * band``; zero
+        where the band is empty.
+    """
+    weighted = cv2.GaussianBlur(band[..., None] * (frame - render), (0, 0), sigma)
+    norm = cv2.GaussianBlur(band, (0, 0), sigma)
+    out = np.zeros_like(weighted)
+    ok = norm > 1e-4 * max(float(norm.max()), 1e-12)
+    out[ok] = weighted[ok] / norm[ok, None]
+    return out
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where the blend region lands in one frame.
+
+    Attributes
+    ----------
+    box : tuple of int
+        ``(x0, y0, x1, y1)``: the frame's pixels the blend may touch.
+    map_x, map_y : numpy.ndarray
+        (y1 - y0, x1 - x0) float32: the reference pixel each of them shows.
+    alpha : numpy.ndarray
+        (y1 - y0, x1 - x0) float32: the blend mask there.
+    """
+
+    box: tuple[int, int, int, int]
+    map_x: np.ndarray
+    map_y: np.ndarray
+    alpha: np.ndarray
+
+    def full_alpha(self, shape: tuple[int, int]) -> np.ndarray:
+        """The blend mask over a whole ``(H, W)`` frame (float32)."""
+        out = np.zeros(shape, np.float32)
+        x0, y0, x1, y1 = self.box
+        out[y0:y1, x0:x1] = self.alpha
+        return out
+
+
+def place(
+    alpha: np.ndarray,
+    transform: np.ndarray,
+    frame_shape: tuple[int, int],
+    *,
+    field: np.ndarray | None = None,
+    support: Box | None = None,
+) -> Placement | None:
+    """Carry the blend region into a frame: the inverse of the frame's stabilization.
+
+    Parameters
+    ----------
+    alpha : numpy.ndarray
+        (H, W) float32 blend mask in the reference (:func:`blend_mask`).
+    transform : numpy.ndarray
+        (2, 3): reference pixel ``(x, y)`` shows in the frame at
+        ``T @ (x + F_x, y + F_y, 1)``.
+    frame_shape : tuple of int
+        ``(H, W)`` of the frame.
+    field : numpy.ndarray, optional
+        (H, W, 2) float32 conform field ``F`` of the frame's clip.
+    support : tuple of int, optional
+        ``(x, y, w, h)`` of ``alpha``'s non-zero part (found when not given).
+
+    Returns
+    -------
+    Placement or None
+        None when the region falls outside the frame.
+    """
+    t = np.asarray(transform, np.float64)
+    if t.shape != (2, 3) or not np.isfinite(t).all():
+        raise MiketalkError(f"a stabilization transform is a finite (2, 3) matrix, got {t}")
+    if support is None:
+        support = cv2.boundingRect((alpha > 0).astype(np.uint8))
+    sx, sy, sw, sh = support
+    pad = 2.0 + (float(np.abs(field).max()) if field is not None else 0.0)
+    corners = np.array(
+        [[sx - pad, sy - pad], [sx + sw + pad, sy - pad], [sx - pad, sy + sh + pad],
+         [sx + sw + pad, sy + sh + pad]]
+    )  # fmt: skip
+    landed = corners @ t[:, :2].T + t[:, 2]
+    h, w = frame_shape
+    x0, y0 = np.floor(landed.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(landed.max(axis=0)).astype(int) + 1
+    x0, y0, x1, y1 = max(0, x0), max(0, y0), min(w, x1), min(h, y1)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    qy, qx = np.mgrid[y0:y1, x0:x1].astype(np.float64)
+    inverse = cv2.invertAffineTransform(t)
+    ux = inverse[0, 0] * qx + inverse[0, 1] * qy + inverse[0, 2]
+    uy = inverse[1, 0] * qx + inverse[1, 1] * qy + inverse[1, 2]
+    px, py = ux.astype(np.float32), uy.astype(np.float32)
+    if field is not None:
+        ux32, uy32 = px.copy(), py.copy()
+        for _ in range(_FIELD_STEPS):  # p = u - F(p)
+            f = cv2.remap(field, px, py, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            px, py = ux32 - f[..., 0], uy32 - f[..., 1]
+    placed = cv2.remap(alpha, px, py, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    return Placement((int(x0), int(y0), int(x1), int(y1)), px, py, placed)
+
+
+class Compositor:
+    """Blend renders in the reference's coordinates into frames of the person.
+
+    Parameters
+    ----------
+    mouth_box : tuple of int
+        ``(x, y, w, h)`` of the mouth in the reference.
+    size : tuple of int
+        ``(H, W)`` of the reference (and of the renders).
+    colour_match : bool
+        Match the render's colour to each frame's (:func:`colour_offset`).
+    blend : {"feather", "poisson"}
+        ``"feather"``: alpha blending over the mask's Gaussian edge;
+        ``"poisson"``: ``cv2.seamlessClone`` (Poisson image editing, Perez et
+        al. 2003) of the render inside the mask's half-alpha contour, the
+        frame's own pixels on its border.
+    **mask
+        Keyword settings of :func:`blend_mask`.
+    """
+
+    def __init__(
+        self,
+        mouth_box: Box,
+        size: tuple[int, int],
+        *,
+        colour_match: bool = True,
+        blend: str = "feather",
+        **mask: float,
+    ) -> None:
+        if blend not in ("feather", "poisson"):
+            raise MiketalkError(f"blend must be feather or poisson, not {blend!r}")
+        self.blend = blend
+        self.mouth_box = tuple(int(v) for v in mouth_box)
+        self.size = (int(size[0]), int(size[1]))
+        self.alpha = blend_mask(self.mouth_box, self.size, **mask)
+        self.support = cv2.boundingRect((self.alpha > 0).astype(np.uint8))
+        self.colour_match = colour_match
+        self._sigma = 0.5 * self.mouth_box[2]
+
+    def place(
+        self,
+        transform: np.ndarray,
+        frame_shape: tuple[int, int],
+        *,
+        field: np.ndarray | None = None,
+    ) -> Placement | None:
+        """:func:`place` of this compositor's blend mask."""
+        return place(self.alpha, transform, frame_shape, field=field, support=self.support)
+
+    def colour_field(self, render: np.ndarray, steady: np.ndarray) -> np.ndarray:
+        """One colour offset for a whole background, in the reference's coordinates.
+
+        Parameters
+        ----------
+        render : numpy.ndarray
+            (H, W, 3) a typical render (the model's silence image).
+        steady : numpy.ndarray
+            (H, W, 3) the background's frames stabilized onto the reference,
+            their median.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H, W, 3) float32 :func:`colour_offset` of the two on the blend's
+            edge band: constant over the background, so the colour of the
+            mouth does not flicker with what the frames' own jaw does there.
+        """
+        band = 4.0 * self.alpha * (1.0 - self.alpha)
+        return colour_offset(
+            render.astype(np.float32), steady.astype(np.float32), band, sigma=self._sigma
+        )
+
+    def __call__(
+        self,
+        frame: np.ndarray,
+        render: np.ndarray,
+        transform: np.ndarray,
+        *,
+        field: np.ndarray | None = None,
+        offset: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """``render`` blended into a copy of ``frame`` where the mouth is.
+
+        Parameters
+        ----------
+        frame : numpy.ndarray
+            (H', W', 3) uint8 RGB, a frame of the person (any size).
+        render : numpy.ndarray
+            (H, W, 3) uint8 RGB in the reference's coordinates.
+        transform : numpy.ndarray
+            (2, 3) the frame's stabilization transform.
+        field : numpy.ndarray, optional
+            (H, W, 2) the conform field of the frame's clip.
+        offset : numpy.ndarray, optional
+            (H, W, 3) float32 colour offset in the reference's coordinates
+            (:meth:`colour_field`), used instead of matching this frame's colour.
+
+        Returns
+        -------
+        numpy.ndarray
+            (H', W', 3) uint8.
+        """
+        if render.shape[:2] != self.size:
+            raise MiketalkError(
+                f"the render is {render.shape[1]}x{render.shape[0]}, the reference "
+                f"{self.size[1]}x{self.size[0]}"
+            )
+        out = np.array(frame, np.uint8, copy=True)
+        placement = self.place(transform, frame.shape[:2], field=field)
+        if placement is None:
+            return out
+        x0, y0, x1, y1 = placement.box
+        mouth = cv2.remap(
+            render, placement.map_x, placement.map_y, cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
+        ).astype(np.float32)  # fmt: skip
+        here = out[y0:y1, x0:x1].astype(np.float32)
+        a = placement.alpha[..., None]
+        if offset is not None:
+            mouth += cv2.remap(
+                offset, placement.map_x, placement.map_y, cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_REPLICATE,
+            )  # fmt: skip
+        elif self.colour_match:
+            band = 4.0 * placement.alpha * (1.0 - placement.alpha)
+            mouth += colour_offset(mouth, here, band, sigma=self._sigma)
+        if self.blend == "poisson":
+            return _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
+        blended = here + a * (mouth - here)
+        out[y0:y1, x0:x1] = np.clip(blended + 0.5, 0, 255).astype(np.uint8)
+        return out
+
+
+def _seamless(frame: np.ndarray, mouth: np.ndarray, placement: Placement) -> np.ndarray:
+    """``cv2.seamlessClone`` of ``mouth`` (the placement's box) into ``frame`` where alpha > 1/2."""
+    x0, y0 = placement.box[:2]
+    inside = np.where(placement.alpha > 0.5, 255, 0).astype(np.uint8)
+    inside[[0, -1], :] = 0  # seamlessClone needs the mask inside the source
+    inside[:, [0, -1]] = 0
+    if not inside.any():
+        return frame
+    bx, by, bw, bh = cv2.boundingRect(inside)
+    centre = (x0 + bx + bw // 2, y0 + by + bh // 2)
+    return cv2.seamlessClone(mouth, frame, inside, centre, cv2.NORMAL_CLONE)

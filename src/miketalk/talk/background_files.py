@@ -1,0 +1,255 @@
+"""A model's background sequence on disk: ``<model>/background/``.
+
+``NNNN.png`` (the frames as recorded), ``field.npy`` (the clip's conform
+field, empty when none), ``steady.png`` (the median of the frames stabilized
+onto the reference: their light), ``reference.png`` and ``face_mask.png``
+(what registers other video of the person, with the mouth box), and
+``background.json`` (frame rate, frames, blinks, the mouth box, each frame's
+transform), written last: the folder is complete once it exists.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from miketalk import defaults
+from miketalk.errors import MiketalkError
+from miketalk.talk.background import Background, background_from_video, check_video, composited
+
+__all__ = [
+    "composite_renders",
+    "has_background",
+    "model_stabilizer",
+    "mouth_box_of",
+    "read_background",
+    "resolve_background",
+    "save_background",
+    "write_background",
+]
+
+DIRECTORY = "background"
+META = "background.json"
+FIELD = "field.npy"
+REFERENCE = "reference.png"
+FACE_MASK = "face_mask.png"
+STEADY = "steady.png"
+
+
+def model_stabilizer(model_dir: str | os.PathLike[str]):
+    """A :class:`~miketalk.stabilize.Stabilizer` for the model's person.
+
+    Raises
+    ------
+    MiketalkError
+        If the model keeps no background (it was not built from clips of a person).
+    """
+    from miketalk.media.images import read_image
+    from miketalk.stabilize import Stabilizer
+
+    where = Path(model_dir) / DIRECTORY
+    if not (where / META).is_file():
+        raise MiketalkError(
+            f"the model {model_dir} was not built from video of a person (it has no "
+            f"{DIRECTORY}/{META}): only such a model can play over a video"
+        )
+    meta = json.loads((where / META).read_text(encoding="utf-8"))
+    face = read_image(where / FACE_MASK)[..., 0] > 127
+    return Stabilizer.from_reference(
+        read_image(where / REFERENCE), face=face, mouth_box=tuple(meta["mouth_box"])
+    )
+
+
+def mouth_box_of(model_dir: str | os.PathLike[str]) -> tuple[int, int, int, int]:
+    """The mouth box ``(x, y, w, h)`` of the model's reference."""
+    meta = json.loads((Path(model_dir) / DIRECTORY / META).read_text(encoding="utf-8"))
+    return tuple(int(v) for v in meta["mouth_box"])
+
+
+def has_background(model_dir: str | os.PathLike[str]) -> bool:
+    """Whether the model keeps a background sequence (built from clips of a person)."""
+    return (Path(model_dir) / DIRECTORY / META).is_file()
+
+
+def write_background(
+    model_dir: str | os.PathLike[str],
+    *,
+    corpus_dir: str | os.PathLike[str],
+    media: str,
+    seconds: float = defaults.BACKGROUND_SECONDS,
+) -> dict:
+    """Keep the reference clip's first ``seconds`` as the model's background (``background/``).
+
+    Parameters
+    ----------
+    model_dir : path
+        The model being built.
+    corpus_dir : path
+        Its corpus of clips (the reference, the face mask, the mouth box).
+    media : str
+        The clips' media pattern with ``{id}``.
+    seconds : float
+        How much of the clip to keep.
+
+    Returns
+    -------
+    dict
+        What ``background.json`` records.
+    """
+    from miketalk.corpus.clips import FACE_MASK as CORPUS_FACE
+    from miketalk.corpus.clips import REFERENCE as CORPUS_REFERENCE
+    from miketalk.corpus.clips import corpus_stabilizer, mouth_box
+    from miketalk.media.images import read_image
+
+    corpus_dir = Path(corpus_dir)
+    regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
+    clip = regions["reference"]["clip"]
+    frames, fps = check_video(media.replace("{id}", clip))
+    frames = frames[: max(2, round(seconds * fps))]
+    stabilizer = corpus_stabilizer(corpus_dir)
+    background = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
+    face = read_image(corpus_dir / CORPUS_FACE)[..., 0] > 127
+    return save_background(
+        model_dir,
+        background,
+        reference=read_image(corpus_dir / CORPUS_REFERENCE),
+        face=face,
+        mouth_box=mouth_box(corpus_dir),
+        clip=clip,
+    )
+
+
+def save_background(
+    model_dir: str | os.PathLike[str],
+    background: Background,
+    *,
+    reference: np.ndarray,
+    face: np.ndarray,
+    mouth_box: tuple[int, int, int, int],
+    clip: str,
+) -> dict:
+    """Write ``background`` and what registers video to the reference into ``model_dir``.
+
+    Parameters
+    ----------
+    model_dir : path
+        The model.
+    background : Background
+        The frames, their transforms, field, blinks and light.
+    reference, face : numpy.ndarray
+        The reference frame (H, W, 3) and its face mask (H, W) bool.
+    mouth_box : tuple of int
+        ``(x, y, w, h)`` in the reference.
+    clip : str
+        Where the frames come from.
+
+    Returns
+    -------
+    dict
+        What ``background.json`` records.
+    """
+    from miketalk.media.atomic import atomic_path, write_text_atomic
+    from miketalk.media.images import write_png
+
+    out = Path(model_dir) / DIRECTORY
+    out.mkdir(parents=True, exist_ok=True)
+    for i, frame in enumerate(background.frames):
+        write_png(out / f"{i:04d}.png", frame)
+    with atomic_path(out / FIELD) as tmp, tmp.open("wb") as fh:
+        np.save(fh, np.zeros((0,), np.float32) if background.field is None else background.field)
+    write_png(out / STEADY, background.steady)
+    write_png(out / REFERENCE, reference)
+    write_png(out / FACE_MASK, np.where(face, 255, 0).astype(np.uint8))
+    meta = {
+        "clip": clip,
+        "fps": background.fps,
+        "frames": len(background),
+        "blinks": list(background.blinks),
+        "mouth_box": [int(v) for v in mouth_box],
+        "transforms": [[round(float(v), 6) for v in t.ravel()] for t in background.transforms],
+    }
+    write_text_atomic(out / META, json.dumps(meta, indent=1))  # last: complete once it exists
+    return meta
+
+
+def read_background(model_dir: str | os.PathLike[str]) -> Background:
+    """The background sequence :func:`write_background` kept in a model.
+
+    Raises
+    ------
+    MiketalkError
+        If the model keeps none, or a frame is missing.
+    """
+    from miketalk.media.images import read_image
+
+    where = Path(model_dir) / DIRECTORY
+    if not (where / META).is_file():
+        raise MiketalkError(
+            f"the model {model_dir} keeps no background (not built from clips of a person): "
+            "use --background still or a video"
+        )
+    meta = json.loads((where / META).read_text(encoding="utf-8"))
+    frames = np.stack([read_image(where / f"{i:04d}.png") for i in range(meta["frames"])])
+    field = np.load(where / FIELD)
+    transforms = np.array(meta["transforms"], np.float64).reshape(-1, 2, 3)
+    return Background(
+        frames,
+        transforms,
+        field if field.size else None,
+        float(meta["fps"]),
+        tuple(meta["blinks"]),
+        f"clip {meta['clip']}",
+        read_image(where / STEADY),
+    )
+
+
+def resolve_background(choice: str | None, model, *, progress: bool = False):
+    """The background of ``--background``: ``auto``, ``still`` or a video's path.
+
+    Returns
+    -------
+    miketalk.talk.background.Background or None
+        None for a still face (``still``, or ``auto`` with a model that keeps
+        no background: the output is then exactly ``say``'s without one).
+
+    Raises
+    ------
+    MiketalkError
+        A video with a model not built from a person, or a video that cannot
+        be read, is shorter than a second, or does not show the model's person.
+    """
+    choice = choice or defaults.BACKGROUND
+    if choice == "still":
+        return None
+    if choice == "auto":
+        return read_background(model.directory) if has_background(model.directory) else None
+    stabilizer = model_stabilizer(model.directory)
+    frames, fps = check_video(choice)
+    return background_from_video(frames, fps, stabilizer, source=str(choice), progress=progress)
+
+
+def composite_renders(
+    renders: Iterable[np.ndarray], background: Background, model, *, fps: float
+) -> Iterator[np.ndarray]:
+    """:func:`composited` with the model's mouth box, size and silence image.
+
+    Parameters
+    ----------
+    renders : iterable of numpy.ndarray
+        The model's frames.
+    background : Background
+    model : miketalk.talk.model.Model
+        A model built from clips (:func:`has_background`).
+    fps : float
+        The output's frame rate.
+    """
+    from miketalk.render.composite import Compositor
+    from miketalk.visemes import SILENCE
+
+    compositor = Compositor(mouth_box_of(model.directory), model.size)
+    rest = model.image(SILENCE) if SILENCE in model.visemes else None
+    return composited(renders, background, compositor, fps=fps, rest=rest)

@@ -1,0 +1,218 @@
+"""``miketalk dub`` and ``say --background`` on a synthetic person whose head motion is known.
+
+The person is the synthetic head of ``test_stabilize`` (a textured face on a
+plain background whose mouth opens and closes), its model 16 images of the
+head at different mouth openings (zero flows: a cross-dissolve is enough
+here), its background 40 frames of the head moved by known similarities.
+"""
+
+from __future__ import annotations
+
+import json
+from itertools import pairwise
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_stabilize import H, W, _clip, _head, _write_video
+
+from miketalk import cli
+from miketalk.flow import pair_path, write_flow_pair
+from miketalk.media.decode import read_video
+from miketalk.media.images import write_png
+from miketalk.stabilize import Stabilizer
+from miketalk.talk.background import background_from_video, pingpong
+from miketalk.talk.background_files import read_background, save_background
+from miketalk.talk.build import build_model
+from miketalk.visemes import VISEMES
+
+
+def _model(root: Path, *, person: bool) -> Path:
+    images = {}
+    for i, viseme in enumerate(VISEMES):
+        images[viseme] = root / "src" / f"{i}.png"
+        images[viseme].parent.mkdir(parents=True, exist_ok=True)
+        write_png(images[viseme], _head(0.5 + 0.5 * i))
+    flows = root / "flows"
+    flows.mkdir()
+    zero = np.zeros((H, W, 2), np.float32)
+    for i, a in enumerate(VISEMES):
+        for b in VISEMES[i + 1 :]:
+            write_flow_pair(
+                pair_path(flows, a, b), zero, zero, source=a, target=b,
+                estimator="ground_truth", settings={},
+            )  # fmt: skip
+    model = build_model(
+        root / "model", images=images, flows_dir=flows, estimator="ground_truth", settings={}
+    )
+    if person:
+        frames, _ = _clip(40)
+        reference = _head(2)
+        stabilizer = Stabilizer.from_reference(reference, sample=frames)
+        background = background_from_video(frames, 25.0, stabilizer, source="synthetic")
+        save_background(
+            model, background, reference=reference, face=stabilizer.face,
+            mouth_box=stabilizer.mouth_box, clip="synthetic",
+        )  # fmt: skip
+    return model
+
+
+@pytest.fixture(scope="module")
+def person(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _model(tmp_path_factory.mktemp("person"), person=True)
+
+
+@pytest.fixture(scope="module")
+def still_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _model(tmp_path_factory.mktemp("still"), person=False)
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    frames, _ = _clip(30)  # 1.2 s at 25 fps
+    path = tmp_path_factory.mktemp("video") / "person.mkv"
+    _write_video(path, frames, "25")
+    return path
+
+
+def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
+    code = cli.main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _error(capsys, *args: str) -> str:
+    code, out, err = _run(capsys, *args)
+    assert code == 2, (out, err)
+    lines = [line for line in err.splitlines() if line.startswith("miketalk: error")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_pingpong_loops_without_a_jump():
+    seq = [pingpong(i, 4) for i in range(12)]
+    assert seq == [0, 1, 2, 3, 2, 1, 0, 1, 2, 3, 2, 1]
+    assert all(abs(a - b) == 1 for a, b in pairwise(seq))
+    assert pingpong(5, 1) == 0
+
+
+def test_the_background_round_trips_through_the_model(person: Path):
+    background = read_background(person)
+    assert len(background) == 40 and background.fps == 25.0
+    _, truth = _clip(40)
+    # the registration recovers the known motion (reference pixel -> frame): 0.29 px and
+    # 0.003 measured
+    error = np.abs(background.transforms - truth)
+    assert error[:, :, 2].max() < 0.5 and error[:, :, :2].max() < 0.01
+
+
+def test_dub_plays_the_speech_over_the_video_at_its_size_and_rate(
+    capsys, tmp_path: Path, person: Path, video: Path
+):
+    out = tmp_path / "dub.mp4"
+    code, _, _ = _run(
+        capsys, "dub", str(video), "--text", "Bin blue.", "--model", str(person), "-o", str(out)
+    )
+    assert code == 0
+    frames, fps = read_video(out)
+    assert fps == 25.0 and frames.shape[1:] == (H, W, 3)
+    doc = json.loads(out.with_suffix(".json").read_text())
+    assert doc["fps"] == 25.0 and doc["background"]["frames"] == 30
+    assert len(frames) == len(doc["frames"])
+    source, _ = read_video(video)
+    k = min(len(frames), len(source)) - 1
+    # above the mouth (the eyes and brows) every frame is the video's own
+    rows = slice(20, 60)
+    diff = np.abs(frames[: k + 1, rows].astype(int) - source[: k + 1, rows].astype(int))
+    assert diff.mean() < 4.0
+    first = out.read_bytes()
+    assert _run(capsys, "dub", str(video), "--text", "Bin blue.", "--model", str(person),
+                "-o", str(out))[0] == 0  # fmt: skip
+    assert out.read_bytes() == first  # deterministic
+
+
+def test_speech_longer_than_the_video_loops_it(capsys, tmp_path, person, video):
+    out = tmp_path / "long.mp4"
+    text = "Bin blue at F two now, and place red by G nine soon, please, again and again."
+    code, stdout, _ = _run(capsys, "dub", str(video), "--text", text, "--model", str(person),
+                           "-o", str(out))  # fmt: skip
+    assert code == 0 and "looped" in stdout
+    frames, _ = read_video(out)
+    assert len(frames) > 30
+
+
+def _write(path: Path, frames: np.ndarray) -> Path:
+    _write_video(path, frames, "25")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("what", "expected"),
+    [
+        ("nobody", "does not show the model's person"),
+        ("short", "at least 1 s"),
+        ("unreadable", "could not decode"),
+        ("missing", "not found"),
+    ],
+)
+def test_a_video_that_cannot_be_dubbed_is_one_line(capsys, tmp_path, person, what, expected):
+    path = tmp_path / "v.mkv"
+    if what == "nobody":
+        _write(path, np.full((30, H, W, 3), (40, 120, 200), np.uint8))
+    elif what == "short":
+        _write(path, _clip(20)[0])
+    elif what == "unreadable":
+        path.write_text("not a video")
+    out = tmp_path / "o.mp4"
+    line = _error(capsys, "dub", str(path), "--text", "Bin blue.", "--model", str(person),
+                  "-o", str(out))  # fmt: skip
+    assert expected in line
+    assert not out.exists() and not out.with_suffix(".json").exists()
+
+
+def test_dub_needs_a_model_of_a_person_and_something_to_say(
+    capsys, tmp_path, person, still_model, video
+):
+    out = str(tmp_path / "o.mp4")
+    line = _error(capsys, "dub", str(video), "--text", "Hi.", "--model", str(still_model),
+                  "-o", out)  # fmt: skip
+    assert "not built from video of a person" in line
+    assert "--text" in _error(capsys, "dub", str(video), "--model", str(person), "-o", out)
+
+
+def test_say_background_auto_is_still_for_a_model_without_one(capsys, tmp_path, still_model):
+    a, b = tmp_path / "a.mp4", tmp_path / "b.mp4"
+    assert _run(capsys, "say", "Bin blue.", "--model", str(still_model), "-o", str(a))[0] == 0
+    assert _run(capsys, "say", "Bin blue.", "--model", str(still_model), "-o", str(b),
+                "--background", "still")[0] == 0  # fmt: skip
+    assert a.read_bytes() == b.read_bytes()
+    assert "background" not in json.loads(a.with_suffix(".json").read_text())
+
+
+def test_say_background_auto_moves_the_head(capsys, tmp_path, person, video):
+    auto, still = tmp_path / "auto.mp4", tmp_path / "still.mp4"
+    assert _run(capsys, "say", "Bin blue.", "--model", str(person), "-o", str(auto))[0] == 0
+    assert _run(capsys, "say", "Bin blue.", "--model", str(person), "-o", str(still),
+                "--background", "still")[0] == 0  # fmt: skip
+    moving, _ = read_video(auto)
+    fixed, _ = read_video(still)
+    eyes = slice(20, 60)
+    # the still face's eyes never move; the background's move with the head
+    assert np.abs(np.diff(fixed[:, eyes].astype(int), axis=0)).mean() < 1.0
+    assert np.abs(np.diff(moving[:, eyes].astype(int), axis=0)).mean() > 3.0
+    doc = json.loads(auto.with_suffix(".json").read_text())
+    assert doc["background"]["loop"] == "pingpong"
+    video_bg = tmp_path / "v.mp4"
+    code, _, _ = _run(capsys, "say", "Bin blue.", "--model", str(person), "-o", str(video_bg),
+                      "--background", str(video))  # fmt: skip
+    assert code == 0
+    assert read_video(video_bg)[0].shape[1:] == (H, W, 3)
+
+
+def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
+    from miketalk.talk.background import lower_face_correlation
+
+    frame = _head(4)
+    box = (74, 100, 28, 8)  # the synthetic mouth: centre (88, 104), 28 px wide
+    assert lower_face_correlation(frame, frame, box) == pytest.approx(1.0)
+    assert lower_face_correlation(np.roll(frame, 30, axis=0), frame, box) < 0.4

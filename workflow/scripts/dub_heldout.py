@@ -1,0 +1,34 @@
+"""Rule dub_heldout: each held-out clip dubbed with its own audio, compared with its video."""
+
+from pathlib import Path
+
+from miketalk.stage import run_stage
+
+
+def main() -> None:
+    from miketalk.corpus.clip_sources import clip_sources
+    from miketalk.evaluation.dub_heldout import dub_heldout
+    from miketalk.figures.dub_strip import strip
+
+    corpus = snakemake.params.corpus
+    clips = clip_sources(
+        corpus["test"],
+        media=corpus["media"],
+        transcripts=corpus["transcripts"],
+        timings=corpus["timings"],
+    )
+    dub_heldout(
+        model_dir=snakemake.input.model,
+        corpus_dir=Path(snakemake.input.words).parent,
+        clips=clips,
+        out_dir=snakemake.output.videos,
+        clips_csv=snakemake.output.clips,
+        summary_csv=snakemake.output.summary,
+        strip_png=snakemake.output.strip,
+        draw_strip=strip,
+        renderer="learned" if snakemake.params.lipsync_model == "learned" else "morph",
+        morph=snakemake.params.morph,
+    )
+
+
+run_stage(snakemake, main)
