@@ -730,3 +730,20 @@ with handle_termination():
     )
     assert proc.stdout.strip() == "terminated" and proc.stderr == ""
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_handled_inside_a_deferred_block_is_held_until_it_ends(signum: int) -> None:
+    # pthread_sigmask blocks a signal in the calling thread only: with other threads alive
+    # the kernel hands it to one of them, and Python runs the handler in the main thread
+    # at once, inside the block. The handler itself must hold it.
+    from miketalk.console import handle_termination
+    from miketalk.media.scratch import deferred_signals
+
+    ran = []
+    with handle_termination(), pytest.raises(KeyboardInterrupt) as raised:
+        with deferred_signals():
+            signal.getsignal(signum)(signum, None)  # the handler, as the main thread runs it
+            ran.append("rest of the block")
+    assert ran == ["rest of the block"]
+    assert getattr(raised.value, "signum", signal.SIGINT) == signum

@@ -15,7 +15,11 @@ raise :class:`Terminated` (a :class:`KeyboardInterrupt`), so every clean-up
 that runs on Ctrl-C (the Festival run, the scratch directories, temporary
 files) runs on them too. A signal that lands inside a ``__del__`` method is
 raised again once that method has finished, since Python would print and
-drop an exception raised there.
+drop an exception raised there. Inside :func:`signals_held` (the few statements
+between making a temporary file and recording it for clean-up) the signal,
+Ctrl-C included, is held and raised when the block ends: blocking it with
+``pthread_sigmask`` alone is not enough, since the kernel then hands it to
+another thread and Python still runs the handler in the main thread at once.
 """
 
 from __future__ import annotations
@@ -43,6 +47,35 @@ class Terminated(KeyboardInterrupt):
         self.signum = signum
 
 
+#: Signals held by :func:`signals_held` (the main thread's), raised when it ends.
+_held: list[int] = []
+_holding = [0]
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold the signals :func:`handle_termination` handles until the body has run.
+
+    A held signal is raised (as :class:`Terminated`, or :class:`KeyboardInterrupt`
+    for Ctrl-C) when the outermost block ends. Nests; elsewhere than in the main
+    thread the body just runs.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _holding[0] += 1
+    try:
+        yield
+    finally:
+        _holding[0] -= 1
+        if _holding[0] == 0 and _held:
+            signum = _held[0]
+            _held.clear()
+            if signum == signal.SIGINT:
+                raise KeyboardInterrupt
+            raise Terminated(signum)
+
+
 @contextlib.contextmanager
 def handle_termination() -> Iterator[None]:
     """Raise :class:`Terminated` on SIGTERM and SIGHUP while the body runs (main thread only).
@@ -60,6 +93,10 @@ def handle_termination() -> Iterator[None]:
     def handler(signum: int, frame: FrameType | None) -> None:
         if fired:
             return
+        if _holding[0]:
+            _held.append(signum)
+            fired.append(signum)
+            return
         if _in_finalizer(frame):
             # an exception raised in __del__ is printed and lost ("Exception ignored
             # in ..."): ask again once the finalizer is done
@@ -68,7 +105,16 @@ def handle_termination() -> Iterator[None]:
         fired.append(signum)
         raise Terminated(signum)
 
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        if _holding[0]:
+            if not _held:
+                _held.append(signum)
+            return
+        signal.default_int_handler(signum, frame)
+
     old = {n: signal.signal(n, handler) for n in numbers}
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        old[signal.SIGINT] = signal.signal(signal.SIGINT, interrupt)
     try:
         yield
     finally:

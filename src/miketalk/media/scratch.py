@@ -28,6 +28,8 @@ from collections.abc import Iterator
 from functools import cache
 from pathlib import Path
 
+from miketalk.console import signals_held
+
 log = logging.getLogger(__name__)
 
 #: ``<kind>-<pid>.<start>-`` after the ``miketalk-`` prefix of a scratch directory.
@@ -97,7 +99,8 @@ def deferred_signals() -> Iterator[None]:
     """
     blocked = signal.pthread_sigmask(signal.SIG_BLOCK, CAUGHT_SIGNALS)
     try:
-        yield
+        with signals_held():  # another thread may take the signal: the handler holds it too
+            yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
