@@ -25,6 +25,7 @@ rule model_variant:
 rule heldout:
     input:
         unpack(heldout_models),
+        unpack(clip_inputs("test")),
         words=rules.corpus_clips.output.words,
         regions=rules.corpus_clips.output.regions,
         reference=rules.corpus_clips.output.reference,
@@ -49,7 +50,7 @@ rule heldout:
     params:
         corpus=lambda wildcards: corpus_settings(wildcards.face),
         default_model=lambda wildcards: "/".join(model_flow(wildcards.face)),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
         morph=lambda wildcards: morph_options(wildcards.face),
     script:
         "../scripts/heldout.py"

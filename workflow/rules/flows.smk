@@ -102,6 +102,6 @@ rule motorcycle:
     conda:
         "../envs/miketalk.yaml"
     params:
-        methods={name: spec for name, spec in config["flow"]["methods"].items()},
+        methods=canonical(config["flow"]["methods"]),
     script:
         "../scripts/motorcycle.py"

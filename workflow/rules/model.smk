@@ -18,6 +18,6 @@ rule model:
     params:
         spec=lambda wildcards: method_json(model_flow(wildcards.face)[0]),
         strategy=lambda wildcards: model_flow(wildcards.face)[1],
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/model.py"

@@ -35,7 +35,7 @@ rule visemes:
     conda:
         "../envs/miketalk.yaml"
     params:
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
         frames_table=project_path(config["visemes"]["frames_table"]),
     script:
         "../scripts/visemes.py"
@@ -70,6 +70,6 @@ rule visemes_clips:
     conda:
         "../envs/miketalk.yaml"
     params:
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/visemes_clips.py"
