@@ -290,12 +290,14 @@ def clip_regions(wildcards):
 
 
 def clip_corpus(wildcards):
-    """A face from clips also learns its coarticulation from its corpus's aligned frames."""
+    """A face from clips also learns its coarticulation from its corpus's aligned frames
+    (their eigenlip coordinates)."""
     if wildcards.face not in CLIP_FACES:
         return {}
     return {
         "phones": f"{at(CORPUS, wildcards.face)}/phones.tsv",
         "regions": f"{at(CORPUS, wildcards.face)}/regions.json",
+        "eigenlips": f"{at(CORPUS, wildcards.face)}/eigenlips.npz",
     }
 
 

@@ -30,6 +30,7 @@ rule heldout:
         regions=rules.corpus_clips.output.regions,
         reference=rules.corpus_clips.output.reference,
         registration_mask=rules.corpus_clips.output.registration_mask,
+        eigenlips=rules.eigenlips.output[0],
     output:
         frames=f"{METRICS}/heldout/{{face}}/frames.csv",
         clips=f"{METRICS}/heldout/{{face}}/clips.csv",

@@ -1,6 +1,24 @@
 # The talking-face model of each face: viseme images + the chosen flow database + a manifest.
 
 
+rule eigenlips:
+    input:
+        frames=rules.corpus_clips.output.frames,
+        regions=rules.corpus_clips.output.regions,
+    output:
+        f"{CORPUS}/eigenlips.npz",
+    log:
+        "results/logs/eigenlips/{face}.log",
+    benchmark:
+        "results/benchmarks/eigenlips/{face}.tsv"
+    wildcard_constraints:
+        face=one_of(CLIP_FACES),
+    conda:
+        "../envs/miketalk.yaml"
+    script:
+        "../scripts/eigenlips.py"
+
+
 rule model:
     input:
         unpack(clip_corpus),

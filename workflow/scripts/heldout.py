@@ -8,6 +8,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     from miketalk.corpus.clip_sources import clip_sources
     from miketalk.evaluation.heldout import heldout_stage
+    from miketalk.mouth.eigenlips_file import read_eigenlips
 
     corpus = snakemake.params.corpus
     clips = clip_sources(
@@ -32,6 +33,7 @@ def main() -> None:
         clips_csv=snakemake.output.clips,
         summary_csv=snakemake.output.summary,
         videos_dir=snakemake.output.videos,
+        corpus_eigenlips=read_eigenlips(snakemake.input.eigenlips),
     )
 
 

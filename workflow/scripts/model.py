@@ -26,10 +26,14 @@ def main() -> None:
         fallbacks=fallbacks_of(visemes),
     )
     if phones := snakemake.input.get("phones"):  # a face from clips: learn its coarticulation
+        from miketalk.mouth.eigenlips_file import read_eigenlips
         from miketalk.talk.coarticulation import fit_coarticulation
 
         fit_coarticulation(
-            Path(phones).parent, snakemake.output[0], grouping=snakemake.params.grouping
+            Path(phones).parent,
+            snakemake.output[0],
+            grouping=snakemake.params.grouping,
+            corpus_eigenlips=read_eigenlips(snakemake.input.eigenlips),
         )
 
 

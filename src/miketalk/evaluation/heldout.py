@@ -323,6 +323,7 @@ def heldout_stage(
     clips_csv,
     summary_csv,
     videos_dir,
+    corpus_eigenlips=None,
 ) -> pd.DataFrame:
     """The held-out evaluation of a face built from clips (the ``heldout`` rule).
 
@@ -349,6 +350,9 @@ def heldout_stage(
         without learned coarticulation: real | paper | difference x3), and its
         timeline (``<clip>.json``: the aligned phones, the frames, and the
         names of the video's ``columns``).
+    corpus_eigenlips : CorpusEigenlips, optional
+        The corpus's eigenlips fitted before
+        (:func:`miketalk.mouth.eigenlips_file.read_eigenlips`); None fits them here.
 
     Returns
     -------
@@ -366,9 +370,12 @@ def heldout_stage(
     from miketalk.visemes import VisemeTable
 
     box = mouth_region(corpus_dir)
-    video = open_corpus(corpus_dir)
-    train = np.stack([grey_mouths(video.frame(k)[None], box)[0] for k in range(video.n_frames)])
-    eigenlips = Eigenlips(train)
+    open_corpus(corpus_dir)  # complete
+    if corpus_eigenlips is None:
+        from miketalk.mouth.eigenlips_file import fit_corpus_eigenlips
+
+        corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
+    eigenlips = corpus_eigenlips.eigenlips
     stabilizer = corpus_stabilizer(corpus_dir)
     table = VisemeTable(grouping=grouping)
     opened = {name: Model(path, morph_options=morph) for name, path in models.items()}
