@@ -301,6 +301,18 @@ def clip_corpus(wildcards):
     }
 
 
+#: Priority of the jobs of a face from clips. Its chain (corpus, visemes, flows, model,
+#: eigenlips, held-out test) is the longest in the workflow and mostly one job at a time;
+#: started first, it runs beside the synthetic face's many short jobs instead of alone
+#: after them.
+CLIP_CHAIN = 10
+
+
+def clip_chain_first(wildcards):
+    """A job's priority: :data:`CLIP_CHAIN` for a face from clips, else 0."""
+    return CLIP_CHAIN if wildcards.face in CLIP_FACES else 0
+
+
 def model_flows(wildcards):
     """The flow database of a face's model."""
     method, strategy = model_flow(wildcards.face)

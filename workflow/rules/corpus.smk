@@ -53,6 +53,7 @@ rule corpus_clips:
         "results/benchmarks/corpus/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     threads: 2

@@ -13,6 +13,7 @@ rule model_variant:
         "results/logs/model_variant/{face}/{method}/{strategy}.log",
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -46,6 +47,7 @@ rule heldout:
         "results/benchmarks/heldout/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -99,6 +101,7 @@ rule figure_heldout:
         "results/logs/figures/heldout/{face}.log",
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:

@@ -19,6 +19,7 @@ rule flows:
     wildcard_constraints:
         strategy="|".join(STRATEGIES),
         face=one_of(FACES),
+    priority: clip_chain_first
     conda:
         "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]

@@ -13,6 +13,7 @@ rule eigenlips:
         "results/benchmarks/eigenlips/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     script:
@@ -31,6 +32,7 @@ rule model:
         "results/logs/model/{face}.log",
     wildcard_constraints:
         face=one_of(FACES),
+    priority: clip_chain_first
     conda:
         "../envs/miketalk.yaml"
     params:

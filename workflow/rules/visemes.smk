@@ -67,6 +67,7 @@ rule visemes_clips:
         "results/benchmarks/visemes/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
