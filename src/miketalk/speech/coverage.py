@@ -12,7 +12,7 @@ outside every aligned non-silent phone is what the words leave unexplained.
 
 On the 48 GRID clips of ``data/grid_s1`` aligned with their own transcripts
 (text only, no word timings) none is unexplained; aligned with their first
-word only, 43 to 91 per cent is (a tenth of the clips under 56 per cent). A
+word only, 43 to 86 per cent is (a tenth of the clips under 56 per cent). A
 transcript that names fewer words but lets the aligner stretch them over the
 whole speech (three of the six: 16 of the 48 clips leave under 5 per cent
 unexplained) is not caught by this measure.
