@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from miketalk.corpus.folder import frame_path
-from miketalk.evaluation.heldout import Eigenlips
 from miketalk.media.images import write_png
+from miketalk.mouth import Eigenlips
 from miketalk.mouth.eigenlips_file import (
     corpus_mouths,
     fit_corpus_eigenlips,

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from test_cli import shifted_model
 
-from miketalk.corpus.media_audio import read_media_audio
 from miketalk.media.audio import write_wav
+from miketalk.media.decode import read_media_audio
 from miketalk.speech.coverage import UNEXPLAINED_LIMIT, speech_coverage
 from miketalk.speech.types import Phone
 
