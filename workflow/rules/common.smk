@@ -169,7 +169,7 @@ def clip_path(pattern, clip):
 
 def clip_problems(face):
     """What is wrong with a face's clips, one line each naming the face and the clip."""
-    from miketalk.corpus.clips import read_transcripts
+    from miketalk.corpus.clip_sources import read_transcripts
     from miketalk.errors import MiketalkError
 
     where = f"faces.{face}.corpus"
