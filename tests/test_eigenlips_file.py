@@ -7,15 +7,15 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.corpus.folder import frame_path
-from miketalk.media.images import write_png
-from miketalk.mouth import Eigenlips
-from miketalk.mouth.eigenlips_file import (
+from miketalk.corpus.eigenlips import (
     corpus_mouths,
     fit_corpus_eigenlips,
     read_eigenlips,
     write_eigenlips,
 )
+from miketalk.corpus.folder import frame_path
+from miketalk.media.images import write_png
+from miketalk.mouth import Eigenlips
 
 
 def small_corpus(root: Path, n: int = 40) -> Path:

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     from pathlib import Path
 
-    from miketalk.mouth.eigenlips_file import fit_corpus_eigenlips, write_eigenlips
+    from miketalk.corpus.eigenlips import fit_corpus_eigenlips, write_eigenlips
 
     corpus_dir = Path(snakemake.input.regions).parent
     write_eigenlips(snakemake.output[0], fit_corpus_eigenlips(corpus_dir))

@@ -7,8 +7,8 @@ from miketalk.stage import run_stage
 
 def main() -> None:
     from miketalk.corpus.clip_sources import clip_sources
+    from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.evaluation.heldout import heldout_stage
-    from miketalk.mouth.eigenlips_file import read_eigenlips
 
     corpus = snakemake.params.corpus
     clips = clip_sources(

@@ -26,7 +26,7 @@ def main() -> None:
         fallbacks=fallbacks_of(visemes),
     )
     if phones := snakemake.input.get("phones"):  # a face from clips: learn its coarticulation
-        from miketalk.mouth.eigenlips_file import read_eigenlips
+        from miketalk.corpus.eigenlips import read_eigenlips
         from miketalk.talk.coarticulation import fit_coarticulation
 
         fit_coarticulation(

@@ -352,7 +352,7 @@ def heldout_stage(
         names of the video's ``columns``).
     corpus_eigenlips : CorpusEigenlips, optional
         The corpus's eigenlips fitted before
-        (:func:`miketalk.mouth.eigenlips_file.read_eigenlips`); None fits them here.
+        (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
 
     Returns
     -------
@@ -372,7 +372,7 @@ def heldout_stage(
     box = mouth_region(corpus_dir)
     open_corpus(corpus_dir)  # complete
     if corpus_eigenlips is None:
-        from miketalk.mouth.eigenlips_file import fit_corpus_eigenlips
+        from miketalk.corpus.eigenlips import fit_corpus_eigenlips
 
         corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
     eigenlips = corpus_eigenlips.eigenlips

@@ -2,8 +2,7 @@
 
 - :mod:`~miketalk.mouth.region`: the mouth box and the regions about it, grey
   mouth boxes, the mouth's opening (mean darkness);
-- :mod:`~miketalk.mouth.eigenlips`: principal components of mouth boxes;
-- :mod:`~miketalk.mouth.eigenlips_file`: a corpus's eigenlips fitted once and kept in a file.
+- :mod:`~miketalk.mouth.eigenlips`: principal components of mouth boxes.
 """
 
 from miketalk.mouth.eigenlips import N_EIGENLIPS, Eigenlips

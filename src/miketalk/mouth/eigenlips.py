@@ -45,7 +45,7 @@ class Eigenlips:
 
     @classmethod
     def restore(cls, *, mean, components, variance, explained) -> Eigenlips:
-        """Eigenlips fitted before (:mod:`miketalk.mouth.eigenlips_file`), from their arrays."""
+        """Eigenlips fitted before (:mod:`miketalk.corpus.eigenlips`), from their arrays."""
         self = cls.__new__(cls)
         self.mean, self.components = np.asarray(mean), np.asarray(components)
         self.variance, self.explained = np.asarray(variance), np.asarray(explained)

@@ -26,7 +26,7 @@ from miketalk.talk.lipsync import Keyframe, Timeline
 from miketalk.visemes import VisemeTable
 
 if TYPE_CHECKING:
-    from miketalk.mouth.eigenlips_file import CorpusEigenlips
+    from miketalk.corpus.eigenlips import CorpusEigenlips
 
 log = logging.getLogger(__name__)
 
@@ -346,7 +346,7 @@ def fit_coarticulation(
         Write :data:`FILENAME` into ``model_dir``.
     corpus_eigenlips : CorpusEigenlips, optional
         The corpus's eigenlips fitted before
-        (:func:`miketalk.mouth.eigenlips_file.read_eigenlips`); None fits them here.
+        (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
     **settings
         Passed to :func:`fit` (``leads``, ``prior_rate``, ``window``, ...).
 
@@ -355,8 +355,8 @@ def fit_coarticulation(
     CoarticulationParams
         The fitted parameters; ``fit`` also holds the paper timeline's training loss.
     """
+    from miketalk.corpus.eigenlips import fit_corpus_eigenlips
     from miketalk.mouth import grey_mouths, mouth_region
-    from miketalk.mouth.eigenlips_file import fit_corpus_eigenlips
     from miketalk.talk.model import Model
 
     table = VisemeTable(grouping=grouping)
