@@ -1,13 +1,10 @@
 # miketalk: corpus -> visemes -> flows -> model -> utterances -> metrics -> figures -> report
-from snakemake.utils import min_version, validate
+from snakemake.utils import min_version
 
 min_version("8.0")
 
 
 configfile: "config.yaml"
-
-
-validate(config, "workflow/schemas/config.schema.yaml")
 
 
 report: "workflow/report/workflow.rst"

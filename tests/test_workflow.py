@@ -173,6 +173,37 @@ def test_rerun_has_nothing_to_do(run: Path) -> None:
     assert time.monotonic() - start < 30
 
 
+def _reordered(value: object) -> object:
+    """``value`` with every mapping's keys in reverse sorted order (lists as they are)."""
+    if isinstance(value, dict):
+        return {key: _reordered(value[key]) for key in sorted(value, reverse=True)}
+    if isinstance(value, list):
+        return [_reordered(item) for item in value]
+    return value
+
+
+@pytest.mark.parametrize("order", ["sorted", "reversed"])
+def test_reordered_config_has_nothing_to_do(run: Path, order: str) -> None:
+    """The same settings in another key order: the same params, nothing reruns."""
+    import yaml
+
+    config_file = run / "config.yaml"
+    text = config_file.read_text()
+    config = yaml.safe_load(text)
+    reordered = (
+        yaml.safe_dump(config, sort_keys=True)
+        if order == "sorted"
+        else yaml.safe_dump(_reordered(config), sort_keys=False)
+    )
+    assert reordered != text
+    try:
+        config_file.write_text(reordered)  # the config itself, not one merged onto it
+        proc = snakemake(run, "--dry-run")
+    finally:
+        config_file.write_text(text)
+    assert "Nothing to be done" in proc.stdout + proc.stderr, proc.stdout[-3000:]
+
+
 def test_pyramid_depth_change_reruns_only_what_depends_on_it(run: Path, tmp_path: Path) -> None:
     """A dry run after changing flow.methods.bergen.settings.levels lists the jobs to redo."""
     import yaml

@@ -4,11 +4,37 @@ import re
 from types import SimpleNamespace
 from pathlib import Path
 
+from snakemake.exceptions import WorkflowError
+from snakemake.utils import validate
+
 from miketalk import defaults
 from miketalk.flow.strategies import STRATEGIES, get_strategy
 from miketalk.talk.settings import SAMPLINGS
 
 ROOT = Path(workflow.basedir)
+
+
+def validate_config():
+    """Check the config against the schema, filling in its defaults, before anything reads it.
+
+    A violation is one line naming the key, e.g. ``config: faces.s1.corpus.train:
+    [] should be non-empty``, instead of the schema's dump.
+    """
+    try:
+        validate(config, "../schemas/config.schema.yaml")
+    except WorkflowError as err:
+        cause = err.__context__  # the jsonschema ValidationError
+        if not hasattr(cause, "absolute_path"):
+            raise
+        key = ".".join(str(part) for part in cause.absolute_path) or "the config"
+        message = cause.message
+        if cause.validator == "uniqueItems":  # name the repeated items
+            items = [str(item) for item in cause.instance]
+            message = f"{', '.join(sorted({i for i in items if items.count(i) > 1}))} listed twice"
+        raise WorkflowError(f"config: {key}: {message}") from None
+
+
+validate_config()
 
 
 def training_sweep_faces():
@@ -76,24 +102,39 @@ def project_path(path):
     return str(path) if Path(path).is_absolute() else str(ROOT / path)
 
 
+def canonical(value):
+    """``value`` with the keys of every mapping in it sorted (lists keep their order).
+
+    Params are compared as written (their repr), and the schema's defaults are
+    added after the keys a config gives: a config with the same settings in
+    another key order would otherwise change every dict param and rerun the
+    workflow. Every dict param goes through here.
+    """
+    if isinstance(value, dict):
+        return {key: canonical(value[key]) for key in sorted(value)}
+    if isinstance(value, list):
+        return [canonical(item) for item in value]
+    return value
+
+
 def corpus_settings(face):
     """A face's corpus settings with its paths made absolute (clips: patterns keep {id})."""
     corpus = dict(FACES[face]["corpus"])
     for key in ("video", "media", "transcripts", "timings"):
         corpus[key] = project_path(corpus.get(key))
-    return corpus
+    return canonical(corpus)
 
 
 def morph_options(face):
     """The morph settings of a face: morph, with the face's own overrides."""
     own = FACES[face].get("morph", {}) if face in FACES else {}
-    return {**config["morph"], **own}
+    return canonical({**config["morph"], **own})
 
 
 def lipsync_options(face):
     """The lip-sync settings of a face: lipsync, with the face's own overrides."""
     own = FACES[face].get("lipsync", {}) if face in FACES else {}
-    return {**config["lipsync"], **own}
+    return canonical({**config["lipsync"], **own})
 
 
 def face_background(face):
@@ -128,6 +169,88 @@ for _face in FACES:
             f"faces.{_face}: flow method {_method!r} is not in flow.methods "
             f"({', '.join(config['flow']['methods'])})"
         )
+
+
+def clip_path(pattern, clip):
+    """A clip's file: ``pattern`` with its {id} filled in."""
+    return pattern.replace("{id}", clip)
+
+
+def clip_problems(face):
+    """What is wrong with a face's clips, one line each naming the face and the clip."""
+    from miketalk.corpus.clip_sources import read_transcripts
+    from miketalk.errors import MiketalkError
+
+    where = f"faces.{face}.corpus"
+    corpus = corpus_settings(face)
+    for key in ("media", "transcripts"):
+        if not corpus[key]:
+            return [f"{where}: a face from clips needs {key}"]
+    for key in ("media", "timings"):
+        if corpus[key] and "{id}" not in corpus[key]:
+            return [f"{where}.{key} must contain {{id}}, got {corpus[key]!r}"]
+    held_out = set(corpus["test"])
+    problems = [
+        f"{where}: clip {clip} is in both train and test (a held-out clip must never "
+        "be read while building the model)"
+        for clip in corpus["train"]
+        if clip in held_out
+    ]
+    try:
+        table = read_transcripts(corpus["transcripts"])
+    except MiketalkError as err:
+        return [*problems, f"{where}: {err}"]
+    for split in ("train", "test"):
+        for clip in corpus[split]:
+            if clip not in table:  # a mistyped id: its files are missing too, unsaid
+                problems.append(
+                    f"{where}: clip {clip} ({split}) is not in the transcript table "
+                    f"{corpus['transcripts']}"
+                )
+                continue
+            if not Path(media := clip_path(corpus["media"], clip)).is_file():
+                problems.append(
+                    f"{where}: clip {clip} ({split}): media file not found: {media}"
+                )
+            timings = corpus["timings"] and clip_path(corpus["timings"], clip)
+            if timings and not Path(timings).is_file():
+                problems.append(
+                    f"{where}: clip {clip} ({split}): word timing file not found: {timings}"
+                )
+    return problems
+
+
+def check_clip_faces(shown=5):
+    """Refuse, before any job, a face whose clips are not all there (the first few problems)."""
+    for face, settings in config["faces"].items():
+        if settings["corpus"]["source"] == "clips" and (
+            problems := clip_problems(face)
+        ):
+            more = len(problems) - shown
+            tail = [f"... and {more} more"] if more > 0 else []
+            raise ValueError("\n".join(problems[:shown] + tail))
+
+
+check_clip_faces()
+
+
+def clip_inputs(split):
+    """Input function: the transcript table, media and word timings of a face's clips of
+    ``split`` (train or test), so a changed or missing one is seen before any job."""
+
+    def inputs(wildcards):
+        corpus = corpus_settings(wildcards.face)
+        files = {
+            "transcripts": corpus["transcripts"],
+            "media": [clip_path(corpus["media"], clip) for clip in corpus[split]],
+        }
+        if corpus["timings"]:
+            files["timings"] = [
+                clip_path(corpus["timings"], clip) for clip in corpus[split]
+            ]
+        return files
+
+    return inputs
 
 
 def sweep_methods():
@@ -176,13 +299,27 @@ def clip_regions(wildcards):
 
 
 def clip_corpus(wildcards):
-    """A face from clips also learns its coarticulation from its corpus's aligned frames."""
+    """A face from clips also learns its coarticulation from its corpus's aligned frames
+    (their eigenlip coordinates)."""
     if wildcards.face not in CLIP_FACES:
         return {}
     return {
         "phones": f"{at(CORPUS, wildcards.face)}/phones.tsv",
         "regions": f"{at(CORPUS, wildcards.face)}/regions.json",
+        "eigenlips": f"{at(CORPUS, wildcards.face)}/eigenlips.npz",
     }
+
+
+#: Priority of the jobs of a face from clips. Its chain (corpus, visemes, flows, model,
+#: eigenlips, held-out test) is the longest in the workflow and mostly one job at a time;
+#: started first, it runs beside the synthetic face's many short jobs instead of alone
+#: after them.
+CLIP_CHAIN = 10
+
+
+def clip_chain_first(wildcards):
+    """A job's priority: :data:`CLIP_CHAIN` for a face from clips, else 0."""
+    return CLIP_CHAIN if wildcards.face in CLIP_FACES else 0
 
 
 def model_flows(wildcards):

@@ -23,12 +23,14 @@ rule corpus:
         runtime=30,
     params:
         corpus=lambda wildcards: corpus_settings(wildcards.face),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/corpus.py"
 
 
 rule corpus_clips:
+    input:
+        unpack(clip_inputs("train")),
     output:
         frames=directory(f"{CORPUS}/frames"),
         audio=f"{CORPUS}/audio.wav",
@@ -51,6 +53,7 @@ rule corpus_clips:
         "results/benchmarks/corpus/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     threads: 2

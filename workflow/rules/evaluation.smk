@@ -13,6 +13,7 @@ rule model_variant:
         "results/logs/model_variant/{face}/{method}/{strategy}.log",
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -25,10 +26,12 @@ rule model_variant:
 rule heldout:
     input:
         unpack(heldout_models),
+        unpack(clip_inputs("test")),
         words=rules.corpus_clips.output.words,
         regions=rules.corpus_clips.output.regions,
         reference=rules.corpus_clips.output.reference,
         registration_mask=rules.corpus_clips.output.registration_mask,
+        eigenlips=rules.eigenlips.output[0],
     output:
         frames=f"{METRICS}/heldout/{{face}}/frames.csv",
         clips=f"{METRICS}/heldout/{{face}}/clips.csv",
@@ -44,12 +47,13 @@ rule heldout:
         "results/benchmarks/heldout/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
         corpus=lambda wildcards: corpus_settings(wildcards.face),
         default_model=lambda wildcards: "/".join(model_flow(wildcards.face)),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
         morph=lambda wildcards: morph_options(wildcards.face),
     script:
         "../scripts/heldout.py"
@@ -131,6 +135,7 @@ rule figure_heldout:
         "results/logs/figures/heldout/{face}.log",
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:

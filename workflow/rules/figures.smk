@@ -97,7 +97,7 @@ rule figure_morph_strip:
         figure="morph_strip",
         pair=["p", "aa"],
         alphas=[0.25, 0.5, 0.75],
-        morph=config["morph"],
+        morph=canonical(config["morph"]),
     script:
         "../scripts/figures.py"
 

@@ -19,6 +19,7 @@ rule flows:
     wildcard_constraints:
         strategy="|".join(STRATEGIES),
         face=one_of(FACES),
+    priority: clip_chain_first
     conda:
         "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]
@@ -102,6 +103,6 @@ rule motorcycle:
     conda:
         "../envs/miketalk.yaml"
     params:
-        methods={name: spec for name, spec in config["flow"]["methods"].items()},
+        methods=canonical(config["flow"]["methods"]),
     script:
         "../scripts/motorcycle.py"

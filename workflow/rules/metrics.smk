@@ -24,7 +24,7 @@ rule morph_fidelity:
         "../envs/miketalk.yaml"
     params:
         alphas=config["metrics"]["alphas"],
-        morph=config["morph"],
+        morph=canonical(config["morph"]),
     script:
         "../scripts/morph_fidelity.py"
 
@@ -46,7 +46,7 @@ rule sync:
     params:
         name=lambda wildcards: wildcards.sentence,
         morph=morph_options(TRUTH_FACE or "none"),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/sync.py"
 
@@ -72,7 +72,7 @@ rule sync_sweep_point:
     params:
         name=config["sweeps"]["sentence"],
         morph=morph_options(TRUTH_FACE or "none"),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/sync.py"
 

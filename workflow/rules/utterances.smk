@@ -28,7 +28,7 @@ rule utterance:
         max_px=config["lipsync"]["max_px_per_frame"],
         lipsync=lambda wildcards: lipsync_options(wildcards.face),
         morph=lambda wildcards: morph_options(wildcards.face),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
         background=lambda wildcards: face_background(wildcards.face),
     script:
         "../scripts/utterance.py"
@@ -55,11 +55,10 @@ rule sweep_utterance:
         text=config["sentences"][config["sweeps"]["sentence"]],
         fps=lambda wildcards: float(wildcards.fps),
         max_px=lambda wildcards: float(wildcards.px),
-        lipsync=lambda wildcards: {
-            **lipsync_options(wildcards.face),
-            "sampling": wildcards.sampling,
-        },
+        lipsync=lambda wildcards: canonical(
+            {**lipsync_options(wildcards.face), "sampling": wildcards.sampling}
+        ),
         morph=lambda wildcards: morph_options(wildcards.face),
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/utterance.py"

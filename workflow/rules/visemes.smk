@@ -35,7 +35,7 @@ rule visemes:
     conda:
         "../envs/miketalk.yaml"
     params:
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
         frames_table=project_path(config["visemes"]["frames_table"]),
     script:
         "../scripts/visemes.py"
@@ -67,9 +67,10 @@ rule visemes_clips:
         "results/benchmarks/visemes/{face}.tsv"
     wildcard_constraints:
         face=one_of(CLIP_FACES),
+    priority: CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
-        grouping=config["visemes"]["grouping"],
+        grouping=canonical(config["visemes"]["grouping"]),
     script:
         "../scripts/visemes_clips.py"

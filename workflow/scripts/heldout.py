@@ -7,6 +7,7 @@ from miketalk.stage import run_stage
 
 def main() -> None:
     from miketalk.corpus.clip_sources import clip_sources
+    from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.evaluation.heldout import heldout_stage
 
     corpus = snakemake.params.corpus
@@ -32,6 +33,7 @@ def main() -> None:
         clips_csv=snakemake.output.clips,
         summary_csv=snakemake.output.summary,
         videos_dir=snakemake.output.videos,
+        corpus_eigenlips=read_eigenlips(snakemake.input.eigenlips),
     )
 
 

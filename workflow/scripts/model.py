@@ -26,11 +26,17 @@ def main() -> None:
         fallbacks=fallbacks_of(visemes),
     )
     if phones := snakemake.input.get("phones"):  # a face from clips: learn from its frames
+        from miketalk.corpus.eigenlips import read_eigenlips
         from miketalk.talk.coarticulation import fit_coarticulation
         from miketalk.talk.trained import fit_trained
 
         corpus = Path(phones).parent
-        fit_coarticulation(corpus, snakemake.output[0], grouping=snakemake.params.grouping)
+        fit_coarticulation(
+            corpus,
+            snakemake.output[0],
+            grouping=snakemake.params.grouping,
+            corpus_eigenlips=read_eigenlips(snakemake.input.eigenlips),
+        )
         fit_trained(corpus, snakemake.output[0], grouping=snakemake.params.grouping)
         if media := snakemake.params.get("media"):  # its person's own frames, for say and dub
             from miketalk.talk.background_files import write_background

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -98,9 +99,10 @@ class CorpusVideo:
         """``audio.wav``."""
         return self.directory / AUDIO
 
-    @property
+    @cached_property
     def n_frames(self) -> int:
-        """Frames in the recording."""
+        """Frames in the recording (counted once: a corpus folder is complete when opened,
+        and counting lists the directory)."""
         return count_frames(self.frames_dir)
 
     @property

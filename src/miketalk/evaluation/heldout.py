@@ -306,6 +306,7 @@ def heldout_stage(
     clips_csv,
     summary_csv,
     videos_dir,
+    corpus_eigenlips=None,
 ) -> pd.DataFrame:
     """The held-out evaluation of a face built from clips (the ``heldout`` rule).
 
@@ -332,6 +333,9 @@ def heldout_stage(
         (those the model has; with neither: real | paper | difference x3), and its
         timeline (``<clip>.json``: the aligned phones, the frames, and the
         names of the video's ``columns``).
+    corpus_eigenlips : CorpusEigenlips, optional
+        The corpus's eigenlips fitted before
+        (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
 
     Returns
     -------
@@ -350,9 +354,12 @@ def heldout_stage(
     from miketalk.visemes import VisemeTable
 
     box = mouth_region(corpus_dir)
-    video = open_corpus(corpus_dir)
-    train = np.stack([grey_mouths(video.frame(k)[None], box)[0] for k in range(video.n_frames)])
-    eigenlips = Eigenlips(train)
+    open_corpus(corpus_dir)  # complete
+    if corpus_eigenlips is None:
+        from miketalk.corpus.eigenlips import fit_corpus_eigenlips
+
+        corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
+    eigenlips = corpus_eigenlips.eigenlips
     stabilizer = corpus_stabilizer(corpus_dir)
     table = VisemeTable(grouping=grouping)
     opened = {name: Model(path, morph_options=morph) for name, path in models.items()}

@@ -43,6 +43,14 @@ class Eigenlips:
         darker = -np.sign(self.components.sum(axis=1))
         self.components *= np.where(darker == 0, 1.0, darker)[:, None]
 
+    @classmethod
+    def restore(cls, *, mean, components, variance, explained) -> Eigenlips:
+        """Eigenlips fitted before (:mod:`miketalk.corpus.eigenlips`), from their arrays."""
+        self = cls.__new__(cls)
+        self.mean, self.components = np.asarray(mean), np.asarray(components)
+        self.variance, self.explained = np.asarray(variance), np.asarray(explained)
+        return self
+
     def project(self, mouths: np.ndarray) -> np.ndarray:
         """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
         return (_flat(mouths) - self.mean) @ self.components.T

@@ -16,8 +16,10 @@ motion are in the JSON beside the mp4 and in the return value.
 
 from __future__ import annotations
 
+import logging
 import os
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -34,7 +36,10 @@ from miketalk.visemes import VisemeTable, default_table
 if TYPE_CHECKING:
     import numpy as np
 
+    from miketalk.speech.coverage import SpeechCoverage
     from miketalk.talk.background import Background
+
+log = logging.getLogger(__name__)
 
 #: Rate the recording is decoded at (the aligner's).
 RATE = 16000
@@ -118,9 +123,13 @@ def align_recording(
     MiketalkError
         No text and no timings, words that do not match the timings, a
         recording without sound, a word the aligner cannot place.
+
+    Warns (:func:`warn_unexplained`) when the words leave more than a quarter
+    of the recording's voiced audio outside their phones.
     """
     from miketalk.media.decode import read_media_audio
     from miketalk.speech.align import align_phones
+    from miketalk.speech.coverage import speech_coverage
     from miketalk.speech.word_timings import read_word_timings
 
     if text is None and timings is None:
@@ -136,7 +145,31 @@ def align_recording(
     if len(samples) == 0 or not abs(samples.astype(int)).max() > 0:
         raise MiketalkError(f"{audio} has no sound")
     phones = align_phones(samples, RATE, words, word_timings=given)
+    warn_unexplained(audio, speech_coverage(samples, RATE, phones), words)
     return Aligned(tuple(words), tuple(phones), samples, RATE)
+
+
+def warn_unexplained(audio: object, coverage: SpeechCoverage, words: Sequence[str]) -> None:
+    """Warn (logging, so on stderr) when the aligned words leave much of the speech unexplained.
+
+    A warning, not a refusal: the voiced audio is found by its loudness
+    (:mod:`miketalk.speech.coverage`), which cannot tell speech from a cough,
+    laughter or music under the voice, and such a recording with a right
+    transcript must still be usable.
+    """
+    from miketalk.speech.coverage import UNEXPLAINED_LIMIT
+
+    if not coverage.mismatch:
+        return
+    said = " ".join(words)
+    log.warning(
+        "%s: %.0f%% of its %.2f s of voiced audio lies outside the aligned words "
+        "(%.2f s unexplained; more than %.0f%%): does the text (%d word%s: %s) say all "
+        "that the recording says?",
+        audio, 100 * coverage.unexplained_share, coverage.voiced_seconds,
+        coverage.unexplained_seconds, 100 * UNEXPLAINED_LIMIT, len(words),
+        "" if len(words) == 1 else "s", said if len(said) <= 60 else said[:57] + "...",
+    )  # fmt: skip
 
 
 def say_recorded(

@@ -9,7 +9,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from miketalk.talk.coarticulation.params import (
 from miketalk.talk.coarticulation.weights import _Pairs, _pairs, _weights_of_pairs, paper_trajectory
 from miketalk.talk.lipsync import Keyframe, Timeline
 from miketalk.visemes import VisemeTable
+
+if TYPE_CHECKING:
+    from miketalk.corpus.eigenlips import CorpusEigenlips
 
 log = logging.getLogger(__name__)
 
@@ -320,6 +323,7 @@ def fit_coarticulation(
     grouping: Mapping[str, str] | None = None,
     coefficients: int = 3,
     write: bool = True,
+    corpus_eigenlips: CorpusEigenlips | None = None,
     **settings: Any,
 ) -> CoarticulationParams:
     """Fit the dominance model of a face built from clips and write it into its model.
@@ -340,6 +344,9 @@ def fit_coarticulation(
         Eigenlip coefficients the trajectories are compared on.
     write : bool
         Write :data:`FILENAME` into ``model_dir``.
+    corpus_eigenlips : CorpusEigenlips, optional
+        The corpus's eigenlips fitted before
+        (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
     **settings
         Passed to :func:`fit` (``leads``, ``prior_rate``, ``window``, ...).
 
@@ -348,22 +355,20 @@ def fit_coarticulation(
     CoarticulationParams
         The fitted parameters; ``fit`` also holds the paper timeline's training loss.
     """
-    from miketalk.corpus.folder import count_frames, frame_path
-    from miketalk.media.images import read_image
-    from miketalk.mouth import Eigenlips, grey_mouths, mouth_region
+    from miketalk.corpus.eigenlips import fit_corpus_eigenlips
+    from miketalk.mouth import grey_mouths, mouth_region
     from miketalk.talk.model import Model
 
     table = VisemeTable(grouping=grouping)
     box = mouth_region(corpus_dir)
-
-    frames_dir = Path(corpus_dir) / "frames"
-    mouths = np.stack(
-        [
-            grey_mouths(read_image(frame_path(frames_dir, k))[None], box)[0]
-            for k in range(count_frames(frames_dir))
-        ]
-    )
-    eigenlips = Eigenlips(mouths, n=coefficients)
+    if corpus_eigenlips is None:
+        corpus_eigenlips = fit_corpus_eigenlips(corpus_dir, n=coefficients)
+    elif corpus_eigenlips.coordinates.shape[1] != coefficients:
+        raise MiketalkError(
+            f"the eigenlips given have {corpus_eigenlips.coordinates.shape[1]} coefficients, "
+            f"not {coefficients}"
+        )
+    eigenlips = corpus_eigenlips.eigenlips
     model = Model(model_dir)
     try:
         images = np.stack([model.image(v) for v in model.visemes])
@@ -371,7 +376,7 @@ def fit_coarticulation(
         model.close()
     coords = eigenlips.project(grey_mouths(images, box))
     targets = dict(zip(model.visemes, coords, strict=True))
-    clips = training_clips(corpus_dir, eigenlips.project(mouths), table=table)
+    clips = training_clips(corpus_dir, corpus_eigenlips.coordinates, table=table)
     params = fit(clips, targets, visemes=model.visemes, **settings)
     detrend = float(params.fit["detrend"])
     paper = [

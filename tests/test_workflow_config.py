@@ -1,0 +1,122 @@
+"""The workflow's config checked before any job: small broken variants of the .test config
+fail a dry run with one message naming the face and the clip; the clips' files are inputs
+of the rules that read them."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = Path(sys.executable).parent / "snakemake"
+DATA = ROOT / "data/grid_s1"
+
+
+def dry_run(workdir: Path, config: dict) -> subprocess.CompletedProcess:
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    return subprocess.run(
+        [str(SNAKEMAKE), "--snakefile", str(ROOT / "Snakefile"), "--directory", str(workdir),
+         "--cores", "2", "--dry-run"],
+        capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+
+
+def dot_test_config() -> dict:
+    return yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
+
+
+def broken(change: dict) -> dict:
+    """The .test config with s1's corpus settings changed."""
+    config = dot_test_config()
+    config["faces"]["s1"]["corpus"] |= change
+    return config
+
+
+TRAIN = dot_test_config()["faces"]["s1"]["corpus"]["train"]  # bbaf2n lgwg2n pric4p swih9a
+TEST = dot_test_config()["faces"]["s1"]["corpus"]["test"]  # bbas3a srau3s
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (
+            {"test": [*TEST, TRAIN[1]]},
+            f"faces.s1.corpus: clip {TRAIN[1]} is in both train and test",
+        ),
+        ({"train": []}, "config: faces.s1.corpus.train: [] should be non-empty"),
+        ({"train": [*TRAIN, TRAIN[0]]}, f"config: faces.s1.corpus.train: {TRAIN[0]} listed twice"),
+        ({"test": [TEST[0], TEST[0]]}, f"config: faces.s1.corpus.test: {TEST[0]} listed twice"),
+        (
+            {"train": [*TRAIN, "zzzz9z"]},
+            f"faces.s1.corpus: clip zzzz9z (train) is not in the transcript table "
+            f"{DATA}/transcripts.txt",
+        ),
+        (
+            {"media": "data/grid_s1/videos/{id}.mp4"},
+            f"faces.s1.corpus: clip {TRAIN[0]} (train): media file not found: "
+            f"{DATA}/videos/{TRAIN[0]}.mp4",
+        ),
+        (
+            {"timings": "data/grid_s1/align/{id}.TextGrid"},
+            f"faces.s1.corpus: clip {TRAIN[0]} (train): word timing file not found: "
+            f"{DATA}/align/{TRAIN[0]}.TextGrid",
+        ),
+        (
+            {"transcripts": "data/grid_s1/transcript.txt"},
+            f"faces.s1.corpus: transcript table not found: {DATA}/transcript.txt",
+        ),
+        ({"media": None}, "faces.s1.corpus: a face from clips needs media"),
+    ],
+    ids=["overlap", "empty-train", "repeated-train", "repeated-test", "unknown-id",
+         "missing-media", "missing-timings", "missing-table", "no-media"],
+)  # fmt: skip
+def test_broken_config_fails_the_dry_run(tmp_path: Path, change: dict, message: str) -> None:
+    proc = dry_run(tmp_path, broken(change))
+    assert proc.returncode != 0
+    output = proc.stdout + proc.stderr  # (snakemake logs to stdout when it is not a terminal)
+    assert any(line.startswith(message) for line in output.splitlines()), output
+    assert "Job stats" not in output  # nothing was planned
+    assert not (tmp_path / "results").exists()
+
+
+def test_one_missing_test_clip_is_named(tmp_path: Path) -> None:
+    """A held-out clip's missing media: the face, the clip and where it was looked for."""
+    work = tmp_path / "work"
+    work.mkdir()
+    media = tmp_path / "media"
+    media.mkdir()
+    for clip in [*TRAIN, TEST[0]]:  # every clip's video but the second test clip's
+        (media / f"{clip}.mpg").symlink_to(DATA / "video" / f"{clip}.mpg")
+    proc = dry_run(work, broken({"media": f"{media}/{{id}}.mpg"}))
+    assert proc.returncode != 0
+    output = proc.stdout + proc.stderr
+    problems = [line for line in output.splitlines() if line.startswith("faces.")]
+    assert problems == [
+        f"faces.s1.corpus: clip {TEST[1]} (test): media file not found: {media}/{TEST[1]}.mpg"
+    ]
+
+
+def test_clip_files_are_inputs_of_the_rules_that_read_them(tmp_path: Path) -> None:
+    """Training clips' files are inputs of corpus_clips, held-out clips' of heldout only."""
+    proc = dry_run(tmp_path, dot_test_config())
+    assert proc.returncode == 0, proc.stderr
+    inputs = {}
+    for block in re.split(r"\n(?=rule \w+:)", proc.stdout):
+        if match := re.match(r"rule (\w+):", block):
+            for line in block.splitlines():  # (a rule without inputs has no such line)
+                if line.strip().startswith("input:"):
+                    inputs[match[1]] = set(line.split(":", 1)[1].replace(",", " ").split())
+
+    def files(clips: list[str]) -> set[str]:
+        return {f"{DATA}/video/{c}.mpg" for c in clips} | {f"{DATA}/align/{c}.align" for c in clips}
+
+    table = f"{DATA}/transcripts.txt"
+    assert files(TRAIN) | {table} <= inputs["corpus_clips"]
+    assert not files(TEST) & inputs["corpus_clips"]  # held out: never read to build the model
+    assert files(TEST) | {table} <= inputs["heldout"]
+    assert not files(TRAIN) & inputs["heldout"]
