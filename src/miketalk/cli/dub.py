@@ -130,6 +130,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
 def add_dub_parser(sub) -> None:
     """Add ``dub`` to the CLI's sub-commands."""
     from miketalk.cli.options import (
+        LIPSYNC_MODELS,
         checked,
         max_px_value,
         text_options,
@@ -157,7 +158,10 @@ def add_dub_parser(sub) -> None:
         help=f"largest step between morphs, pixels (default {defaults.MAX_PX_PER_FRAME:g})",
     )
     dub.add_argument(
-        "--lipsync-model", choices=("paper", "learned"), default=defaults.LIPSYNC_MODEL
+        "--lipsync-model",
+        choices=LIPSYNC_MODELS,
+        default=defaults.LIPSYNC_MODEL,
+        help=f"how the mouth moves, as in `miketalk say` (default {defaults.LIPSYNC_MODEL})",
     )
     voice_option(dub)
     dub.add_argument("--force", action="store_true", help="overwrite a .json not by miketalk")

@@ -399,22 +399,10 @@ class Stabilizer:
     def apply(
         self, frames: np.ndarray, transforms: np.ndarray, *, field: np.ndarray | None = None
     ) -> np.ndarray:
-        """Warp frames onto the reference.
+        """Warp frames onto the reference (:func:`~miketalk.stabilize.warp_to_reference`).
 
-        Parameters
-        ----------
-        frames : numpy.ndarray
-            (N, H, W, 3) or (N, H, W).
-        transforms : numpy.ndarray
-            (N, 2, 3) from :meth:`register`.
-        field : numpy.ndarray, optional
-            (H, W, 2) from :meth:`conform`, applied before the transforms.
-
-        Returns
-        -------
-        numpy.ndarray
-            Frames like ``frames``: output pixel ``p`` is the frame at
-            ``T @ (p + F(p))`` (bilinear by default; the edges replicated).
+        ``transforms`` come from :meth:`register`, ``field`` from :meth:`conform`;
+        interpolation is this stabilizer's.
         """
         return warp_to_reference(frames, transforms, field=field, interpolation=self.interpolation)
 
