@@ -141,6 +141,9 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     dub = pd.read_csv(results / "metrics/dub/s1/clips.csv")
     assert list(dub["clip"]) == ["bbas3a", "srau3s"]
     assert (dub["psnr_frame"] > 25).all() and dub["seam_ratio"].between(0.3, 3).all()
+    # the dub's mouth landmarks against the real frames, beside the uncomposited render's
+    assert (dub["dub_mouth_lmd"] > 0).all() and (dub["render_mouth_lmd"] > 0).all()
+    assert dub["dub_lip_opening_corr_speech"].between(-1, 1).all()
     assert (results / "dub/s1/srau3s.mp4").stat().st_size > 0
     assert (results / "figures/dub/s1/strip.png").stat().st_size > 0
 

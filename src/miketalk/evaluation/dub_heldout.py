@@ -73,6 +73,7 @@ def dub_heldout(
     from miketalk.corpus.folder import open_corpus
     from miketalk.evaluation.dubbing import dub_clip, dub_measures
     from miketalk.evaluation.heldout import RENDERERS, speech_frames
+    from miketalk.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import Eigenlips, grey_mouths, mouth_region
@@ -89,6 +90,7 @@ def dub_heldout(
     stabilizer = model_stabilizer(model_dir)
     model = Model(model_dir, morph_options=morph)
     compositor = Compositor(mouth_box_of(model_dir), model.size, blend=method, **(blend or {}))
+    landmarks = face_landmarks()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -105,7 +107,7 @@ def dub_heldout(
         seconds = time.perf_counter() - started
         frame, dub, render = dub_measures(
             dubbed, stabilizer=stabilizer, mouth_box=box, eigenlips=eigenlips,
-            speech=speech_frames(timeline),
+            speech=speech_frames(timeline), landmarks=landmarks,
         )  # fmt: skip
         row = {"clip": clip.id, "frames": n, "register_composite_s": seconds} | frame
         row |= {f"dub_{k}": v for k, v in dub.items() if k != "frames"}

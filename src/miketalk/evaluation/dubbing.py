@@ -175,9 +175,17 @@ def nose_positions(
 
 
 def dub_measures(
-    dubbed: DubbedClip, *, stabilizer, mouth_box, eigenlips, speech=None
+    dubbed: DubbedClip, *, stabilizer, mouth_box, eigenlips, speech=None, landmarks=None
 ) -> tuple[dict, dict, dict]:
     """Whole-frame and seam measures, and the mouth measures of the dub and of the render.
+
+    Parameters
+    ----------
+    landmarks : miketalk.evaluation.landmarks.FaceLandmarks, optional
+        With it, the landmark measures too (``mouth_lmd``, ``lip_opening_corr_speech``, ...:
+        :func:`miketalk.evaluation.landmark_scores.landmark_scores`), the dub and the render
+        each against the real frames, all stabilized onto the reference and marked from the
+        real frames' one face box.
 
     Returns
     -------
@@ -186,7 +194,8 @@ def dub_measures(
         :func:`miketalk.evaluation.heldout.compare` for the dubbed frames
         stabilized onto the reference and for the uncomposited render.
     """
-    from miketalk.evaluation.heldout import compare
+    from miketalk.evaluation.heldout import MAX_LAG, compare
+    from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores
 
     bg = dubbed.background
     real_steady = stabilizer.apply(dubbed.real, bg.transforms, field=bg.field)
@@ -200,4 +209,12 @@ def dub_measures(
     render = compare(
         real_steady, dubbed.renders, mouth_box=mouth_box, eigenlips=eigenlips, speech=speech
     )
-    return frame, dub.summary, render.summary
+    if landmarks is None:
+        return frame, dub.summary, render.summary
+    marks = ClipLandmarks(landmarks, real_steady)
+    spoken = speech if speech is not None else slice(None)
+    _, dub_marks = landmark_scores(marks.real, marks.of(dub_steady), speech=spoken, max_lag=MAX_LAG)
+    _, render_marks = landmark_scores(
+        marks.real, marks.of(dubbed.renders), speech=spoken, max_lag=MAX_LAG
+    )
+    return frame, dub.summary | dub_marks, render.summary | render_marks
