@@ -16,7 +16,7 @@ from miketalk.talk.lipsync import plan
 from miketalk.talk.trained import fit_trained, read_trained
 from miketalk.talk.trained.build import render_trained
 from miketalk.talk.trained.mouths import MouthFrames, feather_mask
-from miketalk.talk.trained.selection import Compositor, SelectionSettings, select
+from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, select
 from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
 from miketalk.visemes import default_table
 
@@ -98,7 +98,7 @@ def test_feathered_composite_has_no_seam() -> None:
     frames = _frames(np.zeros((1, 1)), np.zeros(1, int))
     frames = MouthFrames(**{**frames.__dict__, "patches": patches, "border": np.full((1, 3), 160.0),
                             "patch": (10, 10, 50, 40)})  # fmt: skip
-    out = Compositor(frames, face).frame(((0, 1.0),))
+    out = PatchCompositor(frames, face).frame(((0, 1.0),))
     # light matched: the patch's 160 becomes the face's 100 at the border and inside
     assert np.abs(out.astype(int) - 100)[:, :, 0][out[..., 0] > 50].max() <= 1
     assert out[30, 35, 0] < 50  # the mouth is drawn

@@ -61,9 +61,11 @@ rule heldout:
 
 rule dub_heldout:
     input:
+        unpack(clip_inputs("test")),
         model=rules.model.output[0],
         words=rules.corpus_clips.output.words,
         regions=rules.corpus_clips.output.regions,
+        eigenlips=rules.eigenlips.output[0],
     output:
         clips=f"{METRICS}/dub/{{face}}/clips.csv",
         summary=report(

@@ -7,6 +7,7 @@ from miketalk.stage import run_stage
 
 def main() -> None:
     from miketalk.corpus.clip_sources import clip_sources
+    from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.evaluation.dub_heldout import dub_heldout
     from miketalk.figures.dub_strip import strip
 
@@ -26,6 +27,7 @@ def main() -> None:
         summary_csv=snakemake.output.summary,
         strip_png=snakemake.output.strip,
         draw_strip=strip,
+        corpus_eigenlips=read_eigenlips(snakemake.input.eigenlips),
         renderer="learned" if snakemake.params.lipsync_model == "learned" else "morph",
         morph=snakemake.params.morph,
     )

@@ -66,14 +66,17 @@ def cmd_dub(args: argparse.Namespace) -> int:
         raise MiketalkError(f"{args.video}: its frame rate: {err}") from None
     long_work = len(frames) > _LONG_WORK and sys.stderr.isatty()
     progress = args.progress or long_work
+
+    def register():  # the video's frames registered to the model's reference
+        return background_from_video(
+            frames, fps, model_stabilizer(model_dir), source=str(args.video), progress=progress
+        )
+
     if args.audio is not None:
         from miketalk.talk.recorded import say_recorded
 
         with open_model(model_dir) as model:
-            background = background_from_video(
-                frames, fps, model_stabilizer(model_dir), source=str(args.video),
-                progress=progress,
-            )  # fmt: skip
+            background = register()
             said = say_recorded(
                 args.audio, output, model=model, text=text, timings=args.timings, fps=fps,
                 max_px_per_frame=max_px, sampling=args.sampling,
@@ -84,19 +87,14 @@ def cmd_dub(args: argparse.Namespace) -> int:
     else:
         from miketalk.talk.say import speak
 
-        with festival_backend(args).start(
-            text
-        ) as speech:  # Festival works while the video registers
-            with open_model(model_dir) as model:
-                background = background_from_video(
-                    frames, fps, model_stabilizer(model_dir), source=str(args.video),
-                    progress=progress,
-                )  # fmt: skip
-                spoken = speak(
-                    speech, output, model=model, fps=fps, max_px_per_frame=max_px,
-                    sampling=args.sampling, lipsync_model=args.lipsync_model,
-                    progress=progress, overwrite=args.force, background=background,
-                )  # fmt: skip
+        # Festival works while the video registers
+        with festival_backend(args).start(text) as speech, open_model(model_dir) as model:
+            background = register()
+            spoken = speak(
+                speech, output, model=model, fps=fps, max_px_per_frame=max_px,
+                sampling=args.sampling, lipsync_model=args.lipsync_model,
+                progress=progress, overwrite=args.force, background=background,
+            )  # fmt: skip
         motion, seconds = spoken.motion, spoken.motion.duration
     timeline = output.with_suffix(".json")
     if args.json:

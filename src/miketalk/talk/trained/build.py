@@ -31,7 +31,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
-from miketalk.talk.trained.selection import Compositor, SelectionSettings, drawn, select
+from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, drawn, select
 from miketalk.talk.trained.trajectory import (
     TRAJECTORIES,
     Context,
@@ -286,7 +286,7 @@ def render_trained(
     """
     trained = trained or read_trained(model.directory)
     rows = trained.plan(timeline, kind=kind)
-    compositor = Compositor(trained.frames, model.image(SILENCE))
+    compositor = PatchCompositor(trained.frames, model.image(SILENCE))
     for row in rows:
         yield compositor.frame(row)
 

@@ -18,7 +18,7 @@ the recording (the same frame or the next one or two of the same clip: the
 recording is 25 fps, the video may be faster). Each output frame considers
 its ``candidates`` nearest training frames.
 
-:class:`Compositor` draws frame ``s_t``'s colour patch onto the face with a
+:class:`PatchCompositor` draws frame ``s_t``'s colour patch onto the face with a
 feathered mask (:func:`miketalk.talk.trained.mouths.feather_mask`), the patch
 first shifted to the face's light: the mean colour of the border band over the
 frame's clip (its recording session) made the face's own. Where the selection
@@ -170,7 +170,7 @@ def _mix(row: list[tuple[int, float]], other: int, amount: float) -> list[tuple[
     return [*out, (other, amount)]
 
 
-class Compositor:
+class PatchCompositor:
     """Draws rows of weighted training frames onto a face (see the module docstring)."""
 
     def __init__(self, frames: MouthFrames, face: np.ndarray) -> None:
