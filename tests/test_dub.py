@@ -49,7 +49,8 @@ def _model(root: Path, *, person: bool) -> Path:
         frames, _ = _clip(40)
         reference = _head(2)
         stabilizer = Stabilizer.from_reference(reference, sample=frames)
-        background = background_from_video(frames, 25.0, stabilizer, source="synthetic")
+        # its head jumps from frame to frame (known similarities): kept unsmoothed
+        background = background_from_video(frames, 25.0, stabilizer, source="synthetic", smooth=0)
         save_background(
             model, background, reference=reference, face=stabilizer.face,
             mouth_box=stabilizer.mouth_box, clip="synthetic",
@@ -150,6 +151,9 @@ def _write(path: Path, frames: np.ndarray) -> Path:
     ("what", "expected"),
     [
         ("nobody", "does not show the model's person"),
+        ("two faces", "shows the model's face twice"),
+        ("colours swapped", "colour is far from the model's"),
+        ("mirrored", "does not show the model's person"),
         ("short", "at least 1 s"),
         ("unreadable", "could not decode"),
         ("missing", "not found"),
@@ -159,6 +163,13 @@ def test_a_video_that_cannot_be_dubbed_is_one_line(capsys, tmp_path, person, wha
     path = tmp_path / "v.mkv"
     if what == "nobody":
         _write(path, np.full((30, H, W, 3), (40, 120, 200), np.uint8))
+    elif what == "two faces":  # the head twice side by side, each as large as the model's
+        frames = _clip(30)[0][:, :, 44:132]
+        _write(path, np.concatenate([frames, frames], axis=2))
+    elif what == "colours swapped":  # registers on grey levels as well as the original
+        _write(path, np.ascontiguousarray(_clip(30)[0][..., ::-1]))
+    elif what == "mirrored":
+        _write(path, np.ascontiguousarray(_clip(30)[0][:, :, ::-1]))
     elif what == "short":
         _write(path, _clip(20)[0])
     elif what == "unreadable":

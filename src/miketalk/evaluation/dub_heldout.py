@@ -39,6 +39,7 @@ def dub_heldout(
     blend: dict | None = None,
     method: str = "feather",
     corpus_eigenlips=None,
+    smooth: float | None = None,
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
 
@@ -72,6 +73,9 @@ def dub_heldout(
     corpus_eigenlips : CorpusEigenlips, optional
         The corpus's eigenlips fitted before
         (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
+    smooth : float, optional
+        Sigma (s) of the transforms' smoothing in time (None: the default,
+        :data:`miketalk.defaults.BACKGROUND_SMOOTH`; 0: raw).
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
@@ -106,7 +110,7 @@ def dub_heldout(
         started = time.perf_counter()
         dubbed = dub_clip(
             decoded.frames, decoded.fps, renders, stabilizer=stabilizer, compositor=compositor,
-            rest=model.image(SILENCE) if colour == "clip" else None,
+            rest=model.image(SILENCE) if colour == "clip" else None, smooth=smooth,
         )  # fmt: skip
         seconds = time.perf_counter() - started
         frame, dub, render = dub_measures(
@@ -175,6 +179,7 @@ def main(argv: list[str] | None = None) -> int:
         help="the blend ellipse in mouth widths (default: miketalk.defaults)",
     )
     parser.add_argument("--method", default="feather", choices=("feather", "poisson"))
+    parser.add_argument("--smooth", type=float, help="transforms' smoothing sigma, s (0: raw)")
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -191,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
         model_dir=args.model, corpus_dir=args.corpus, clips=clips, out_dir=args.out,
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
         blend=dict(zip(names, args.blend, strict=True)) if args.blend else None,
-        method=args.method,
+        method=args.method, smooth=args.smooth,
     )  # fmt: skip
     return 0
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
 
 __all__ = [
@@ -37,7 +38,9 @@ __all__ = [
     "check_video",
     "composited",
     "find_blinks",
+    "head_speed",
     "pingpong",
+    "still_window",
 ]
 
 
@@ -106,6 +109,59 @@ def pingpong(i: int, n: int) -> int:
     period = 2 * (n - 1)
     m = i % period
     return m if m < n else period - m
+
+
+def head_speed(transforms: np.ndarray, point: tuple[float, float]) -> np.ndarray:
+    """How fast a reference ``point`` moves in the frames, px per frame ((N,), central differences).
+
+    The point is carried by each frame's transform (``T @ (x, y, 1)``): the head's motion
+    there, not the mouth's.
+    """
+    t = np.asarray(transforms, np.float64)
+    where = t[:, :, :2] @ np.asarray(point, np.float64) + t[:, :, 2]
+    if len(where) < 2:
+        return np.zeros(len(where))
+    return np.linalg.norm(np.gradient(where, axis=0), axis=1)
+
+
+def still_window(
+    speed: np.ndarray, blinks: Iterable[int], *, shortest: int, longest: int
+) -> tuple[int, int]:
+    """The frames ``[start, stop)`` to play ping-pong: both turns where the head is still.
+
+    A ping-pong loop turns the head's motion round at its first and last frames; where
+    the head stands still the turn cannot be seen. Among the windows of ``shortest`` to
+    ``longest`` frames that keep a blink (when the frames have one), the one whose two
+    ends move least (``speed[start] + speed[stop - 1]``; the longer on a tie, then the
+    earlier).
+
+    Parameters
+    ----------
+    speed : numpy.ndarray
+        (N,) the head's speed per frame (:func:`head_speed`).
+    blinks : iterable of int
+        Frames where the eyes close.
+    shortest, longest : int
+        The window's least and greatest length, frames (clipped to ``N``).
+    """
+    n = len(speed)
+    longest = max(1, min(longest, n))
+    shortest = max(1, min(shortest, longest))
+    marks = np.zeros(n + 1, int)
+    for b in blinks:
+        if 0 <= b < n:
+            marks[b + 1] = 1
+    seen = np.cumsum(marks)  # blinks before each frame
+    need = bool(seen[-1])
+    best = None
+    for start in range(n - shortest + 1):
+        for stop in range(start + shortest, min(n, start + longest) + 1):
+            if need and seen[stop] == seen[start]:
+                continue
+            key = (round(float(speed[start] + speed[stop - 1]), 6), -(stop - start), start)
+            if best is None or key < best[0]:
+                best = (key, start, stop)
+    return (0, longest) if best is None else (best[1], best[2])
 
 
 def composited(
@@ -249,6 +305,7 @@ def background_from_video(
     *,
     source: str = "the video",
     progress: bool = False,
+    smooth: float = defaults.BACKGROUND_SMOOTH,
 ) -> Background:
     """Register a video's frames to the model's reference (see the module docstring).
 
@@ -265,6 +322,10 @@ def background_from_video(
         Named in errors.
     progress : bool
         Draw a progress bar of the registration on stderr.
+    smooth : float
+        Gaussian sigma in seconds of the transforms smoothed in time
+        (:data:`miketalk.defaults.BACKGROUND_SMOOTH`, 0 for none): the registration's
+        frame-to-frame error would slide the mouth against the nose.
 
     Raises
     ------
@@ -293,6 +354,14 @@ def background_from_video(
             f"{source}: its first frame does not show the model's person ({why}): give a "
             "frontal video of the same person"
         )
+    from miketalk.talk.video_checks import SECOND_FACE, face_matches
+
+    peaks = face_matches(small[0], stabilizer, first[0])
+    if len(peaks) > 1 and peaks[1] >= SECOND_FACE:
+        raise MiketalkError(
+            f"{source}: its first frame shows the model's face twice (a second place matches "
+            f"it at {peaks[1]:.2f}, at least {SECOND_FACE} counts): give a video of one person"
+        )
     transforms = _register(stabilizer, small, first[0], source=source, progress=progress)
     ok = np.isfinite(transforms[:, 0, 0])
     if ok.mean() < 0.5:
@@ -302,6 +371,10 @@ def background_from_video(
         )
     field = stabilizer.conform(small, transforms, clip=source)
     transforms = _fill(transforms)
+    if smooth > 0 and len(transforms) > 1:
+        from scipy.ndimage import gaussian_filter1d
+
+        transforms = gaussian_filter1d(transforms, smooth * fps, axis=0, mode="nearest")
     full = np.array([(scale @ np.vstack([t, [0, 0, 1]]))[:2] for t in transforms])
     steady = stabilizer.apply(small, transforms, field=field)
     blinks = find_blinks(steady, stabilizer.mouth_box)
@@ -313,7 +386,21 @@ def background_from_video(
             f"with the model's reference after registration, at least {MIN_LOWER_FACE} needed): "
             "give a frontal video of the same person"
         )
+    _check_colour(median, stabilizer, source)
     return Background(frames, full, field, float(fps), blinks, source, median)
+
+
+def _check_colour(median: np.ndarray, stabilizer, source: str) -> None:
+    """Refuse a registered video whose face's colour the model's mouth cannot match."""
+    from miketalk.talk.video_checks import MAX_COLOUR_SHIFT, colour_shift
+
+    shift = colour_shift(median, stabilizer.reference, stabilizer.mask)
+    if shift > MAX_COLOUR_SHIFT:
+        raise MiketalkError(
+            f"{source}: its face's colour is far from the model's (chromaticity {shift:.3f} "
+            f"from the reference's, at most {MAX_COLOUR_SHIFT} allowed): give a video in "
+            "natural colour and steady light"
+        )
 
 
 def _register(stabilizer, frames: np.ndarray, init: np.ndarray, *, source: str, progress: bool):
