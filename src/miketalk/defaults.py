@@ -88,6 +88,14 @@ BLEND_BELOW = 1.0
 BLEND_CHIN_WIDTH = 0.7
 BLEND_FEATHER = 0.1
 
+#: Warp the frame's lower face about the blend to follow the synthesized jaw
+#: (:func:`miketalk.render.composite.follow_render`), so its jaw line does not show twice.
+BLEND_FOLLOW = True
+
+#: Keep the blend off the reference's backdrop and clothes
+#: (:func:`miketalk.render.composite.skin_weight`): the render's collar beside the jaw.
+BLEND_SKIN = True
+
 #: Seconds of the person's own frames a model built from clips keeps as the background
 #: ``say`` plays (:mod:`miketalk.talk.background`): at most ``BACKGROUND_SECONDS``, at least
 #: ``BACKGROUND_SHORTEST``, cut where the head stands still (the ping-pong loop's turns).

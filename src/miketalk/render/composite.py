@@ -20,6 +20,15 @@ in the blend's edge band (skin in both) is spread over the region by
 normalized convolution, a smooth per-channel offset that follows a lighting
 gradient, as the guidance field of Poisson blending would.
 
+Where the real jaw opens more or less than the synthesized one, its line would
+show twice at the mask's edge (the frame's jaw outside, the render's inside: a dark
+notch on the jaw line). With ``follow`` (the default) the frame's lower face around
+the mask is first warped to follow the render (:func:`follow_render`): the dense
+flow (DIS) from the render to the frame over the region, smoothed, moves the frame's
+pixels by it with a weight that is one at the mask's edge below the mouth and fades
+out over half a mouth width beyond it and above the mouth, so the jaw line outside
+the mask continues the render's inside it.
+
 ``blend="poisson"`` uses ``cv2.seamlessClone`` instead. On s1's 8 held-out
 clips dubbed with their own audio it scores a higher whole-frame PSNR (40.2
 against 39.2 dB) and a seam gradient ratio nearer 1 (0.99 against 0.93), but
@@ -39,7 +48,15 @@ import numpy as np
 from miketalk import defaults
 from miketalk.errors import MiketalkError
 
-__all__ = ["Compositor", "Placement", "blend_mask", "colour_offset", "place"]
+__all__ = [
+    "Compositor",
+    "Placement",
+    "blend_mask",
+    "colour_offset",
+    "follow_render",
+    "place",
+    "skin_weight",
+]
 
 Box = tuple[int, int, int, int]
 
@@ -101,6 +118,35 @@ def blend_mask(
     return alpha
 
 
+def skin_weight(
+    reference: np.ndarray, face: np.ndarray, *, drop: float = 0.06, sigma: float = 2.0
+) -> np.ndarray:
+    """Where the reference shows skin or lips, not the backdrop or clothes: (H, W) float32.
+
+    A pixel is kept when its red chromaticity ``r / (r + g + b)`` is at least the face's
+    median less ``drop`` (on s1's reference the backdrop and the denim collar fall below,
+    the face, the neck and the lips above); the kept region is closed (small holes filled)
+    and its edge blurred by ``sigma`` pixels. Multiplied into the blend mask, the render's
+    collar or backdrop beside the jaw is never pasted over the frame's own.
+
+    Parameters
+    ----------
+    reference : numpy.ndarray
+        (H, W, 3) uint8 RGB.
+    face : numpy.ndarray
+        (H, W) bool, the face (its median colour is the skin's).
+    """
+    rgb = np.asarray(reference, np.float32)
+    red = rgb[..., 0] / np.maximum(rgb.sum(axis=2), 1.0)
+    if not face.any():
+        return np.ones(red.shape, np.float32)
+    keep = (red >= float(np.median(red[face])) - drop).astype(np.uint8)
+    keep = cv2.morphologyEx(
+        keep, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    )
+    return cv2.GaussianBlur(keep.astype(np.float32), (0, 0), sigma)
+
+
 def colour_offset(
     render: np.ndarray, frame: np.ndarray, band: np.ndarray, *, sigma: float
 ) -> np.ndarray:
@@ -128,6 +174,55 @@ def colour_offset(
     ok = norm > 1e-4 * max(float(norm.max()), 1e-12)
     out[ok] = weighted[ok] / norm[ok, None]
     return out
+
+
+def follow_render(
+    here: np.ndarray,
+    mouth: np.ndarray,
+    alpha: np.ndarray,
+    ref_y: np.ndarray,
+    mouth_box: Box,
+) -> np.ndarray:
+    """The frame's pixels about the mask moved to follow the render's (the jaw line).
+
+    Parameters
+    ----------
+    here, mouth : numpy.ndarray
+        (h, w, 3) float32: the frame's pixels in the placement's box, and the render
+        carried there.
+    alpha : numpy.ndarray
+        (h, w) float32: the blend mask there.
+    ref_y : numpy.ndarray
+        (h, w) float32: the reference row each pixel shows (:attr:`Placement.map_y`).
+    mouth_box : tuple of int
+        ``(x, y, w, h)`` of the mouth in the reference.
+
+    Returns
+    -------
+    numpy.ndarray
+        (h, w, 3) float32: ``here`` sampled at ``q + s(q) b(q)``, where ``b`` is the DIS
+        flow from the render to the frame (``mouth(q) ~ here(q + b(q))``), smoothed over
+        a fifth of a mouth width, and ``s`` is one on the mask and fades out over half a
+        mouth width outside it, and from the mouth's centre up to its top.
+    """
+    w = float(mouth_box[2])
+    grey = [
+        cv2.cvtColor(np.clip(im + 0.5, 0, 255).astype(np.uint8), cv2.COLOR_RGB2GRAY)
+        for im in (mouth, here)
+    ]
+    dis = cv2.DISOpticalFlow_create(cv2.DISOpticalFlow_PRESET_FAST)
+    flow = dis.calc(grey[0], grey[1], None)
+    flow = cv2.GaussianBlur(flow, (0, 0), 0.2 * w)
+    inside = (alpha > 0.5).astype(np.float32)
+    near = cv2.GaussianBlur(inside, (0, 0), 0.25 * w)
+    weight = np.minimum(1.0, 2.0 * near)
+    cy = mouth_box[1] + mouth_box[3] / 2
+    weight *= np.clip((ref_y - (cy - 0.3 * w)) / (0.3 * w), 0.0, 1.0)
+    h, wd = alpha.shape
+    qy, qx = np.mgrid[0:h, 0:wd].astype(np.float32)
+    map_x = qx + weight * flow[..., 0]
+    map_y = qy + weight * flow[..., 1]
+    return cv2.remap(here, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
 @dataclass(frozen=True)
@@ -234,6 +329,12 @@ class Compositor:
         ``"poisson"``: ``cv2.seamlessClone`` (Poisson image editing, Perez et
         al. 2003) of the render inside the mask's half-alpha contour, the
         frame's own pixels on its border.
+    follow : bool
+        Warp the frame's lower face about the mask to follow the render
+        (:func:`follow_render`) before blending.
+    keep : numpy.ndarray, optional
+        (H, W) float32 in [0, 1] multiplied into the blend mask: where the render may show
+        (:func:`skin_weight`: not its backdrop or clothes).
     **mask
         Keyword settings of :func:`blend_mask`.
     """
@@ -245,6 +346,8 @@ class Compositor:
         *,
         colour_match: bool = True,
         blend: str = "feather",
+        follow: bool = defaults.BLEND_FOLLOW,
+        keep: np.ndarray | None = None,
         **mask: float,
     ) -> None:
         if blend not in ("feather", "poisson"):
@@ -253,8 +356,12 @@ class Compositor:
         self.mouth_box = tuple(int(v) for v in mouth_box)
         self.size = (int(size[0]), int(size[1]))
         self.alpha = blend_mask(self.mouth_box, self.size, **mask)
+        if keep is not None:
+            self.alpha = self.alpha * np.asarray(keep, np.float32)
+            self.alpha[self.alpha < _EMPTY] = 0
         self.support = cv2.boundingRect((self.alpha > 0).astype(np.uint8))
         self.colour_match = colour_match
+        self.follow = follow
         self._sigma = 0.5 * self.mouth_box[2]
 
     def place(
@@ -344,6 +451,8 @@ class Compositor:
         elif self.colour_match:
             band = 4.0 * placement.alpha * (1.0 - placement.alpha)
             mouth += colour_offset(mouth, here, band, sigma=self._sigma)
+        if self.follow:
+            here = follow_render(here, mouth, placement.alpha, placement.map_y, self.mouth_box)
         if self.blend == "poisson":
             return _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
         blended = here + a * (mouth - here)

@@ -32,6 +32,7 @@ from miketalk.talk.background import (
 __all__ = [
     "composite_renders",
     "has_background",
+    "model_compositor",
     "model_stabilizer",
     "mouth_box_of",
     "read_background",
@@ -70,6 +71,24 @@ def model_stabilizer(model_dir: str | os.PathLike[str]):
     return Stabilizer.from_reference(
         read_image(where / REFERENCE), face=face, mouth_box=tuple(meta["mouth_box"])
     )
+
+
+def model_compositor(model_dir: str | os.PathLike[str], size: tuple[int, int], **settings):
+    """The :class:`~miketalk.render.composite.Compositor` of a model built from clips.
+
+    Its blend mask about the model's mouth box, kept off the reference's backdrop and
+    clothes (:func:`~miketalk.render.composite.skin_weight` of the reference and its
+    face mask, unless ``skin=False``); ``settings`` go to the compositor.
+    """
+    from miketalk.media.images import read_image
+    from miketalk.render.composite import Compositor, skin_weight
+
+    where = Path(model_dir) / DIRECTORY
+    keep = None
+    if settings.pop("skin", defaults.BLEND_SKIN):
+        face = read_image(where / FACE_MASK)[..., 0] > 127
+        keep = skin_weight(read_image(where / REFERENCE), face)
+    return Compositor(mouth_box_of(model_dir), size, keep=keep, **settings)
 
 
 def mouth_box_of(model_dir: str | os.PathLike[str]) -> tuple[int, int, int, int]:
@@ -275,9 +294,8 @@ def composite_renders(
     fps : float
         The output's frame rate.
     """
-    from miketalk.render.composite import Compositor
     from miketalk.visemes import SILENCE
 
-    compositor = Compositor(mouth_box_of(model.directory), model.size)
+    compositor = model_compositor(model.directory, model.size)
     rest = model.image(SILENCE) if SILENCE in model.visemes else None
     return composited(renders, background, compositor, fps=fps, rest=rest)
