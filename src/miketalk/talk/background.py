@@ -266,6 +266,30 @@ def find_blinks(
     return tuple(int(i) for i in np.flatnonzero(change > threshold))
 
 
+#: Frames a long video's conform field and light are measured on (evenly spread).
+_SAMPLE = 100
+
+
+def _spread(n: int, most: int) -> np.ndarray:
+    """At most ``most`` indices spread evenly over ``range(n)`` (all of them for ``n <= most``)."""
+    return np.arange(n) if n <= most else np.linspace(0, n - 1, most).round().astype(int)
+
+
+def smooth_in_time(transforms: np.ndarray, sigma: float) -> np.ndarray:
+    """``transforms`` (N, 2, 3) convolved in time with a Gaussian of ``sigma`` frames.
+
+    The ends are extended by repeating the first and last transform (``scipy.ndimage``'s
+    ``mode="nearest"``; numpy alone, whose import costs nothing here).
+    """
+    radius = max(1, int(4 * sigma + 0.5))
+    taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    taps /= taps.sum()
+    flat = np.asarray(transforms, np.float64).reshape(len(transforms), -1)
+    padded = np.concatenate([np.repeat(flat[:1], radius, 0), flat, np.repeat(flat[-1:], radius, 0)])
+    out = np.stack([np.convolve(padded[:, j], taps, mode="valid") for j in range(flat.shape[1])], 1)
+    return out.reshape(np.shape(transforms))
+
+
 def _fill(transforms: np.ndarray) -> np.ndarray:
     """NaN transforms replaced by the nearest registered frame's (earlier on a tie)."""
     ok = np.flatnonzero(np.isfinite(transforms[:, 0, 0]))
@@ -369,16 +393,15 @@ def background_from_video(
             f"{source}: only {int(ok.sum())} of its {len(ok)} frames show the model's person "
             "(register to its reference): give a frontal video of the same person"
         )
-    field = stabilizer.conform(small, transforms, clip=source)
+    some = _spread(len(small), _SAMPLE)  # the field and the light from at most _SAMPLE frames
+    field = stabilizer.conform(small[some], transforms[some], clip=source)
     transforms = _fill(transforms)
     if smooth > 0 and len(transforms) > 1:
-        from scipy.ndimage import gaussian_filter1d
-
-        transforms = gaussian_filter1d(transforms, smooth * fps, axis=0, mode="nearest")
+        transforms = smooth_in_time(transforms, smooth * fps)
     full = np.array([(scale @ np.vstack([t, [0, 0, 1]]))[:2] for t in transforms])
     steady = stabilizer.apply(small, transforms, field=field)
     blinks = find_blinks(steady, stabilizer.mouth_box)
-    median = np.median(steady, axis=0).astype(np.uint8)
+    median = np.median(steady[some], axis=0).astype(np.uint8)
     score = lower_face_correlation(median, stabilizer.reference, stabilizer.mouth_box)
     if score < MIN_LOWER_FACE:
         raise MiketalkError(
