@@ -227,3 +227,30 @@ def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
     box = (74, 100, 28, 8)  # the synthetic mouth: centre (88, 104), 28 px wide
     assert lower_face_correlation(frame, frame, box) == pytest.approx(1.0)
     assert lower_face_correlation(np.roll(frame, 30, axis=0), frame, box) < 0.4
+
+
+def test_the_background_turns_where_the_head_stands_still():
+    from miketalk.talk.background import head_speed, still_window
+
+    speed = np.full(75, 0.5)
+    speed[[3, 40, 60]] = 0.01  # still at frames 3, 40 and 60
+    assert still_window(speed, (), shortest=50, longest=75) == (3, 61)
+    # a blink at 70 must stay in: the ends still at 40 (or 3) and the last frame
+    speed[74] = 0.02
+    assert still_window(speed, (70,), shortest=30, longest=75) == (3, 75)
+    assert still_window(speed, (70,), shortest=30, longest=40) == (40, 75)
+    # a head moving 1 px per frame to the right, then standing
+    shifts = np.array([np.eye(2, 3) + [[0, 0, min(k, 10)], [0, 0, 0]] for k in range(20)])
+    moving = head_speed(shifts, (5.0, 5.0))
+    assert moving[1:9] == pytest.approx(1.0) and moving[12:] == pytest.approx(0.0)
+
+
+def test_smoothing_in_time_is_scipys_gaussian_filter():
+    from scipy.ndimage import gaussian_filter1d
+
+    from miketalk.talk.background import smooth_in_time
+
+    for n in (2, 5, 75):
+        t = np.random.default_rng(n).normal(size=(n, 2, 3))
+        expected = gaussian_filter1d(t, 1.0, axis=0, mode="nearest")
+        assert np.allclose(smooth_in_time(t, 1.0), expected, atol=1e-12)
