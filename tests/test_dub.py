@@ -240,7 +240,8 @@ def test_the_background_turns_where_the_head_stands_still():
     assert still_window(speed, (70,), shortest=30, longest=75) == (3, 75)
     assert still_window(speed, (70,), shortest=30, longest=40) == (40, 75)
     # a head moving 1 px per frame to the right, then standing
-    shifts = np.array([np.eye(2, 3) + [[0, 0, min(k, 10)], [0, 0, 0]] for k in range(20)])
+    shifts = np.tile(np.eye(2, 3), (20, 1, 1))
+    shifts[:, 0, 2] = np.minimum(np.arange(20), 10)
     moving = head_speed(shifts, (5.0, 5.0))
     assert moving[1:9] == pytest.approx(1.0) and moving[12:] == pytest.approx(0.0)
 
