@@ -230,7 +230,7 @@ def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
 
 
 def test_the_background_turns_where_the_head_stands_still():
-    from miketalk.talk.background import head_speed, still_window
+    from miketalk.talk.loop import head_speed, still_window
 
     speed = np.full(75, 0.5)
     speed[[3, 40, 60]] = 0.01  # still at frames 3, 40 and 60
@@ -249,7 +249,7 @@ def test_the_background_turns_where_the_head_stands_still():
 def test_smoothing_in_time_is_scipys_gaussian_filter():
     from scipy.ndimage import gaussian_filter1d
 
-    from miketalk.talk.background import smooth_in_time
+    from miketalk.talk.loop import smooth_in_time
 
     for n in (2, 5, 75):
         t = np.random.default_rng(n).normal(size=(n, 2, 3))

@@ -20,6 +20,10 @@ the mouth was blended in. Measures (:func:`dub_measures`):
     composited mouth is fixed in the reference's coordinates, so this is how
     much the nose moves against it that the real mouth would have followed
     (the stabilization's frame-to-frame error);
+``jitter_*``, ``upper_jitter_*``
+    the mouth's frame-to-frame motion against the nose from dlib's landmarks on
+    the frames as seen (:func:`jitter_measures`), real, dubbed and dubbed beyond
+    real (``jitter_beyond``: the issue's target, at most 0.3 px RMS);
 the held-out mouth measures (:func:`miketalk.evaluation.heldout.compare`) on
 the dubbed frames brought back onto the reference (``dub``) beside the same
 render uncomposited (``render``).

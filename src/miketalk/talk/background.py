@@ -1,6 +1,7 @@
 """Background sequences: the person's own frames, head motion and blinks, under the mouth.
 
-A model built from clips keeps a few seconds of one training clip as it was
+A model built from clips keeps a few seconds of one training clip, cut where
+the head stands still (:func:`miketalk.talk.loop.still_window`), as it was
 recorded (:func:`miketalk.talk.background_files.write_background`, in
 ``<model>/background/``): the frames,
 each frame's stabilization transform and the clip's conform field
@@ -16,8 +17,12 @@ frame is always followed by one of its neighbours.
 :func:`background_from_video` makes the same from any video of the person
 (``say --background VIDEO`` and ``miketalk dub``): every frame registered to
 the model's reference; frames that do not register (a hand over the face, a
-cut) take the nearest registered frame's transform; a video in which no frame
-registers does not show the model's person, and is refused in one line.
+cut) take the nearest registered frame's transform, and the transforms are
+smoothed in time (each frame's registration error would slide the mouth
+against the nose); a video in which no frame registers does not show the
+model's person, and is refused in one line, as is one whose first frame shows
+the face twice or whose colour is far from the model's
+(:mod:`miketalk.talk.video_checks`).
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.talk.loop import pingpong, smooth_in_time
 
 __all__ = [
     "Background",
@@ -38,9 +44,7 @@ __all__ = [
     "check_video",
     "composited",
     "find_blinks",
-    "head_speed",
     "pingpong",
-    "still_window",
 ]
 
 
@@ -100,68 +104,6 @@ class Background:
     def index(self, k: int, fps: float) -> int:
         """The background frame shown at output frame ``k`` of a video at ``fps``."""
         return pingpong(round(k * self.fps / fps), len(self))
-
-
-def pingpong(i: int, n: int) -> int:
-    """Frame ``i`` of ``0, 1, ..., n-1, n-2, ..., 1, 0, 1, ...``: a loop without a jump."""
-    if n <= 1:
-        return 0
-    period = 2 * (n - 1)
-    m = i % period
-    return m if m < n else period - m
-
-
-def head_speed(transforms: np.ndarray, point: tuple[float, float]) -> np.ndarray:
-    """How fast a reference ``point`` moves in the frames, px per frame ((N,), central differences).
-
-    The point is carried by each frame's transform (``T @ (x, y, 1)``): the head's motion
-    there, not the mouth's.
-    """
-    t = np.asarray(transforms, np.float64)
-    where = t[:, :, :2] @ np.asarray(point, np.float64) + t[:, :, 2]
-    if len(where) < 2:
-        return np.zeros(len(where))
-    return np.linalg.norm(np.gradient(where, axis=0), axis=1)
-
-
-def still_window(
-    speed: np.ndarray, blinks: Iterable[int], *, shortest: int, longest: int
-) -> tuple[int, int]:
-    """The frames ``[start, stop)`` to play ping-pong: both turns where the head is still.
-
-    A ping-pong loop turns the head's motion round at its first and last frames; where
-    the head stands still the turn cannot be seen. Among the windows of ``shortest`` to
-    ``longest`` frames that keep a blink (when the frames have one), the one whose two
-    ends move least (``speed[start] + speed[stop - 1]``; the longer on a tie, then the
-    earlier).
-
-    Parameters
-    ----------
-    speed : numpy.ndarray
-        (N,) the head's speed per frame (:func:`head_speed`).
-    blinks : iterable of int
-        Frames where the eyes close.
-    shortest, longest : int
-        The window's least and greatest length, frames (clipped to ``N``).
-    """
-    n = len(speed)
-    longest = max(1, min(longest, n))
-    shortest = max(1, min(shortest, longest))
-    marks = np.zeros(n + 1, int)
-    for b in blinks:
-        if 0 <= b < n:
-            marks[b + 1] = 1
-    seen = np.cumsum(marks)  # blinks before each frame
-    need = bool(seen[-1])
-    best = None
-    for start in range(n - shortest + 1):
-        for stop in range(start + shortest, min(n, start + longest) + 1):
-            if need and seen[stop] == seen[start]:
-                continue
-            key = (round(float(speed[start] + speed[stop - 1]), 6), -(stop - start), start)
-            if best is None or key < best[0]:
-                best = (key, start, stop)
-    return (0, longest) if best is None else (best[1], best[2])
 
 
 def composited(
@@ -273,21 +215,6 @@ _SAMPLE = 100
 def _spread(n: int, most: int) -> np.ndarray:
     """At most ``most`` indices spread evenly over ``range(n)`` (all of them for ``n <= most``)."""
     return np.arange(n) if n <= most else np.linspace(0, n - 1, most).round().astype(int)
-
-
-def smooth_in_time(transforms: np.ndarray, sigma: float) -> np.ndarray:
-    """``transforms`` (N, 2, 3) convolved in time with a Gaussian of ``sigma`` frames.
-
-    The ends are extended by repeating the first and last transform (``scipy.ndimage``'s
-    ``mode="nearest"``; numpy alone, whose import costs nothing here).
-    """
-    radius = max(1, int(4 * sigma + 0.5))
-    taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
-    taps /= taps.sum()
-    flat = np.asarray(transforms, np.float64).reshape(len(transforms), -1)
-    padded = np.concatenate([np.repeat(flat[:1], radius, 0), flat, np.repeat(flat[-1:], radius, 0)])
-    out = np.stack([np.convolve(padded[:, j], taps, mode="valid") for j in range(flat.shape[1])], 1)
-    return out.reshape(np.shape(transforms))
 
 
 def _fill(transforms: np.ndarray) -> np.ndarray:

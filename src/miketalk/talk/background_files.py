@@ -20,14 +20,8 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk.talk.background import (
-    Background,
-    background_from_video,
-    check_video,
-    composited,
-    head_speed,
-    still_window,
-)
+from miketalk.talk.background import Background, background_from_video, check_video, composited
+from miketalk.talk.loop import head_speed, still_window
 
 __all__ = [
     "composite_renders",
