@@ -301,6 +301,11 @@ def background_from_video(
             else f"correlation {rho:.2f} with the model's reference, at least "
             f"{stabilizer.min_correlation} needed"
         )
+        if abs(fw * h / (fh * w) - 1) > 0.02:
+            why += (
+                f"; it is {fw}x{fh}, the reference {w}x{h}, and frames are scaled to the "
+                "reference's size: another shape distorts the face"
+            )
         raise MiketalkError(
             f"{source}: its first frame does not show the model's person ({why}): give a "
             "frontal video of the same person"
