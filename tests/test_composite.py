@@ -135,3 +135,47 @@ def test_poisson_blend_gives_back_the_frame_and_keeps_the_frames_light():
     assert _psnr(compositor(frame, darker, transform), frame, inside) > 44.0  # 46.5; 16.9 feathered
     with pytest.raises(MiketalkError, match="blend"):
         Compositor(MOUTH, SIZE, blend="median")
+
+
+def test_follow_render_moves_the_frames_jaw_to_the_renders_beside_the_mask():
+    from miketalk.render.follow import follow_render
+
+    h, w = 120, 200
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    texture = _texture(seed=5, shape=(h, w)).astype(np.float32)
+
+    here = texture * (1.0 - 0.6 / (1.0 + np.exp(-(yy - 60.0))))[..., None]  # a jaw line at 60
+    drop = 6.0 * np.clip((yy - 40.0) / 15.0, 0.0, 1.0)  # the render's jaw 6 px lower
+    render = cv2.remap(here, xx, yy - drop, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    alpha = np.zeros((h, w), np.float32)
+    alpha[30:90, 60:140] = 1.0  # the mask over the middle
+    box = (80, 30, 40, 10)  # its mouth: centre row 35, 40 px wide
+    out = follow_render(here, render, alpha, yy, box)
+
+    def edge(image: np.ndarray, col: int) -> float:  # the row where the jaw line falls
+        profile = image[:, col].mean(axis=1)
+        return float(np.argmin(np.diff(profile[40:85])) + 40.5)
+
+    assert abs(edge(here, 150) - 60) <= 1 and abs(edge(render, 150) - 66) <= 1
+    # at the mask's edge the frame's jaw continues the render's (65.5 measured), half a
+    # mouth width beyond it its own (60.5); without the warp it would stay at 60
+    assert abs(edge(out, 140) - 66) <= 1
+    assert 61 <= edge(out, 145) <= 65
+    assert abs(edge(out, 165) - 60) <= 1 and abs(edge(out, 195) - 60) <= 1
+    # above the mouth nothing moves
+    assert np.abs(out[:20] - here[:20]).max() < 1.0
+
+
+def test_skin_weight_keeps_face_and_lips_and_drops_backdrop_and_collar():
+    from miketalk.render.follow import skin_weight
+
+    image = np.zeros((60, 90, 3), np.uint8)
+    image[:] = (40, 150, 200)  # blue backdrop
+    image[10:40, 20:70] = (200, 150, 120)  # skin
+    image[25:30, 35:55] = (190, 80, 90)  # lips
+    image[45:, :] = (70, 80, 100)  # a denim collar
+    face = np.zeros((60, 90), bool)
+    face[12:38, 22:68] = True
+    keep = skin_weight(image, face)
+    assert keep[20, 45] > 0.99 and keep[27, 45] > 0.99  # skin, lips
+    assert keep[5, 5] < 0.01 and keep[55, 45] < 0.01  # backdrop, collar

@@ -49,7 +49,8 @@ def _model(root: Path, *, person: bool) -> Path:
         frames, _ = _clip(40)
         reference = _head(2)
         stabilizer = Stabilizer.from_reference(reference, sample=frames)
-        background = background_from_video(frames, 25.0, stabilizer, source="synthetic")
+        # its head jumps from frame to frame (known similarities): kept unsmoothed
+        background = background_from_video(frames, 25.0, stabilizer, source="synthetic", smooth=0)
         save_background(
             model, background, reference=reference, face=stabilizer.face,
             mouth_box=stabilizer.mouth_box, clip="synthetic",
@@ -150,6 +151,9 @@ def _write(path: Path, frames: np.ndarray) -> Path:
     ("what", "expected"),
     [
         ("nobody", "does not show the model's person"),
+        ("two faces", "shows the model's face twice"),
+        ("colours swapped", "colour is far from the model's"),
+        ("mirrored", "does not show the model's person"),
         ("short", "at least 1 s"),
         ("unreadable", "could not decode"),
         ("missing", "not found"),
@@ -159,6 +163,13 @@ def test_a_video_that_cannot_be_dubbed_is_one_line(capsys, tmp_path, person, wha
     path = tmp_path / "v.mkv"
     if what == "nobody":
         _write(path, np.full((30, H, W, 3), (40, 120, 200), np.uint8))
+    elif what == "two faces":  # the head twice side by side, each as large as the model's
+        frames = _clip(30)[0][:, :, 44:132]
+        _write(path, np.concatenate([frames, frames], axis=2))
+    elif what == "colours swapped":  # registers on grey levels as well as the original
+        _write(path, np.ascontiguousarray(_clip(30)[0][..., ::-1]))
+    elif what == "mirrored":
+        _write(path, np.ascontiguousarray(_clip(30)[0][:, :, ::-1]))
     elif what == "short":
         _write(path, _clip(20)[0])
     elif what == "unreadable":
@@ -216,3 +227,31 @@ def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
     box = (74, 100, 28, 8)  # the synthetic mouth: centre (88, 104), 28 px wide
     assert lower_face_correlation(frame, frame, box) == pytest.approx(1.0)
     assert lower_face_correlation(np.roll(frame, 30, axis=0), frame, box) < 0.4
+
+
+def test_the_background_turns_where_the_head_stands_still():
+    from miketalk.talk.loop import head_speed, still_window
+
+    speed = np.full(75, 0.5)
+    speed[[3, 40, 60]] = 0.01  # still at frames 3, 40 and 60
+    assert still_window(speed, (), shortest=50, longest=75) == (3, 61)
+    # a blink at 70 must stay in: the ends still at 40 (or 3) and the last frame
+    speed[74] = 0.02
+    assert still_window(speed, (70,), shortest=30, longest=75) == (3, 75)
+    assert still_window(speed, (70,), shortest=30, longest=40) == (40, 75)
+    # a head moving 1 px per frame to the right, then standing
+    shifts = np.tile(np.eye(2, 3), (20, 1, 1))
+    shifts[:, 0, 2] = np.minimum(np.arange(20), 10)
+    moving = head_speed(shifts, (5.0, 5.0))
+    assert moving[1:9] == pytest.approx(1.0) and moving[12:] == pytest.approx(0.0)
+
+
+def test_smoothing_in_time_is_scipys_gaussian_filter():
+    from scipy.ndimage import gaussian_filter1d
+
+    from miketalk.talk.loop import smooth_in_time
+
+    for n in (2, 5, 75):
+        t = np.random.default_rng(n).normal(size=(n, 2, 3))
+        expected = gaussian_filter1d(t, 1.0, axis=0, mode="nearest")
+        assert np.allclose(smooth_in_time(t, 1.0), expected, atol=1e-12)

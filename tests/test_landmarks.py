@@ -181,3 +181,23 @@ def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
     assert figures["learned_minus_morph_mouth_lmd_sd"] == pytest.approx(0)
     assert figures["learned_lip_opening_lag_within_1_fraction"] == 0.5
     assert not any(key.startswith("still_") for key in figures)
+
+
+def test_mouth_to_nose_jitter_and_eye_openness() -> None:
+    from miketalk.evaluation.landmarks import eye_openness, mouth_nose_jitter
+
+    rng = np.random.default_rng(0)
+    base = rng.uniform(0, 100, (68, 2))
+    head = np.cumsum(rng.normal(0, 2, (30, 1, 2)), axis=0)  # the head wanders
+    points = base + head
+    assert mouth_nose_jitter(points) == pytest.approx(0.0, abs=1e-9)  # one head: no slide
+    slid = points.copy()
+    slid[:, 48:68] += np.arange(30)[:, None, None] * np.array([0.6, 0.8])  # 1 px a frame
+    assert mouth_nose_jitter(slid) == pytest.approx(1.0)
+    eye = np.array([[0, 0], [1, -1], [2, -1], [3, 0], [2, 1], [1, 1]], float)  # 3 wide, 2 tall
+    marks = np.zeros((2, 68, 2))
+    marks[:, 36:42] = eye
+    marks[:, 42:48] = eye
+    marks[1, [37, 38, 43, 44], 1] = -0.1  # the lids close
+    marks[1, [40, 41, 46, 47], 1] = 0.1
+    assert eye_openness(marks) == pytest.approx([2 / 3, 0.2 / 3])

@@ -132,10 +132,10 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert said["lipsync_model"] == "learned"
     assert said["motion"]["morphs"] == said["motion"]["frames"]
     assert abs(said["motion"]["duration_ratio"] - 1) < 0.1
-    # ... over its own frames (the model keeps 3 s of its reference clip), and the
-    # synthetic face stays still
+    # ... over its own frames (the model keeps 2 to 3 s of its reference clip, cut where
+    # the head stands still), and the synthetic face stays still
     assert said["background"]["source"] == "clip bbaf2n"
-    assert said["background"]["frames"] == 75
+    assert 50 <= said["background"]["frames"] <= 75
     assert "background" not in json.loads((results / "utterances/synthetic/hello.json").read_text())
     # the held-out clips dubbed with their own audio
     dub = pd.read_csv(results / "metrics/dub/s1/clips.csv")
@@ -144,6 +144,9 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     # the dub's mouth landmarks against the real frames, beside the uncomposited render's
     assert (dub["dub_mouth_lmd"] > 0).all() and (dub["render_mouth_lmd"] > 0).all()
     assert dub["dub_lip_opening_corr_speech"].between(-1, 1).all()
+    # the mouth's motion against the nose, real and dubbed (landmarks, px RMS a frame)
+    assert dub["jitter_real"].between(0.05, 5).all() and dub["jitter_dub"].between(0.05, 5).all()
+    assert np.allclose(dub["jitter_beyond"], dub["jitter_dub"] - dub["jitter_real"], atol=1e-4)
     assert (results / "dub/s1/srau3s.mp4").stat().st_size > 0
     assert (results / "figures/dub/s1/strip.png").stat().st_size > 0
 

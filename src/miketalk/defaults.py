@@ -88,6 +88,23 @@ BLEND_BELOW = 1.0
 BLEND_CHIN_WIDTH = 0.7
 BLEND_FEATHER = 0.1
 
+#: Warp the frame's lower face about the blend to follow the synthesized jaw
+#: (:func:`miketalk.render.composite.follow_render`), so its jaw line does not show twice.
+BLEND_FOLLOW = True
+
+#: Keep the blend off the reference's backdrop and clothes
+#: (:func:`miketalk.render.composite.skin_weight`): the render's collar beside the jaw.
+BLEND_SKIN = True
+
 #: Seconds of the person's own frames a model built from clips keeps as the background
-#: ``say`` plays (:mod:`miketalk.talk.background`).
+#: ``say`` plays (:mod:`miketalk.talk.background`): at most ``BACKGROUND_SECONDS``, at least
+#: ``BACKGROUND_SHORTEST``, cut where the head stands still (the ping-pong loop's turns).
 BACKGROUND_SECONDS = 3.0
+BACKGROUND_SHORTEST = 2.0
+
+#: Gaussian sigma, seconds, of the smoothing in time of a video's stabilization transforms
+#: before the mouth is composited by them (:func:`miketalk.talk.background.background_from_video`):
+#: each frame's registration has its own error, which slides the mouth against the nose. On
+#: s1's held-out clips 0.04 s (one frame at 25 fps) halves the nose's frame-to-frame motion in
+#: the stabilized frames (lbbk4n 0.34 to 0.18 px, prbdzn 0.31 to 0.18); 0 keeps them raw.
+BACKGROUND_SMOOTH = 0.04

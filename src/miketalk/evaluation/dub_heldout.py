@@ -39,6 +39,9 @@ def dub_heldout(
     blend: dict | None = None,
     method: str = "feather",
     corpus_eigenlips=None,
+    smooth: float | None = None,
+    follow: bool = True,
+    skin: bool = True,
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
 
@@ -72,6 +75,12 @@ def dub_heldout(
     corpus_eigenlips : CorpusEigenlips, optional
         The corpus's eigenlips fitted before
         (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
+    smooth : float, optional
+        Sigma (s) of the transforms' smoothing in time (None: the default,
+        :data:`miketalk.defaults.BACKGROUND_SMOOTH`; 0: raw).
+    follow, skin : bool
+        The frame's jaw warped to follow the render's, and the blend kept off the
+        reference's backdrop and clothes (:class:`miketalk.render.composite.Compositor`).
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
@@ -81,8 +90,7 @@ def dub_heldout(
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region
-    from miketalk.render.composite import Compositor
-    from miketalk.talk.background_files import model_stabilizer, mouth_box_of
+    from miketalk.talk.background_files import model_compositor, model_stabilizer
     from miketalk.talk.lipsync import plan
     from miketalk.talk.model import Model
     from miketalk.visemes import SILENCE, default_table
@@ -93,7 +101,9 @@ def dub_heldout(
     eigenlips = corpus_eigenlips.eigenlips
     stabilizer = model_stabilizer(model_dir)
     model = Model(model_dir, morph_options=morph)
-    compositor = Compositor(mouth_box_of(model_dir), model.size, blend=method, **(blend or {}))
+    compositor = model_compositor(
+        model_dir, model.size, blend=method, follow=follow, skin=skin, **(blend or {})
+    )
     landmarks = face_landmarks()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -106,7 +116,7 @@ def dub_heldout(
         started = time.perf_counter()
         dubbed = dub_clip(
             decoded.frames, decoded.fps, renders, stabilizer=stabilizer, compositor=compositor,
-            rest=model.image(SILENCE) if colour == "clip" else None,
+            rest=model.image(SILENCE) if colour == "clip" else None, smooth=smooth,
         )  # fmt: skip
         seconds = time.perf_counter() - started
         frame, dub, render = dub_measures(
@@ -175,6 +185,9 @@ def main(argv: list[str] | None = None) -> int:
         help="the blend ellipse in mouth widths (default: miketalk.defaults)",
     )
     parser.add_argument("--method", default="feather", choices=("feather", "poisson"))
+    parser.add_argument("--smooth", type=float, help="transforms' smoothing sigma, s (0: raw)")
+    parser.add_argument("--no-follow", action="store_true", help="do not warp the jaw")
+    parser.add_argument("--no-skin", action="store_true", help="blend over backdrop and clothes")
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -191,7 +204,8 @@ def main(argv: list[str] | None = None) -> int:
         model_dir=args.model, corpus_dir=args.corpus, clips=clips, out_dir=args.out,
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
         blend=dict(zip(names, args.blend, strict=True)) if args.blend else None,
-        method=args.method,
+        method=args.method, smooth=args.smooth, follow=not args.no_follow,
+        skin=not args.no_skin,
     )  # fmt: skip
     return 0
 

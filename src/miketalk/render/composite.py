@@ -20,6 +20,15 @@ in the blend's edge band (skin in both) is spread over the region by
 normalized convolution, a smooth per-channel offset that follows a lighting
 gradient, as the guidance field of Poisson blending would.
 
+Where the real jaw opens more or less than the synthesized one, its line would
+show twice at the mask's edge (the frame's jaw outside, the render's inside: a dark
+notch on the jaw line). With ``follow`` (the default) the frame's lower face around
+the mask is first warped to follow the render (:func:`follow_render`): the dense
+flow (DIS) from the render to the frame over the region, smoothed, moves the frame's
+pixels by it with a weight that is one at the mask's edge below the mouth and fades
+out over half a mouth width beyond it and above the mouth, so the jaw line outside
+the mask continues the render's inside it.
+
 ``blend="poisson"`` uses ``cv2.seamlessClone`` instead. On s1's 8 held-out
 clips dubbed with their own audio it scores a higher whole-frame PSNR (40.2
 against 39.2 dB) and a seam gradient ratio nearer 1 (0.99 against 0.93), but
@@ -38,8 +47,17 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.render.follow import follow_render, skin_weight
 
-__all__ = ["Compositor", "Placement", "blend_mask", "colour_offset", "place"]
+__all__ = [
+    "Compositor",
+    "Placement",
+    "blend_mask",
+    "colour_offset",
+    "follow_render",
+    "place",
+    "skin_weight",
+]
 
 Box = tuple[int, int, int, int]
 
@@ -234,6 +252,12 @@ class Compositor:
         ``"poisson"``: ``cv2.seamlessClone`` (Poisson image editing, Perez et
         al. 2003) of the render inside the mask's half-alpha contour, the
         frame's own pixels on its border.
+    follow : bool
+        Warp the frame's lower face about the mask to follow the render
+        (:func:`follow_render`) before blending.
+    keep : numpy.ndarray, optional
+        (H, W) float32 in [0, 1] multiplied into the blend mask: where the render may show
+        (:func:`skin_weight`: not its backdrop or clothes).
     **mask
         Keyword settings of :func:`blend_mask`.
     """
@@ -245,6 +269,8 @@ class Compositor:
         *,
         colour_match: bool = True,
         blend: str = "feather",
+        follow: bool = defaults.BLEND_FOLLOW,
+        keep: np.ndarray | None = None,
         **mask: float,
     ) -> None:
         if blend not in ("feather", "poisson"):
@@ -253,8 +279,12 @@ class Compositor:
         self.mouth_box = tuple(int(v) for v in mouth_box)
         self.size = (int(size[0]), int(size[1]))
         self.alpha = blend_mask(self.mouth_box, self.size, **mask)
+        if keep is not None:
+            self.alpha = self.alpha * np.asarray(keep, np.float32)
+            self.alpha[self.alpha < _EMPTY] = 0
         self.support = cv2.boundingRect((self.alpha > 0).astype(np.uint8))
         self.colour_match = colour_match
+        self.follow = follow
         self._sigma = 0.5 * self.mouth_box[2]
 
     def place(
@@ -344,6 +374,9 @@ class Compositor:
         elif self.colour_match:
             band = 4.0 * placement.alpha * (1.0 - placement.alpha)
             mouth += colour_offset(mouth, here, band, sigma=self._sigma)
+        if self.follow:
+            here = follow_render(here, mouth, placement.alpha, placement.map_y, self.mouth_box)
+            out[y0:y1, x0:x1] = np.clip(here + 0.5, 0, 255).astype(np.uint8)
         if self.blend == "poisson":
             return _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
         blended = here + a * (mouth - here)

@@ -1,6 +1,7 @@
 """Background sequences: the person's own frames, head motion and blinks, under the mouth.
 
-A model built from clips keeps a few seconds of one training clip as it was
+A model built from clips keeps a few seconds of one training clip, cut where
+the head stands still (:func:`miketalk.talk.loop.still_window`), as it was
 recorded (:func:`miketalk.talk.background_files.write_background`, in
 ``<model>/background/``): the frames,
 each frame's stabilization transform and the clip's conform field
@@ -16,8 +17,12 @@ frame is always followed by one of its neighbours.
 :func:`background_from_video` makes the same from any video of the person
 (``say --background VIDEO`` and ``miketalk dub``): every frame registered to
 the model's reference; frames that do not register (a hand over the face, a
-cut) take the nearest registered frame's transform; a video in which no frame
-registers does not show the model's person, and is refused in one line.
+cut) take the nearest registered frame's transform, and the transforms are
+smoothed in time (each frame's registration error would slide the mouth
+against the nose); a video in which no frame registers does not show the
+model's person, and is refused in one line, as is one whose first frame shows
+the face twice or whose colour is far from the model's
+(:mod:`miketalk.talk.video_checks`).
 """
 
 from __future__ import annotations
@@ -28,7 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.talk.loop import pingpong, smooth_in_time
 
 __all__ = [
     "Background",
@@ -97,15 +104,6 @@ class Background:
     def index(self, k: int, fps: float) -> int:
         """The background frame shown at output frame ``k`` of a video at ``fps``."""
         return pingpong(round(k * self.fps / fps), len(self))
-
-
-def pingpong(i: int, n: int) -> int:
-    """Frame ``i`` of ``0, 1, ..., n-1, n-2, ..., 1, 0, 1, ...``: a loop without a jump."""
-    if n <= 1:
-        return 0
-    period = 2 * (n - 1)
-    m = i % period
-    return m if m < n else period - m
 
 
 def composited(
@@ -210,6 +208,15 @@ def find_blinks(
     return tuple(int(i) for i in np.flatnonzero(change > threshold))
 
 
+#: Frames a long video's conform field and light are measured on (evenly spread).
+_SAMPLE = 100
+
+
+def _spread(n: int, most: int) -> np.ndarray:
+    """At most ``most`` indices spread evenly over ``range(n)`` (all of them for ``n <= most``)."""
+    return np.arange(n) if n <= most else np.linspace(0, n - 1, most).round().astype(int)
+
+
 def _fill(transforms: np.ndarray) -> np.ndarray:
     """NaN transforms replaced by the nearest registered frame's (earlier on a tie)."""
     ok = np.flatnonzero(np.isfinite(transforms[:, 0, 0]))
@@ -249,6 +256,7 @@ def background_from_video(
     *,
     source: str = "the video",
     progress: bool = False,
+    smooth: float = defaults.BACKGROUND_SMOOTH,
 ) -> Background:
     """Register a video's frames to the model's reference (see the module docstring).
 
@@ -265,6 +273,10 @@ def background_from_video(
         Named in errors.
     progress : bool
         Draw a progress bar of the registration on stderr.
+    smooth : float
+        Gaussian sigma in seconds of the transforms smoothed in time
+        (:data:`miketalk.defaults.BACKGROUND_SMOOTH`, 0 for none): the registration's
+        frame-to-frame error would slide the mouth against the nose.
 
     Raises
     ------
@@ -289,9 +301,22 @@ def background_from_video(
             else f"correlation {rho:.2f} with the model's reference, at least "
             f"{stabilizer.min_correlation} needed"
         )
+        if abs(fw * h / (fh * w) - 1) > 0.02:
+            why += (
+                f"; it is {fw}x{fh}, the reference {w}x{h}, and frames are scaled to the "
+                "reference's size: another shape distorts the face"
+            )
         raise MiketalkError(
             f"{source}: its first frame does not show the model's person ({why}): give a "
             "frontal video of the same person"
+        )
+    from miketalk.talk.video_checks import SECOND_FACE, face_matches
+
+    peaks = face_matches(small[0], stabilizer, first[0])
+    if len(peaks) > 1 and peaks[1] >= SECOND_FACE:
+        raise MiketalkError(
+            f"{source}: its first frame shows the model's face twice (a second place matches "
+            f"it at {peaks[1]:.2f}, at least {SECOND_FACE} counts): give a video of one person"
         )
     transforms = _register(stabilizer, small, first[0], source=source, progress=progress)
     ok = np.isfinite(transforms[:, 0, 0])
@@ -300,12 +325,15 @@ def background_from_video(
             f"{source}: only {int(ok.sum())} of its {len(ok)} frames show the model's person "
             "(register to its reference): give a frontal video of the same person"
         )
-    field = stabilizer.conform(small, transforms, clip=source)
+    some = _spread(len(small), _SAMPLE)  # the field and the light from at most _SAMPLE frames
+    field = stabilizer.conform(small[some], transforms[some], clip=source)
     transforms = _fill(transforms)
+    if smooth > 0 and len(transforms) > 1:
+        transforms = smooth_in_time(transforms, smooth * fps)
     full = np.array([(scale @ np.vstack([t, [0, 0, 1]]))[:2] for t in transforms])
     steady = stabilizer.apply(small, transforms, field=field)
     blinks = find_blinks(steady, stabilizer.mouth_box)
-    median = np.median(steady, axis=0).astype(np.uint8)
+    median = np.median(steady[some], axis=0).astype(np.uint8)
     score = lower_face_correlation(median, stabilizer.reference, stabilizer.mouth_box)
     if score < MIN_LOWER_FACE:
         raise MiketalkError(
@@ -313,7 +341,21 @@ def background_from_video(
             f"with the model's reference after registration, at least {MIN_LOWER_FACE} needed): "
             "give a frontal video of the same person"
         )
+    _check_colour(median, stabilizer, source)
     return Background(frames, full, field, float(fps), blinks, source, median)
+
+
+def _check_colour(median: np.ndarray, stabilizer, source: str) -> None:
+    """Refuse a registered video whose face's colour the model's mouth cannot match."""
+    from miketalk.talk.video_checks import MAX_COLOUR_SHIFT, colour_shift
+
+    shift = colour_shift(median, stabilizer.reference, stabilizer.mask)
+    if shift > MAX_COLOUR_SHIFT:
+        raise MiketalkError(
+            f"{source}: its face's colour is far from the model's (chromaticity {shift:.3f} "
+            f"from the reference's, at most {MAX_COLOUR_SHIFT} allowed): give a video in "
+            "natural colour and steady light"
+        )
 
 
 def _register(stabilizer, frames: np.ndarray, init: np.ndarray, *, source: str, progress: bool):

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Iterable, Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,10 +21,12 @@ import numpy as np
 from miketalk import defaults
 from miketalk.errors import MiketalkError
 from miketalk.talk.background import Background, background_from_video, check_video, composited
+from miketalk.talk.loop import head_speed, still_window
 
 __all__ = [
     "composite_renders",
     "has_background",
+    "model_compositor",
     "model_stabilizer",
     "mouth_box_of",
     "read_background",
@@ -64,6 +67,24 @@ def model_stabilizer(model_dir: str | os.PathLike[str]):
     )
 
 
+def model_compositor(model_dir: str | os.PathLike[str], size: tuple[int, int], **settings):
+    """The :class:`~miketalk.render.composite.Compositor` of a model built from clips.
+
+    Its blend mask about the model's mouth box, kept off the reference's backdrop and
+    clothes (:func:`~miketalk.render.composite.skin_weight` of the reference and its
+    face mask, unless ``skin=False``); ``settings`` go to the compositor.
+    """
+    from miketalk.media.images import read_image
+    from miketalk.render.composite import Compositor, skin_weight
+
+    where = Path(model_dir) / DIRECTORY
+    keep = None
+    if settings.pop("skin", defaults.BLEND_SKIN):
+        face = read_image(where / FACE_MASK)[..., 0] > 127
+        keep = skin_weight(read_image(where / REFERENCE), face)
+    return Compositor(mouth_box_of(model_dir), size, keep=keep, **settings)
+
+
 def mouth_box_of(model_dir: str | os.PathLike[str]) -> tuple[int, int, int, int]:
     """The mouth box ``(x, y, w, h)`` of the model's reference."""
     meta = json.loads((Path(model_dir) / DIRECTORY / META).read_text(encoding="utf-8"))
@@ -81,8 +102,14 @@ def write_background(
     corpus_dir: str | os.PathLike[str],
     media: str,
     seconds: float = defaults.BACKGROUND_SECONDS,
+    shortest: float = defaults.BACKGROUND_SHORTEST,
 ) -> dict:
-    """Keep the reference clip's first ``seconds`` as the model's background (``background/``).
+    """Keep ``shortest`` to ``seconds`` of the reference clip as the model's background.
+
+    The frames kept (:func:`~miketalk.talk.background.still_window`) start and end where
+    the head stands still, so the ping-pong loop turns unseen, and keep a blink when the
+    clip has one. Written to ``background/``; ``background.json`` records which frames
+    (``start``).
 
     Parameters
     ----------
@@ -92,8 +119,8 @@ def write_background(
         Its corpus of clips (the reference, the face mask, the mouth box).
     media : str
         The clips' media pattern with ``{id}``.
-    seconds : float
-        How much of the clip to keep.
+    seconds, shortest : float
+        The most and the least of the clip to keep.
 
     Returns
     -------
@@ -109,9 +136,18 @@ def write_background(
     regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
     clip = regions["reference"]["clip"]
     frames, fps = check_video(media.replace("{id}", clip))
-    frames = frames[: max(2, round(seconds * fps))]
     stabilizer = corpus_stabilizer(corpus_dir)
-    background = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
+    whole = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
+    x, y, w, _h = stabilizer.mouth_box
+    speed = head_speed(whole.transforms, (x + w / 2, y - 0.5 * w))  # the nose
+    start, stop = still_window(
+        speed, whole.blinks, shortest=max(2, round(shortest * fps)),
+        longest=max(2, round(seconds * fps)),
+    )  # fmt: skip
+    background = replace(
+        whole, frames=whole.frames[start:stop], transforms=whole.transforms[start:stop],
+        blinks=tuple(b - start for b in whole.blinks if start <= b < stop),
+    )  # fmt: skip
     face = read_image(corpus_dir / CORPUS_FACE)[..., 0] > 127
     return save_background(
         model_dir,
@@ -120,6 +156,7 @@ def write_background(
         face=face,
         mouth_box=mouth_box(corpus_dir),
         clip=clip,
+        start=start,
     )
 
 
@@ -131,6 +168,7 @@ def save_background(
     face: np.ndarray,
     mouth_box: tuple[int, int, int, int],
     clip: str,
+    start: int = 0,
 ) -> dict:
     """Write ``background`` and what registers video to the reference into ``model_dir``.
 
@@ -146,6 +184,8 @@ def save_background(
         ``(x, y, w, h)`` in the reference.
     clip : str
         Where the frames come from.
+    start : int
+        The clip's frame the first kept frame is.
 
     Returns
     -------
@@ -166,6 +206,7 @@ def save_background(
     write_png(out / FACE_MASK, np.where(face, 255, 0).astype(np.uint8))
     meta = {
         "clip": clip,
+        "start": int(start),
         "fps": background.fps,
         "frames": len(background),
         "blinks": list(background.blinks),
@@ -247,9 +288,8 @@ def composite_renders(
     fps : float
         The output's frame rate.
     """
-    from miketalk.render.composite import Compositor
     from miketalk.visemes import SILENCE
 
-    compositor = Compositor(mouth_box_of(model.directory), model.size)
+    compositor = model_compositor(model.directory, model.size)
     rest = model.image(SILENCE) if SILENCE in model.visemes else None
     return composited(renders, background, compositor, fps=fps, rest=rest)
