@@ -192,3 +192,41 @@ def test_a_model_without_a_trained_face_is_refused_in_one_line(tmp_path: Path) -
     with pytest.raises(MiketalkError, match="no trained face") as err:
         read_trained(tmp_path)
     assert "\n" not in str(err.value)
+
+
+def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
+    tmp_path: Path,
+) -> None:
+    """The previous selection settings render from the same model (paired comparison); the
+    full gain makes the target move at least as far; centred fits are zero-mean per clip;
+    settings fitted with the model cannot be overridden at render time."""
+    from miketalk.talk.trained.build import clip_offsets, fitted_face
+    from miketalk.talk.trained.mouths import measure_frames
+    from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+    from miketalk.visemes import VisemeTable
+
+    corpus = _synthetic_corpus(tmp_path)
+    fit_trained(corpus, tmp_path / "model", components=6)
+    trained = read_trained(tmp_path / "model")
+    phones = _sentence(np.random.default_rng(7))
+    timeline = plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
+    old = SelectionSettings(**(SelectionSettings().to_dict() | PREVIOUS_SELECTION))
+    new_target = trained.target(timeline)
+    old_target = type(trained)(**(trained.__dict__ | {"selection": old})).target(timeline)
+    assert new_target.std(axis=0).sum() >= old_target.std(axis=0).sum()
+    face = SimpleNamespace(directory=tmp_path / "model", image=lambda _: np.zeros((*SIZE, 3)))
+    a = np.stack(list(render_trained(face, timeline, trained=trained)))
+    b = np.stack(list(render_trained(face, timeline, trained=trained, selection=old.to_dict()
+                                     | {"centred": False})))  # fmt: skip
+    assert a.shape == b.shape
+    with pytest.raises(MiketalkError, match="refit"):
+        list(render_trained(face, timeline, trained=trained, selection={"centred": True}))
+    frames = measure_frames(corpus, components=6)
+    centred = fitted_face(
+        frames, corpus, selection=SelectionSettings(centred=True), table=VisemeTable()
+    )
+    described = centred.described()
+    assert np.allclose(clip_offsets(frames)[frames.clip] + described, frames.coords)
+    for c in range(len(frames.clip_ids)):
+        assert np.allclose(described[frames.clip == c].mean(axis=0), 0.0, atol=1e-9)
+    assert centred.plan(timeline)  # draws a sentence

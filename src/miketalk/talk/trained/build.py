@@ -355,7 +355,8 @@ def render_trained(
     """
     trained = trained or read_trained(model.directory)
     if selection:
-        if {"centred", "half"} & set(selection):
+        fitted = trained.selection.to_dict()
+        if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
             raise MiketalkError("centred and half are fitted with the model: refit it instead")
         settings = SelectionSettings(**(trained.selection.to_dict() | dict(selection)))
         trained = dataclasses.replace(trained, selection=settings)
