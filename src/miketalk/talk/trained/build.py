@@ -116,7 +116,8 @@ class TrainedFace:
         predict is not amplified.
         """
         s = self.selection
-        g, r2 = np.asarray(fit["amplitude_gain"]), np.asarray(fit["cv_r2"])
+        g = np.asarray(fit["amplitude_gain_cv" if s.cv_gain else "amplitude_gain"])
+        r2 = np.asarray(fit["cv_r2"])
         share = np.minimum(1.0, r2 / s.gain_r2) if s.gain_r2 > 0 else np.ones_like(r2)
         gain = 1.0 + s.amplitude * (g - 1.0) * share
         mean = self.described().mean(axis=0)
@@ -267,13 +268,32 @@ def fitted_face(
         )  # fmt: skip
     seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
     context = Context(tuple(seen), tuple(table.visemes))
-    window, window_report = fit_window(data, context, table, half=selection.half)
-    regularized, regularized_report = fit_regularized(data, context, table)
-    for model, report in ((window, window_report), (regularized, regularized_report)):
+    held: dict[str, dict] = {"window": {}, "regularized": {}}
+    window, window_report = fit_window(
+        data, context, table, half=selection.half, predictions=held["window"]
+    )
+    regularized, regularized_report = fit_regularized(
+        data, context, table, predictions=held["regularized"]
+    )
+    for name, model, report in (
+        ("window", window, window_report),
+        ("regularized", regularized, regularized_report),
+    ):
         report["amplitude_gain"] = amplitude_gain(model, data, table)
+        report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
     report = {"fit": {"window": window_report, "regularized": regularized_report}}
     models = {"window": window, "regularized": regularized}
     return TrainedFace(frames, models, default, selection, table, report)
+
+
+def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) -> list[float]:
+    """Per component, the real spread over the spread of the cross-validated predictions
+    (each clip predicted by a model fitted without it; >= 1): the shrinkage a new sentence's
+    trajectory has, whatever the number of training clips."""
+    predicted = np.concatenate([predictions[i] for i in range(len(data.coords))])
+    spread = predicted.std(axis=0)
+    gain = np.concatenate(data.coords).std(axis=0) / np.where(spread > 0, spread, 1.0)
+    return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
 
 
 def amplitude_gain(
