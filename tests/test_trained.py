@@ -219,8 +219,15 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     b = np.stack(list(render_trained(face, timeline, trained=trained, selection=old.to_dict()
                                      | {"centred": False})))  # fmt: skip
     assert a.shape == b.shape
-    with pytest.raises(MiketalkError, match="refit"):
+    with pytest.raises(MiketalkError, match="refit") as err:
         list(render_trained(face, timeline, trained=trained, selection={"centred": True}))
+    assert "\n" not in str(err.value)
+    with pytest.raises(MiketalkError, match="unknown selection setting jion") as err:
+        list(render_trained(face, timeline, trained=trained, selection={"jion": 1.0}))
+    assert "\n" not in str(err.value)
+    with pytest.raises(MiketalkError, match="unknown trajectory model") as err:
+        list(render_trained(face, timeline, trained=trained, kind="splines"))
+    assert "\n" not in str(err.value)
     frames = measure_frames(corpus, components=6)
     centred = fitted_face(
         frames, corpus, selection=SelectionSettings(centred=True), table=VisemeTable()

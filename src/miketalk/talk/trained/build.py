@@ -376,6 +376,10 @@ def render_trained(
     trained = trained or read_trained(model.directory)
     if selection:
         fitted = trained.selection.to_dict()
+        if unknown := sorted(set(selection) - set(fitted)):
+            raise MiketalkError(
+                f"unknown selection setting {', '.join(unknown)} (known: {', '.join(fitted)})"
+            )
         if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
             raise MiketalkError("centred and half are fitted with the model: refit it instead")
         settings = SelectionSettings(**(trained.selection.to_dict() | dict(selection)))
