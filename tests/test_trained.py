@@ -237,3 +237,32 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     for c in range(len(frames.clip_ids)):
         assert np.allclose(described[frames.clip == c].mean(axis=0), 0.0, atol=1e-9)
     assert centred.plan(timeline)  # draws a sentence
+
+
+def test_trajectory_cv_ridge_recovers_a_predictable_description_and_not_noise() -> None:
+    from miketalk.bench.trajectory_cv import cross_validated_r2, ridge_fit
+
+    rng = np.random.default_rng(5)
+    xs = [rng.integers(0, 2, size=(40, 6)).astype(float) for _ in range(10)]
+    w = rng.normal(size=(6, 2))
+    ys = [x @ w + 0.01 * rng.normal(size=(40, 2)) for x in xs]
+    whole, per = cross_validated_r2(xs, ys, ridge_fit(1e-3))
+    assert whole > 0.99 and (per > 0.99).all()
+    noise = [rng.normal(size=(40, 2)) for _ in xs]
+    assert cross_validated_r2(xs, noise, ridge_fit(1e-3))[0] < 0.05
+
+
+def test_heldout_table_pairs_each_renderer_with_the_morph_by_clip() -> None:
+    import pandas as pd
+
+    from miketalk.bench.heldout_table import MEASURES, main, tables
+
+    rows = []
+    for k, clip in enumerate(("a", "b", "c")):
+        for renderer, shift in (("morph", 0.0), ("trained", 0.5 + k)):
+            row = {m: 1.0 + k + shift for m in MEASURES} | {"lip_opening_lag": 2 * k}
+            rows.append(row | {"clip": clip, "renderer": renderer, "model": "own"})
+    spread, paired = tables(pd.DataFrame(rows), model="own")
+    assert "| morph | 3 | 2.000 ± 1.000 |" in spread and spread.endswith("| 0.33 |")
+    assert "| trained − morph | 3 | +1.500 (sd 1.000) |" in paired
+    assert main(["/nonexistent/clips.csv"]) == 2
