@@ -192,3 +192,77 @@ def test_a_model_without_a_trained_face_is_refused_in_one_line(tmp_path: Path) -
     with pytest.raises(MiketalkError, match="no trained face") as err:
         read_trained(tmp_path)
     assert "\n" not in str(err.value)
+
+
+def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
+    tmp_path: Path,
+) -> None:
+    """The previous selection settings render from the same model (paired comparison); the
+    full gain makes the target move at least as far; centred fits are zero-mean per clip;
+    settings fitted with the model cannot be overridden at render time."""
+    from miketalk.talk.trained.build import clip_offsets, fitted_face
+    from miketalk.talk.trained.mouths import measure_frames
+    from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+    from miketalk.visemes import VisemeTable
+
+    corpus = _synthetic_corpus(tmp_path)
+    fit_trained(corpus, tmp_path / "model", components=6)
+    trained = read_trained(tmp_path / "model")
+    phones = _sentence(np.random.default_rng(7))
+    timeline = plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
+    old = SelectionSettings(**(SelectionSettings().to_dict() | PREVIOUS_SELECTION))
+    new_target = trained.target(timeline)
+    old_target = type(trained)(**(trained.__dict__ | {"selection": old})).target(timeline)
+    assert new_target.std(axis=0).sum() >= old_target.std(axis=0).sum()
+    face = SimpleNamespace(directory=tmp_path / "model", image=lambda _: np.zeros((*SIZE, 3)))
+    a = np.stack(list(render_trained(face, timeline, trained=trained)))
+    b = np.stack(list(render_trained(face, timeline, trained=trained, selection=old.to_dict()
+                                     | {"centred": False})))  # fmt: skip
+    assert a.shape == b.shape
+    with pytest.raises(MiketalkError, match="refit") as err:
+        list(render_trained(face, timeline, trained=trained, selection={"centred": True}))
+    assert "\n" not in str(err.value)
+    with pytest.raises(MiketalkError, match="unknown selection setting jion") as err:
+        list(render_trained(face, timeline, trained=trained, selection={"jion": 1.0}))
+    assert "\n" not in str(err.value)
+    with pytest.raises(MiketalkError, match="unknown trajectory model") as err:
+        list(render_trained(face, timeline, trained=trained, kind="splines"))
+    assert "\n" not in str(err.value)
+    frames = measure_frames(corpus, components=6)
+    centred = fitted_face(
+        frames, corpus, selection=SelectionSettings(centred=True), table=VisemeTable()
+    )
+    described = centred.described()
+    assert np.allclose(clip_offsets(frames)[frames.clip] + described, frames.coords)
+    for c in range(len(frames.clip_ids)):
+        assert np.allclose(described[frames.clip == c].mean(axis=0), 0.0, atol=1e-9)
+    assert centred.plan(timeline)  # draws a sentence
+
+
+def test_trajectory_cv_ridge_recovers_a_predictable_description_and_not_noise() -> None:
+    from miketalk.bench.trajectory_cv import cross_validated_r2, ridge_fit
+
+    rng = np.random.default_rng(5)
+    xs = [rng.integers(0, 2, size=(40, 6)).astype(float) for _ in range(10)]
+    w = rng.normal(size=(6, 2))
+    ys = [x @ w + 0.01 * rng.normal(size=(40, 2)) for x in xs]
+    whole, per = cross_validated_r2(xs, ys, ridge_fit(1e-3))
+    assert whole > 0.99 and (per > 0.99).all()
+    noise = [rng.normal(size=(40, 2)) for _ in xs]
+    assert cross_validated_r2(xs, noise, ridge_fit(1e-3))[0] < 0.05
+
+
+def test_heldout_table_pairs_each_renderer_with_the_morph_by_clip() -> None:
+    import pandas as pd
+
+    from miketalk.bench.heldout_table import MEASURES, main, tables
+
+    rows = []
+    for k, clip in enumerate(("a", "b", "c")):
+        for renderer, shift in (("morph", 0.0), ("trained", 0.5 + k)):
+            row = {m: 1.0 + k + shift for m in MEASURES} | {"lip_opening_lag": 2 * k}
+            rows.append(row | {"clip": clip, "renderer": renderer, "model": "own"})
+    spread, paired = tables(pd.DataFrame(rows), model="own")
+    assert "| morph | 3 | 2.000 ± 1.000 |" in spread and spread.endswith("| 0.33 |")
+    assert "| trained − morph | 3 | +1.500 (sd 1.000) |" in paired
+    assert main(["/nonexistent/clips.csv"]) == 2

@@ -105,7 +105,7 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     summary = pd.read_csv(results / "metrics/heldout/s1/summary.csv")
     assert set(summary["renderer"]) == {
         "morph", "still", "flipbook", "dissolve", "learned", "trained", "trained_regularized",
-        "real_late1", "real_late2",
+        "trained_previous", "real_late1", "real_late2",
     }  # fmt: skip
     trained = json.loads((results / "model/s1/trained/trained.json").read_text())
     assert trained["default"] == "window" and trained["fit"]["clips"] == len(clips)

@@ -120,3 +120,33 @@ def test_clip_files_are_inputs_of_the_rules_that_read_them(tmp_path: Path) -> No
     assert not files(TEST) & inputs["corpus_clips"]  # held out: never read to build the model
     assert files(TEST) | {table} <= inputs["heldout"]
     assert not files(TRAIN) & inputs["heldout"]
+
+
+def test_training_clips_sweep_beyond_the_training_clips_takes_the_others_never_a_test_clip(
+    tmp_path: Path,
+) -> None:
+    """sweeps.training_clips: N under the face's training clips takes its first N; N over them
+    takes all of them, then the transcript table's other clips in name order, never a test clip;
+    more than the table has is refused in one line."""
+    config = dot_test_config()
+    n = len(TRAIN) + 2
+    config["sweeps"]["training_clips"] = [2, n]
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode == 0, proc.stderr
+    read = {}
+    for block in re.split(r"\n(?=rule \w+:)", proc.stdout):
+        face = re.search(r"wildcards: face=(\S+)", block)
+        if block.startswith("rule corpus_clips:") and face:
+            line = next(ln for ln in block.splitlines() if ln.strip().startswith("input:"))
+            read[face[1]] = set(re.findall(r"video/(\w+)\.mpg", line))
+    table = [ln.split()[0] for ln in (DATA / "transcripts.txt").read_text().splitlines()]
+    others = sorted(set(table) - set(TRAIN) - set(TEST))
+    assert read["s1-n2"] == set(TRAIN[:2])
+    assert read[f"s1-n{n}"] == set(TRAIN) | set(others[:2])
+    assert not set(TEST) & read[f"s1-n{n}"]
+    config["sweeps"]["training_clips"] = [len(table)]
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode != 0
+    assert (
+        f"only {len(table) - len(TEST)} clips that are not test clips" in proc.stdout + proc.stderr
+    )

@@ -38,10 +38,12 @@ validate_config()
 
 
 def training_sweep_faces():
-    """For each face from clips: the same face from its first N training clips, N in the sweep.
+    """For each face from clips: the same face from N training clips, for each N in the sweep.
 
-    Named '<face>-n<N>'; they share the face's test clips. Only N smaller than
-    the face's own number of training clips.
+    Named '<face>-n<N>'; they share the face's test clips. N smaller than the
+    face's own number of training clips: its first N. N larger: all of them,
+    then the other clips of its transcript table that are not test clips, in
+    name order (:func:`sweep_training_clips`).
     """
     out = {}
     for face, settings in config["faces"].items():
@@ -49,10 +51,30 @@ def training_sweep_faces():
         if corpus["source"] != "clips" or not corpus["test"]:
             continue
         for n in config["sweeps"]["training_clips"]:
-            if n < len(corpus["train"]):
-                train = corpus["train"][:n]
+            if n != len(corpus["train"]):
+                train = sweep_training_clips(face, corpus, n)
                 out[f"{face}-n{n}"] = {**settings, "corpus": {**corpus, "train": train}}
     return out
+
+
+def sweep_training_clips(face, corpus, n):
+    """The first ``n`` of the face's training clips, then of the transcript table's other
+    clips that are not test clips (in name order): never a test clip."""
+    from miketalk.corpus.clip_sources import read_transcripts
+
+    train = list(corpus["train"])
+    if n <= len(train):
+        return train[:n]
+    taken = set(train) | set(corpus["test"])
+    transcripts = Path(corpus["transcripts"])  # project_path, defined below
+    transcripts = transcripts if transcripts.is_absolute() else ROOT / transcripts
+    others = sorted(set(read_transcripts(transcripts)) - taken)
+    if len(train) + len(others) < n:
+        raise ValueError(
+            f"sweeps.training_clips: {n} clips for faces.{face}, but its transcript table has "
+            f"only {len(train) + len(others)} clips that are not test clips"
+        )
+    return train + others[: n - len(train)]
 
 
 #: The configured faces, and the faces of the training-clips sweep.

@@ -132,17 +132,38 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     figures |= landmark_figures(clips, own)
     summary.to_csv(out_dir / "heldout_summary.csv", index=False)
 
+    figures |= sweep_figures(workdir / "results" / "metrics" / "heldout" / "s1")
+
     model = workdir / "results" / "model" / "s1"
-    with tempfile.TemporaryDirectory() as tmp:
-        times = []
-        for i in range(4):
-            t0 = time.monotonic()
-            subprocess.run(
-                [str(pathlib.Path(sys.executable).parent / "miketalk"), "say", SENTENCE,
-                 "--model", str(model), "-o", os.path.join(tmp, f"s{i}.mp4")],
-                check=True, capture_output=True,
-            )  # fmt: skip
-            times.append(time.monotonic() - t0)
-    figures["s1_say_10_words_first_seconds"] = times[0]
-    figures["s1_say_10_words_warm_seconds"] = min(times[1:])
+    for lipsync, label in ((None, "s1_say_10_words"), ("trained", "s1_say_10_words_trained")):
+        with tempfile.TemporaryDirectory() as tmp:
+            times = []
+            for i in range(4):
+                t0 = time.monotonic()
+                subprocess.run(
+                    [str(pathlib.Path(sys.executable).parent / "miketalk"), "say", SENTENCE,
+                     "--model", str(model), "-o", os.path.join(tmp, f"s{i}.mp4"),
+                     *(["--lipsync-model", lipsync] if lipsync else [])],
+                    check=True, capture_output=True,
+                )  # fmt: skip
+                times.append(time.monotonic() - t0)
+        figures[f"{label}_first_seconds"] = times[0]
+        figures[f"{label}_warm_seconds"] = min(times[1:])
+    return figures
+
+
+def sweep_figures(heldout: pathlib.Path) -> dict[str, float]:
+    """The training-clips sweep (``training_clips.csv``): per number of training clips, the
+    landmark means of the paper's morph and the trained face (nothing without a sweep)."""
+    path = heldout / "training_clips.csv"
+    if not path.exists():
+        return {}
+    table = pd.read_csv(path)
+    figures: dict[str, float] = {}
+    for row in table[table["renderer"].isin(("morph", "trained"))].itertuples(index=False):
+        if row.renderer == "morph" and row.model != "bergen/bridge":
+            continue
+        for measure in LANDMARK_FIGURES:
+            key = f"sweep_n{row.training_clips}_{row.renderer}_{measure}_mean"
+            figures[key] = float(getattr(row, f"{measure}_mean"))
     return figures

@@ -30,7 +30,8 @@ with the morph's alpha; and, for a model that has learned its person's
 coarticulation (``coarticulation.json``), that model (``learned``), and for one
 with a trained face (``trained/``, :mod:`miketalk.talk.trained`) its frames
 drawn from the person's own along the trained trajectory (``trained``, and
-``trained_regularized`` with the other trajectory model). Calibration rows
+``trained_regularized`` with the other trajectory model, ``trained_previous``
+with the selection settings it had before they were cross-validated). Calibration rows
 measure the real frames themselves 1 and 2 frames late (``real_late1``,
 ``real_late2``; :data:`CALIBRATION_DELAYS`): what a small lag alone costs.
 """
@@ -230,7 +231,8 @@ def evaluate_clip(
         if (models[baselines_of].directory / COARTICULATION).exists():
             jobs.append(("learned", baselines_of))
         if (models[baselines_of].directory / TRAINED / TRAINED_MANIFEST).exists():
-            jobs += [("trained", baselines_of), ("trained_regularized", baselines_of)]
+            jobs += [(r, baselines_of) for r in ("trained", "trained_regularized")]
+            jobs.append(("trained_previous", baselines_of))
         jobs += [(f"real_late{k}", baselines_of) for k in CALIBRATION_DELAYS]
     summaries, tables, renders = [], [], {}
     speech = speech_frames(heldout.timeline)

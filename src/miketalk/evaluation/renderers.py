@@ -2,7 +2,8 @@
 
 The paper's morph, the still face (the silence viseme held), the flip-book (the
 nearest viseme held), the cross-dissolve with the morph's alpha, and the models a
-face has learned (``learned``, ``trained``, ``trained_regularized``).
+face has learned (``learned``, ``trained``, ``trained_regularized``,
+``trained_previous``).
 """
 
 from __future__ import annotations
@@ -70,6 +71,16 @@ def render_trained_regularized(model: Model, timeline: Timeline) -> Iterator[np.
     return render(model, timeline, kind="regularized")
 
 
+def render_trained_previous(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+    """The trained face with the selection settings it had before they were chosen by
+    cross-validation on the training clips
+    (:data:`miketalk.talk.trained.selection.PREVIOUS_SELECTION`), for a paired comparison."""
+    from miketalk.talk.trained.build import render_trained as render
+    from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+
+    return render(model, timeline, selection=PREVIOUS_SELECTION)
+
+
 #: Renderers of a timeline, by the name the tables use.
 RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
     "still": render_still,
@@ -79,4 +90,5 @@ RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
     "learned": render_learned,
     "trained": render_trained,
     "trained_regularized": render_trained_regularized,
+    "trained_previous": render_trained_previous,
 }

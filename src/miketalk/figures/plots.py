@@ -331,6 +331,7 @@ def heldout_trajectory(
         ("morph", "-", "paper (morph)"),
         ("learned", "-", "learned"),
         ("trained", "-", "trained"),
+        ("trained_previous", "-.", "trained, previous settings"),
         ("dissolve", ":", "dissolve"),
         ("flipbook", "--", "flip-book"),
     )
@@ -372,24 +373,39 @@ def heldout_psnr(frames_csv: Path_, out: Path_, *, clip: str, model: str) -> Non
     _save(fig, out)
 
 
+#: The training-clips figure's renderers and measures (mean and sd over the held-out clips).
+SWEEP_RENDERERS = ("morph", "learned", "trained")
+SWEEP_MEASURES = (
+    ("mouth_lmd", "mouth LMD (px)"),
+    ("lip_opening_corr_speech", "inner-lip opening r, speech"),
+    ("lip_opening_amplitude_speech", "opening amplitude (synth / real sd)"),
+    ("eigenlip1_corr_speech", "eigenlip 1 r, speech"),
+    ("psnr_mouth", "mouth PSNR (dB)"),
+    ("mouth_width_corr_speech", "mouth width r, speech"),
+)
+
+
 def training_clips(sweep_csv: Path_, out: Path_) -> None:
-    """Held-out measures of the morph against the number of training clips."""
+    """Held-out measures of each lip-sync model (:data:`SWEEP_RENDERERS`) of the face's own
+    model (a sweep face measures only its own) against the number of training clips."""
     table = pd.read_csv(sweep_csv)
-    morph = table[table["renderer"] == "morph"].sort_values("training_clips")
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4))
-    for ax, (column, label) in zip(
-        axes,
-        (("psnr_mouth", "mouth PSNR (dB)"), ("eigenlip1_corr", "eigenlip 1 correlation"),
-         ("opening_corr", "mouth opening correlation")),
-        strict=True,
-    ):  # fmt: skip
-        for model, rows in morph.groupby("model"):
-            ax.errorbar(rows["training_clips"], rows[f"{column}_mean"], yerr=rows[f"{column}_sd"],
-                        marker="o", capsize=3, label=model)  # fmt: skip
+    own = table[table["renderer"] == "morph"].sort_values("training_clips")["model"].iloc[0]
+    rows = table[(table["model"] == own) & table["renderer"].isin(SWEEP_RENDERERS)]
+    measures = [(c, label) for c, label in SWEEP_MEASURES if f"{c}_mean" in table.columns]
+    cols = 3
+    lines = -(-len(measures) // cols)
+    fig, axes = plt.subplots(lines, cols, figsize=(12, 3.4 * lines), squeeze=False)
+    for ax, (column, label) in zip(axes.flat, measures, strict=False):
+        for renderer in SWEEP_RENDERERS:
+            part = rows[rows["renderer"] == renderer].sort_values("training_clips")
+            if part.empty:
+                continue
+            ax.errorbar(part["training_clips"], part[f"{column}_mean"], yerr=part[f"{column}_sd"],
+                        marker="o", capsize=3, label=renderer)  # fmt: skip
         ax.set_xscale("log", base=2)
         ax.set_xlabel("training clips")
         ax.set_ylabel(label)
-    axes[0].legend(fontsize=8)
+    axes.flat[0].legend(fontsize=8)
     fig.suptitle("held-out clips: how much video must a user record (mean and sd over clips)")
     _save(fig, out)
 

@@ -17,6 +17,7 @@ model that lacks it; :func:`render_trained` draws a timeline with it.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -81,14 +82,30 @@ class TrainedFace:
     report: dict
 
     def trajectory(self, timeline: Timeline, *, kind: str | None = None) -> np.ndarray:
-        """The predicted description at each frame's time, ``(n_frames, n)``."""
+        """The predicted description at each frame's time (plus the selection's ``lead``),
+        ``(n_frames, n)``."""
         kind = kind or self.default
         if kind not in self.trajectories:
             raise MiketalkError(
                 f"unknown trajectory model {kind!r} (known: {', '.join(self.trajectories)})"
             )
-        times = np.array([f.time for f in timeline.frames], float)
+        times = np.array([f.time for f in timeline.frames], float) + self.selection.lead
         return self.trajectories[kind].predict(timeline.phones, times, self.table)
+
+    def described(self) -> np.ndarray:
+        """The training frames' descriptions as the trajectories predict them: with
+        ``centred``, each less its clip's mean (:func:`clip_offsets`)."""
+        if not self.selection.centred:
+            return self.frames.coords
+        return self.frames.coords - clip_offsets(self.frames)[self.frames.clip]
+
+    def target(self, timeline: Timeline, *, kind: str | None = None) -> np.ndarray:
+        """What the selection aims at: the trajectory, amplified (:meth:`amplified`)."""
+        kind = kind or self.default
+        target = self.trajectory(timeline, kind=kind)
+        if self.selection.amplitude > 0:
+            target = self.amplified(target, self.report["fit"][kind])
+        return target
 
     def amplified(self, target: np.ndarray, fit: Mapping[str, Any]) -> np.ndarray:
         """``target`` with its deviation from the frames' mean scaled by each component's gain.
@@ -99,20 +116,21 @@ class TrainedFace:
         predict is not amplified.
         """
         s = self.selection
-        g, r2 = np.asarray(fit["amplitude_gain"]), np.asarray(fit["cv_r2"])
-        gain = 1.0 + s.amplitude * (g - 1.0) * np.minimum(1.0, r2 / s.gain_r2)
-        mean = self.frames.coords.mean(axis=0)
+        g = np.asarray(fit["amplitude_gain_cv" if s.cv_gain else "amplitude_gain"])
+        r2 = np.asarray(fit["cv_r2"])
+        share = np.minimum(1.0, r2 / s.gain_r2) if s.gain_r2 > 0 else np.ones_like(r2)
+        gain = 1.0 + s.amplitude * (g - 1.0) * share
+        mean = self.described().mean(axis=0)
         return mean + gain * (target - mean)
 
     def plan(self, timeline: Timeline, *, kind: str | None = None) -> list:
         """Each frame's training frames and weights (:func:`~.selection.drawn`)."""
         kind = kind or self.default
-        fit = self.report["fit"][kind]
-        weights = fit.get("cv_r2") if self.selection.weighted else None
-        target = self.trajectory(timeline, kind=kind)
-        if self.selection.amplitude > 0:
-            target = self.amplified(target, fit)
-        path = select(self.frames, target, self.selection, weights=weights)
+        weights = self.report["fit"][kind].get("cv_r2") if self.selection.weighted else None
+        target = self.target(timeline, kind=kind)
+        path = select(
+            self.frames, target, self.selection, weights=weights, described=self.described()
+        )
         return drawn(self.frames, path, self.selection)
 
 
@@ -146,10 +164,7 @@ def fit_trained(
     dict
         What ``trained.json`` holds.
     """
-    import pandas as pd
-
     from miketalk.media.atomic import atomic_path, write_text_atomic
-    from miketalk.speech.types import Phone
 
     if default not in TRAJECTORIES:
         raise MiketalkError(f"trajectory model must be one of {', '.join(TRAJECTORIES)}")
@@ -158,26 +173,12 @@ def fit_trained(
     selection = selection or SelectionSettings()
     frames = measure_frames(corpus_dir, components=components)
     measured = time.perf_counter() - started
-    phones_table = pd.read_csv(Path(corpus_dir) / "phones.tsv", sep="\t", dtype={"clip": str})
-    phones, times, coords = [], [], []
-    for c, clip_id in enumerate(frames.clip_ids):
-        own = phones_table[phones_table["clip"] == clip_id].sort_values("index")
-        phones.append(
-            tuple(
-                Phone(str(p.phone), float(p.clip_start), float(p.clip_end))
-                for p in own.itertuples()
-            )
-        )
-        rows = np.flatnonzero(frames.clip == c)
-        times.append(frames.clip_frame[rows] / frames.fps)
-        coords.append(frames.coords[rows])
-    data = TrainingSet(tuple(phones), tuple(times), tuple(coords))
-    seen = sorted({p.name for clip in phones for p in clip} | {"pau"})
-    context = Context(tuple(seen), tuple(table.visemes))
-    window, window_report = fit_window(data, context, table)
-    regularized, regularized_report = fit_regularized(data, context, table)
-    for model, report in ((window, window_report), (regularized, regularized_report)):
-        report["amplitude_gain"] = amplitude_gain(model, data, table)
+    face = fitted_face(frames, corpus_dir, selection=selection, table=table, default=default)
+    window, regularized = face.trajectories["window"], face.trajectories["regularized"]
+    window_report, regularized_report = (
+        face.report["fit"]["window"],
+        face.report["fit"]["regularized"],
+    )
     out = Path(model_dir) / DIRECTORY
     frames.save(out)
     arrays: dict[str, np.ndarray] = {}
@@ -212,6 +213,87 @@ def fit_trained(
         time.perf_counter() - started,
     )  # fmt: skip
     return doc
+
+
+def training_set(corpus_dir: str | os.PathLike[str], frames: MouthFrames) -> TrainingSet:
+    """Each training clip's aligned phones (``phones.tsv``), frame times and descriptions."""
+    import pandas as pd
+
+    from miketalk.speech.types import Phone
+
+    phones_table = pd.read_csv(Path(corpus_dir) / "phones.tsv", sep="\t", dtype={"clip": str})
+    phones, times, coords = [], [], []
+    for c, clip_id in enumerate(frames.clip_ids):
+        own = phones_table[phones_table["clip"] == clip_id].sort_values("index")
+        phones.append(
+            tuple(
+                Phone(str(p.phone), float(p.clip_start), float(p.clip_end))
+                for p in own.itertuples()
+            )
+        )
+        rows = np.flatnonzero(frames.clip == c)
+        times.append(frames.clip_frame[rows] / frames.fps)
+        coords.append(frames.coords[rows])
+    return TrainingSet(tuple(phones), tuple(times), tuple(coords))
+
+
+def clip_offsets(frames: MouthFrames) -> np.ndarray:
+    """``(clips, n)``: each clip's mean description (its session's light and pose, which
+    the phones cannot predict)."""
+    count = np.bincount(frames.clip, minlength=len(frames.clip_ids)).astype(float)
+    sums = np.stack(
+        [np.bincount(frames.clip, frames.coords[:, d], len(frames.clip_ids))
+         for d in range(frames.coords.shape[1])], axis=1,
+    )  # fmt: skip
+    return sums / np.maximum(count, 1.0)[:, None]
+
+
+def fitted_face(
+    frames: MouthFrames,
+    corpus_dir: str | os.PathLike[str],
+    *,
+    selection: SelectionSettings,
+    table: VisemeTable,
+    default: str = TRAJECTORIES[0],
+) -> TrainedFace:
+    """Both trajectory models fitted to ``frames`` (in memory): the face :func:`fit_trained`
+    writes. With ``selection.centred`` they predict each frame's description less its
+    clip's mean."""
+    data = training_set(corpus_dir, frames)
+    if selection.centred:
+        offsets = clip_offsets(frames)
+        data = TrainingSet(
+            data.phones, data.times,
+            tuple(c - offsets[k] for k, c in enumerate(data.coords)),
+        )  # fmt: skip
+    seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
+    context = Context(tuple(seen), tuple(table.visemes))
+    held: dict[str, dict] = {"window": {}, "regularized": {}}
+    window, window_report = fit_window(
+        data, context, table, half=selection.half, predictions=held["window"]
+    )
+    regularized, regularized_report = fit_regularized(
+        data, context, table, predictions=held["regularized"]
+    )
+    for name, model, report in (
+        ("window", window, window_report),
+        ("regularized", regularized, regularized_report),
+    ):
+        report["amplitude_gain"] = amplitude_gain(model, data, table)
+        report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
+    report = {"fit": {"window": window_report, "regularized": regularized_report}}
+    models = {"window": window, "regularized": regularized}
+    return TrainedFace(frames, models, default, selection, table, report)
+
+
+def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) -> list[float]:
+    """Per component, the real spread over the spread of the cross-validated predictions
+    (each clip predicted by a model fitted without it; >= 1): the shrinkage a new sentence's
+    trajectory has, whatever the number of training clips."""
+    predicted = np.concatenate([predictions[i] for i in range(len(data.coords))])
+    spread = predicted.std(axis=0)
+    gain = np.concatenate(data.coords).std(axis=0) / np.where(spread > 0, spread, 1.0)
+    return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
 
 
 def amplitude_gain(
@@ -275,7 +357,12 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
 
 
 def render_trained(
-    model: Any, timeline: Timeline, *, trained: TrainedFace | None = None, kind: str | None = None
+    model: Any,
+    timeline: Timeline,
+    *,
+    trained: TrainedFace | None = None,
+    kind: str | None = None,
+    selection: Mapping[str, Any] | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames of ``timeline`` drawn from the person's own frames.
 
@@ -283,8 +370,20 @@ def render_trained(
     are not used) gets the trajectory's prediction; the selection chooses the
     training frames and they are composited onto the model's silence image.
     The ``(model, timeline)`` signature of the held-out evaluation's renderers.
+    ``selection`` overrides some of the face's selection settings (those that
+    need no refitting: not ``centred`` or ``half``).
     """
     trained = trained or read_trained(model.directory)
+    if selection:
+        fitted = trained.selection.to_dict()
+        if unknown := sorted(set(selection) - set(fitted)):
+            raise MiketalkError(
+                f"unknown selection setting {', '.join(unknown)} (known: {', '.join(fitted)})"
+            )
+        if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
+            raise MiketalkError("centred and half are fitted with the model: refit it instead")
+        settings = SelectionSettings(**(trained.selection.to_dict() | dict(selection)))
+        trained = dataclasses.replace(trained, selection=settings)
     rows = trained.plan(timeline, kind=kind)
     compositor = PatchCompositor(trained.frames, model.image(SILENCE))
     for row in rows:

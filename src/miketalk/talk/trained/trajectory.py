@@ -276,15 +276,20 @@ def fit_window(
     pauses: bool = True,
     grid: Sequence[float] = RIDGE_GRID,
     folds: int = 5,
+    predictions: dict | None = None,
 ) -> tuple[WindowRegression, dict]:
-    """Fit :class:`WindowRegression` (ridge strength by cross-validation); it and a report."""
+    """Fit :class:`WindowRegression` (ridge strength by cross-validation); it and a report.
+
+    ``predictions``, when given, receives each clip's cross-validated prediction at
+    the chosen strength (``clip index -> (frames, n)``: fitted without that clip).
+    """
     xs = [
         window_features(context, p, t, table, half=half, step=step, pauses=pauses)
         for p, t in zip(data.phones, data.times, strict=True)
     ]
-    errors = {}
+    errors, held = {}, {}
     for strength in grid:
-        err, count = 0.0, 0
+        err, count, held[strength] = 0.0, 0, {}
         for train, valid in data.folds(folds):
             w, b = ridge(
                 np.concatenate([xs[i] for i in train]),
@@ -292,10 +297,13 @@ def fit_window(
                 strength,
             )
             for i in valid:
-                err = err + ((xs[i] @ w + b - data.coords[i]) ** 2).sum(axis=0)
+                held[strength][i] = xs[i] @ w + b
+                err = err + ((held[strength][i] - data.coords[i]) ** 2).sum(axis=0)
                 count += len(data.coords[i])
         errors[strength] = err / count
     best = min(errors, key=lambda s: (float(errors[s].mean()), s))
+    if predictions is not None:
+        predictions.update(held[best])
     w, b = ridge(np.concatenate(xs), np.concatenate(data.coords), best)
     report = _report(errors, best, data)
     return WindowRegression(context, half, step, w, b, best, pauses), report | {"ridge": best}
@@ -322,8 +330,10 @@ def fit_regularized(
     *,
     grid: Sequence[float] = SMOOTHNESS_GRID,
     folds: int = 5,
+    predictions: dict | None = None,
 ) -> tuple[RegularizedTrajectory, dict]:
-    """Fit :class:`RegularizedTrajectory` (smoothness by cross-validation); it and a report."""
+    """Fit :class:`RegularizedTrajectory` (smoothness by cross-validation); it and a report
+    (``predictions`` as :func:`fit_window`)."""
     labels = [context.labels(p, t, table) for p, t in zip(data.phones, data.times, strict=True)]
     y_all = np.concatenate(data.coords)
     scale = y_all.var(axis=0)
@@ -337,17 +347,19 @@ def fit_regularized(
         vm, vv = _stats(vid, y, len(context.visemes), floor)
         return RegularizedTrajectory(context, pm, pv, vm, vv, scale, smoothness)
 
-    errors = {}
+    errors, held = {}, {}
     for smoothness in grid:
-        err, count = 0.0, 0
+        err, count, held[smoothness] = 0.0, 0, {}
         for train, valid in data.folds(folds):
             model = fitted(train, smoothness)
             for i in valid:
-                pred = model.predict(data.phones[i], data.times[i], table)
+                pred = held[smoothness][i] = model.predict(data.phones[i], data.times[i], table)
                 err = err + ((pred - data.coords[i]) ** 2).sum(axis=0)
                 count += len(data.coords[i])
         errors[smoothness] = err / count
     best = min(errors, key=lambda s: (float(errors[s].mean()), s))
+    if predictions is not None:
+        predictions.update(held[best])
     report = _report(errors, best, data) | {"smoothness": best}
     return fitted(range(len(data.phones)), best), report
 

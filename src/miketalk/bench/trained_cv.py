@@ -1,0 +1,217 @@
+"""Cross-validation of the trained face on its own training clips: choose its settings.
+
+``python -m miketalk.bench.trained_cv --corpus DIR --model DIR --out DIR [--variants ...]``
+
+The trained face's settings (:class:`miketalk.talk.trained.selection.SelectionSettings`)
+are chosen here, never on held-out clips: the face's training clips are split into
+``--folds`` folds (every k-th clip); for each fold the trained face is fitted on the
+other folds only (its principal components too) and renders the fold's clips from
+their aligned phones, composited onto the model's silence image as ``say`` does.
+Each rendering is measured against the clip's real (stabilized) frames with the
+held-out evaluation's measures: dlib's mouth landmarks
+(:mod:`miketalk.evaluation.landmark_scores`), mouth PSNR and the first eigenlip
+(:func:`miketalk.evaluation.heldout.compare`). Beside them, in the description's
+own terms: how well the trajectory follows the real frames' first components
+(``traj_r1``..) and how closely the chosen frames follow the trajectory
+(``chosen_r1``..), so that what limits the model shows.
+
+Writes ``clips.csv`` (per clip and variant) and ``summary.csv`` (mean, sd, and
+each measure paired against the first variant clip by clip) into ``--out``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from miketalk.bench.command import bench_parser, run_bench
+from miketalk.errors import MiketalkError
+from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+
+log = logging.getLogger(__name__)
+
+#: Named variants: the settings each changes from the defaults (``key=value`` also works).
+VARIANTS: dict[str, dict] = {"default": {}, "previous": PREVIOUS_SELECTION}
+
+MEASURES = (
+    "mouth_lmd", "lip_opening_corr_speech", "lip_opening_amplitude_speech",
+    "mouth_width_corr_speech", "lip_opening_lag", "eigenlip1_corr_speech", "psnr_mouth",
+)  # fmt: skip
+
+
+def parse_variant(text: str) -> tuple[str, dict]:
+    """``name`` of :data:`VARIANTS`, or ``name:key=value,key=value`` (values as JSON)."""
+    name, _, rest = text.partition(":")
+    if not rest:
+        if name not in VARIANTS:
+            raise MiketalkError(f"unknown variant {name!r} (known: {', '.join(VARIANTS)})")
+        return name, dict(VARIANTS[name])
+    out = {}
+    for item in rest.split(","):
+        key, _, value = item.partition("=")
+        out[key.strip()] = json.loads(value)
+    return name, out
+
+
+def refit_frames(frames, rows: np.ndarray, components: int):
+    """``frames`` restricted to ``rows``, its principal components fitted on them alone."""
+    from miketalk.talk.trained.mouths import grey, normalized, principal_axes
+
+    px, py, _, _ = frames.patch
+    rx, ry, rw, rh = frames.region
+    patches = np.asarray(frames.patches[rows])
+    data = normalized(grey(patches[:, ry - py : ry - py + rh, rx - px : rx - px + rw]))
+    mean = data.mean(axis=0)
+    s, comps = principal_axes(data - mean, components)
+    darker = -np.sign(comps.sum(axis=1))
+    comps = comps * np.where(darker == 0, 1.0, darker)[:, None]
+    clip_old = frames.clip[rows]
+    kept = np.unique(clip_old)
+    remap = np.full(len(frames.clip_ids), -1)
+    remap[kept] = np.arange(len(kept))
+    return dataclasses.replace(
+        frames, coords=(data - mean) @ comps.T, patches=patches, border=frames.border[rows],
+        clip=remap[clip_old], clip_frame=frames.clip_frame[rows],
+        clip_ids=tuple(frames.clip_ids[k] for k in kept), mean=mean, components=comps,
+        variance=(s**2) / (len(data) - 1),
+    )  # fmt: skip
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    if a.std() == 0 or b.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def cross_validate(
+    corpus_dir: Path, model_dir: Path, variants: list[tuple[str, dict]], *, folds: int, limit=None
+) -> pd.DataFrame:
+    """Per clip and variant, the measures (see the module docstring)."""
+    from miketalk.corpus.eigenlips import read_eigenlips
+    from miketalk.corpus.folder import frame_path
+    from miketalk.evaluation.heldout import compare, speech_frames
+    from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores
+    from miketalk.evaluation.landmarks import face_landmarks
+    from miketalk.media.images import read_image
+    from miketalk.mouth import mouth_region
+    from miketalk.talk.lipsync import plan
+    from miketalk.talk.model import Model
+    from miketalk.talk.trained.build import fitted_face, training_set
+    from miketalk.talk.trained.mouths import measure_frames
+    from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings
+    from miketalk.visemes import SILENCE, VisemeTable
+
+    table = VisemeTable()
+    everything = measure_frames(corpus_dir)
+    components = everything.coords.shape[1]
+    data = training_set(corpus_dir, everything)
+    silence = Model(model_dir).image(SILENCE)
+    eigenlips = read_eigenlips(corpus_dir / "eigenlips.npz").eigenlips
+    box = mouth_region(corpus_dir)
+    landmarks = face_landmarks()
+    n_clips = len(everything.clip_ids)
+    rows_out = []
+    for fold in range(folds):
+        valid = [c for c in range(n_clips) if c % folds == fold][:limit]
+        train = [c for c in range(n_clips) if c % folds != fold]
+        frames = refit_frames(
+            everything, np.flatnonzero(np.isin(everything.clip, train)), components
+        )
+        for name, change in variants:
+            t0 = time.perf_counter()
+            selection = SelectionSettings(**(SelectionSettings().to_dict() | change))
+            face = fitted_face(frames, corpus_dir, selection=selection, table=table)
+            compositor = PatchCompositor(face.frames, silence)
+            fit_s = time.perf_counter() - t0
+            for c in valid:
+                clip_rows = np.flatnonzero(everything.clip == c)
+                real = np.stack(
+                    [read_image(frame_path(corpus_dir / "frames", int(k))) for k in clip_rows]
+                )
+                phones = data.phones[c]
+                timeline = plan(
+                    phones, table, fps=everything.fps, duration=len(real) / everything.fps
+                )
+                target = face.target(timeline)
+                chosen = face.plan(timeline)
+                synth = np.stack([compositor.frame(r) for r in chosen])
+                speech = speech_frames(timeline)
+                marks = ClipLandmarks(landmarks, real)
+                _, lm = landmark_scores(marks.real, marks.of(synth), speech=speech, max_lag=5)
+                scores = compare(real, synth, mouth_box=box, eigenlips=eigenlips, speech=speech)
+                truth = frames.project(_regions(real, frames))
+                picked = np.array([sum(w * frames.coords[s] for s, w in r) for r in chosen])
+                row = {"variant": name, "fold": fold, "clip": everything.clip_ids[c]}
+                row |= {k: lm[k] for k in MEASURES if k in lm}
+                row |= {k: scores.summary[k] for k in ("eigenlip1_corr_speech", "psnr_mouth")}
+                sp = np.arange(len(real))[speech]
+                for d in range(3):
+                    row[f"traj_r{d + 1}"] = _corr(target[sp, d], truth[sp, d])
+                    row[f"chosen_r{d + 1}"] = _corr(picked[sp, d], target[sp, d])
+                    row[f"amp{d + 1}"] = float(picked[sp, d].std() / truth[sp, d].std())
+                rows_out.append(row)
+            log.info("fold %d %s: fitted in %.1f s", fold, name, fit_s)
+    return pd.DataFrame(rows_out)
+
+
+def _regions(real: np.ndarray, frames) -> np.ndarray:
+    from miketalk.talk.trained.mouths import grey
+
+    rx, ry, rw, rh = frames.region
+    return grey(real[:, ry : ry + rh, rx : rx + rw])
+
+
+def summarize(clips: pd.DataFrame) -> pd.DataFrame:
+    """Mean and sd per variant; each measure minus the first variant's, paired by clip."""
+    measures = [c for c in clips.columns if c not in ("variant", "fold", "clip")]
+    first = clips["variant"].iloc[0]
+    base = clips[clips["variant"] == first].set_index("clip")[measures]
+    out = []
+    for name, part in clips.groupby("variant", sort=False):
+        part = part.set_index("clip")[measures]
+        row = {"variant": name, "clips": len(part)}
+        for m in measures:
+            row[f"{m}_mean"] = part[m].mean()
+            row[f"{m}_sd"] = part[m].std(ddof=1)
+            diff = part[m] - base[m].reindex(part.index)
+            row[f"{m}_minus_{first}_mean"] = diff.mean()
+            row[f"{m}_minus_{first}_sd"] = diff.std(ddof=1)
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line (see the module docstring)."""
+    parser = bench_parser(__name__, __doc__, limit_help="clips per fold (default: all)")
+    parser.add_argument("--corpus", type=Path, required=True, help="the face's corpus folder")
+    parser.add_argument("--model", type=Path, required=True, help="the face's model directory")
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--folds", type=int, default=5)
+    parser.add_argument("--variants", nargs="+", default=["previous", "default"])
+
+    def work(args) -> str:
+        variants = [parse_variant(v) for v in args.variants]
+        clips = cross_validate(
+            args.corpus, args.model, variants, folds=args.folds, limit=args.limit
+        )
+        args.out.mkdir(parents=True, exist_ok=True)
+        clips.to_csv(args.out / "clips.csv", index=False, float_format="%.5f")
+        summary = summarize(clips)
+        summary.to_csv(args.out / "summary.csv", index=False, float_format="%.4f")
+        cols = ["variant", "clips"] + [f"{m}_mean" for m in MEASURES]
+        cols += [f"traj_r{d}_mean" for d in (1, 2, 3)] + [f"chosen_r{d}_mean" for d in (1, 2, 3)]
+        cols += [f"amp{d}_mean" for d in (1, 2, 3)]
+        return summary[cols].to_string(index=False, float_format=lambda v: f"{v:.3f}")
+
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    return run_bench(parser, argv, work)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,134 @@
+"""How much of the mouth the phones predict: the trajectory's cross-validated R², by model.
+
+``python -m miketalk.bench.trajectory_cv --corpus DIR [--mlp 128 512]``
+
+The trained face's description of every frame of a corpus folder
+(:func:`miketalk.talk.trained.mouths.measure_frames`) predicted from the phone
+context (:func:`miketalk.talk.trained.trajectory.window_features`), 5-fold over
+clips (every 5th clip held out, as the model's own fit does): the ridge of the
+``window`` trajectory at each window half-width and strength, and, with
+``--mlp``, scikit-learn's ``MLPRegressor`` on the same features (one hidden
+layer of each given size; scikit-learn is not a miketalk dependency: install it
+to try this). Prints, per model, the R² of the first components and the R² of
+the whole description (1 - mean squared error / mean variance). Training clips
+only: the ceiling a phone model meets, judged without the held-out clips.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.bench.command import bench_parser, run_bench
+from miketalk.errors import MiketalkError
+
+Fit = Callable[[np.ndarray, np.ndarray, Sequence[np.ndarray]], list[np.ndarray]]
+
+
+def cross_validated_r2(
+    xs: Sequence[np.ndarray], ys: Sequence[np.ndarray], fit: Fit, *, folds: int = 5
+) -> tuple[float, np.ndarray]:
+    """``(whole, per component)`` R² of ``fit`` over clips, every ``folds``-th clip held out."""
+    n = len(xs)
+    err, count = np.zeros(ys[0].shape[1]), 0
+    for f in range(min(folds, n)):
+        train = [i for i in range(n) if i % folds != f]
+        valid = [i for i in range(n) if i % folds == f]
+        x, y = np.concatenate([xs[i] for i in train]), np.concatenate([ys[i] for i in train])
+        for i, pred in zip(valid, fit(x, y, [xs[i] for i in valid]), strict=True):
+            err += ((pred - ys[i]) ** 2).sum(axis=0)
+            count += len(pred)
+    var = np.concatenate(ys).var(axis=0)
+    mse = err / count
+    return float(1.0 - mse.mean() / var.mean()), 1.0 - mse / var
+
+
+def ridge_fit(strength: float) -> Fit:
+    """The ``window`` trajectory's ridge (:func:`miketalk.talk.trained.trajectory.ridge`)."""
+    from miketalk.talk.trained.trajectory import ridge
+
+    def fit(x: np.ndarray, y: np.ndarray, held: Sequence[np.ndarray]) -> list[np.ndarray]:
+        w, b = ridge(x, y, strength)
+        return [v @ w + b for v in held]
+
+    return fit
+
+
+def mlp_fit(hidden: int, alpha: float) -> Fit:
+    """scikit-learn's MLPRegressor (one hidden layer, early stopping) on standardized targets."""
+    try:
+        from sklearn.neural_network import MLPRegressor
+    except ImportError:
+        raise MiketalkError("--mlp needs scikit-learn (pip install scikit-learn)") from None
+
+    def fit(x: np.ndarray, y: np.ndarray, held: Sequence[np.ndarray]) -> list[np.ndarray]:
+        mu, sd = y.mean(axis=0), y.std(axis=0)
+        net = MLPRegressor(
+            hidden_layer_sizes=(hidden,), alpha=alpha, max_iter=200, early_stopping=True,
+            random_state=0, batch_size=256,
+        )  # fmt: skip
+        net.fit(x, (y - mu) / sd)
+        return [net.predict(v) * sd + mu for v in held]
+
+    return fit
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line (see the module docstring)."""
+    parser = bench_parser(__name__, __doc__, limit_help="(unused: every clip is used)")
+    parser.add_argument("--corpus", type=Path, required=True, help="a face's corpus folder")
+    parser.add_argument("--halves", type=int, nargs="+", default=[3, 6, 9, 12])
+    parser.add_argument("--ridges", type=float, nargs="+", default=[30.0, 100.0, 300.0])
+    parser.add_argument("--mlp", type=int, nargs="*", default=[], help="hidden layer sizes")
+    parser.add_argument("--alpha", type=float, default=0.1, help="the MLP's L2 penalty")
+
+    def check(args) -> str | None:
+        if not (args.corpus / "phones.tsv").is_file():
+            return f"{args.corpus} is not a corpus folder (no phones.tsv)"
+        return None
+
+    def work(args) -> str:
+        from miketalk.talk.trained.build import training_set
+        from miketalk.talk.trained.mouths import measure_frames
+        from miketalk.talk.trained.trajectory import Context, window_features
+        from miketalk.visemes import VisemeTable
+
+        frames = measure_frames(args.corpus)
+        data = training_set(args.corpus, frames)
+        table = VisemeTable()
+        seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
+        context = Context(tuple(seen), tuple(table.visemes))
+        lines = [f"{len(data.phones)} clips, {len(frames.coords)} frames"]
+
+        def features(half: int) -> list[np.ndarray]:
+            return [
+                window_features(context, p, t, table, half=half, step=0.04)
+                for p, t in zip(data.phones, data.times, strict=True)
+            ]
+
+        def report(name: str, xs: list[np.ndarray], fit: Fit) -> None:
+            t0 = time.perf_counter()
+            whole, per = cross_validated_r2(xs, data.coords, fit)
+            lines.append(
+                f"{name}: R2 {whole:.4f}, first four {np.round(per[:4], 3).tolist()} "
+                f"({time.perf_counter() - t0:.1f} s)"
+            )
+
+        for half in args.halves:
+            xs = features(half)
+            for strength in args.ridges:
+                report(f"ridge half {half} strength {strength:g}", xs, ridge_fit(strength))
+        if args.mlp:
+            xs = features(6)
+            for hidden in args.mlp:
+                report(f"mlp half 6 hidden {hidden}", xs, mlp_fit(hidden, args.alpha))
+        return "\n".join(lines)
+
+    return run_bench(parser, argv, work, check=check)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
