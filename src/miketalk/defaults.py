@@ -91,3 +91,13 @@ BLEND_FEATHER = 0.1
 #: Seconds of the person's own frames a model built from clips keeps as the background
 #: ``say`` plays (:mod:`miketalk.talk.background`).
 BACKGROUND_SECONDS = 3.0
+
+#: The flows of a model ``miketalk build`` makes: the workflow's defaults of
+#: ``flow.methods.bergen``, ``flow.strategy`` and ``flow.mixed_window``
+#: (workflow/schemas/config.schema.yaml; tests/test_build.py checks they agree).
+BUILD_FLOW_METHOD = {"estimator": "bergen", "settings": {"levels": 5}}
+BUILD_FLOW_STRATEGY = "bridge"
+BUILD_MIXED_WINDOW = 6
+
+#: Seconds at the end of the video ``miketalk build`` holds out (0: none).
+HELDOUT_SECONDS = 0.0

@@ -81,6 +81,7 @@ def write_background(
     corpus_dir: str | os.PathLike[str],
     media: str,
     seconds: float = defaults.BACKGROUND_SECONDS,
+    segments: str | os.PathLike[str] | None = None,
 ) -> dict:
     """Keep the reference clip's first ``seconds`` as the model's background (``background/``).
 
@@ -91,9 +92,12 @@ def write_background(
     corpus_dir : path
         Its corpus of clips (the reference, the face mask, the mouth box).
     media : str
-        The clips' media pattern with ``{id}``.
+        The clips' media pattern with ``{id}``, or the one video of a face whose
+        clips are its utterances (``segments``).
     seconds : float
         How much of the clip to keep.
+    segments : path, optional
+        A one-video face's ``segments.json``: where the reference clip starts in ``media``.
 
     Returns
     -------
@@ -108,7 +112,12 @@ def write_background(
     corpus_dir = Path(corpus_dir)
     regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
     clip = regions["reference"]["clip"]
-    frames, fps = check_video(media.replace("{id}", clip))
+    if segments is not None:
+        from miketalk.corpus.one_video import read_utterance
+
+        frames, fps = read_utterance(segments, clip, media=media)
+    else:
+        frames, fps = check_video(media.replace("{id}", clip))
     frames = frames[: max(2, round(seconds * fps))]
     stabilizer = corpus_stabilizer(corpus_dir)
     background = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
