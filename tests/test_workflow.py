@@ -44,10 +44,39 @@ def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.Compl
     return proc
 
 
+def with_video_face(workdir: Path) -> None:
+    """The .test config, plus s1's six clips joined into one video (made here from the
+    committed clips: no new data) with an SRT of sentence cues: face ``s1video``, its
+    last 6 s (s1's two test clips) held out."""
+    import yaml
+
+    from miketalk.bench.joined import join_clips
+
+    config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
+    s1 = config["faces"]["s1"]["corpus"]
+    joined = join_clips(
+        s1["train"] + s1["test"],
+        workdir / "joined",
+        media=str(ROOT / s1["media"]),
+        transcripts=ROOT / s1["transcripts"],
+        timings=str(ROOT / s1["timings"]),
+    )
+    config["faces"]["s1video"] = {
+        "corpus": {
+            "source": "video",
+            "media": str(joined.video),
+            "subtitles": str(joined.subtitles),
+            "heldout_seconds": 6,
+        },
+        "lipsync": {"model": "learned"},
+    }
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     workdir = tmp_path_factory.mktemp("workflow")
-    shutil.copy(ROOT / ".test" / "config.yaml", workdir / "config.yaml")
+    with_video_face(workdir)
     snakemake(workdir)
     return workdir
 
@@ -146,6 +175,36 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert dub["dub_lip_opening_corr_speech"].between(-1, 1).all()
     assert (results / "dub/s1/srau3s.mp4").stat().st_size > 0
     assert (results / "figures/dub/s1/strip.png").stat().st_size > 0
+
+
+def test_a_face_from_one_video(run: Path) -> None:
+    """s1's clips joined into one video: the same utterances, and held-out measures near s1's."""
+    import json
+
+    results = run / "results"
+    segments = json.loads((results / "segments/s1video.json").read_text())
+    assert segments["unaligned"] == []
+    assert [u["split"] for u in segments["utterances"]] == ["train"] * 4 + ["test"] * 2
+    clips = pd.read_csv(results / "corpus/s1video/clips.tsv", sep="\t")
+    s1 = pd.read_csv(results / "corpus/s1/clips.tsv", sep="\t")
+    assert list(clips["text"]) == list(s1["text"])
+    assert (results / "model/s1video/manifest.json").exists()
+    said = json.loads((results / "utterances/s1video/hello.json").read_text())
+    assert said["background"]["source"] == f"clip {segments['utterances'][0]['id']}"
+    own = ("morph", "bergen/bridge")
+    video = pd.read_csv(results / "metrics/heldout/s1video/clips.csv").set_index(
+        ["renderer", "model"]
+    )
+    clip_built = pd.read_csv(results / "metrics/heldout/s1/clips.csv").set_index(
+        ["renderer", "model"]
+    )
+    assert len(video.loc[own]) == 2
+    # the same test clips cut from the joined video: the measures within 1 dB / 0.1
+    assert abs(video.loc[own, "psnr_mouth"].mean() - clip_built.loc[own, "psnr_mouth"].mean()) < 1
+    for measure in ("opening_corr_speech", "lip_opening_corr_speech"):
+        assert abs(video.loc[own, measure].mean() - clip_built.loc[own, measure].mean()) < 0.1
+    assert (results / "metrics/dub/s1video/summary.csv").exists()
+    assert (results / "figures/heldout/s1video/strip.png").stat().st_size > 0
 
 
 def test_metrics_within_bounds(run: Path) -> None:

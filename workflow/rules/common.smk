@@ -28,6 +28,11 @@ def validate_config():
             raise
         key = ".".join(str(part) for part in cause.absolute_path) or "the config"
         message = cause.message
+        if cause.validator == "oneOf" and key.endswith(".corpus"):  # source video's choices
+            message = (
+                "source video takes video (a recording of the corpus words), or media with "
+                "its transcript or its subtitles (one of the two)"
+            )
         if cause.validator == "uniqueItems":  # name the repeated items
             items = [str(item) for item in cause.instance]
             message = f"{', '.join(sorted({i for i in items if items.count(i) > 1}))} listed twice"

@@ -81,6 +81,70 @@ def _line(name: str, errors: pd.DataFrame, words: int, unaligned: int, seconds: 
     )
 
 
+#: The held-out measures compared (``clips.csv`` of the held-out evaluation).
+HELDOUT_MEASURES = (
+    "psnr_mouth",
+    "ssim_mouth",
+    "opening_corr_speech",
+    "eigenlip1_corr_speech",
+    "mouth_lmd",
+    "lip_opening_corr_speech",
+)
+
+
+def compare_heldout(
+    clips_built: pd.DataFrame,
+    video_built: pd.DataFrame,
+    segments: dict,
+    spans: pd.DataFrame,
+    *,
+    renderers: Sequence[str] = ("morph", "learned"),
+) -> pd.DataFrame:
+    """The held-out measures of a model from clips and of one from their joined video, paired.
+
+    ``clips_built`` and ``video_built`` are the held-out ``clips.csv`` tables;
+    each test utterance of ``segments`` is paired with the joined clip (``spans``:
+    the join's ``clips.tsv``) it overlaps most. Per renderer (the face's own
+    model) and measure: both means and standard deviations over the paired clips,
+    the mean and sd of the paired difference, and whether the difference's mean
+    lies within the clips-built model's spread (one sd).
+    """
+    pairs = {}
+    for u in segments["utterances"]:
+        if u["split"] != "test":
+            continue
+        overlap = np.minimum(u["end"], spans["start"] + spans["duration"]) - np.maximum(
+            u["start"], spans["start"]
+        )
+        pairs[u["id"]] = spans["clip"].iloc[int(np.argmax(overlap))]
+    own = clips_built["model"].iloc[0]
+    rows = []
+    for renderer in renderers:
+        a = clips_built[(clips_built["renderer"] == renderer) & (clips_built["model"] == own)]
+        b = video_built[(video_built["renderer"] == renderer) & (video_built["model"] == own)]
+        if a.empty or b.empty:
+            continue
+        b = b.assign(clip=b["clip"].map(pairs)).dropna(subset=["clip"]).set_index("clip")
+        a = a.set_index("clip").reindex(b.index)
+        for measure in (m for m in HELDOUT_MEASURES if m in a and m in b):
+            diff = b[measure] - a[measure]
+            rows.append(
+                {
+                    "renderer": renderer,
+                    "measure": measure,
+                    "clips": int(diff.notna().sum()),
+                    "clips_built_mean": a[measure].mean(),
+                    "clips_built_sd": a[measure].std(ddof=1),
+                    "video_built_mean": b[measure].mean(),
+                    "video_built_sd": b[measure].std(ddof=1),
+                    "paired_diff_mean": diff.mean(),
+                    "paired_diff_sd": diff.std(ddof=1),
+                    "within_spread": bool(abs(diff.mean()) <= a[measure].std(ddof=1)),
+                }
+            )
+    return pd.DataFrame(rows)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Join, align, compare (and build); see the module docstring."""
     parser = bench_parser(__name__, __doc__, limit_help="join the first N clips only")
@@ -89,11 +153,43 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--clips", nargs="+", help="the clips to join, in order")
     parser.add_argument("--heldout-seconds", type=float, default=0.0)
     parser.add_argument("--build", action="store_true", help="also run miketalk build")
+    parser.add_argument(
+        "--compare",
+        nargs=3,
+        metavar=("CLIPS_CSV", "VIDEO_CSV", "SEGMENTS"),
+        type=pathlib.Path,
+        help="instead: compare the held-out clips.csv of a model from the clips with that of "
+        "the model from their joined video (its segments.json; the join in --out/joined)",
+    )
     return run_bench(parser, argv, _run)
+
+
+def _compare(args: argparse.Namespace) -> str:
+    clips_csv, video_csv, segments = args.compare
+    table = compare_heldout(
+        pd.read_csv(clips_csv),
+        pd.read_csv(video_csv),
+        json.loads(segments.read_text()),
+        pd.read_csv(args.out / "joined" / "clips.tsv", sep="\t"),
+    )
+    args.out.mkdir(parents=True, exist_ok=True)
+    table.to_csv(args.out / "heldout_comparison.csv", index=False, float_format="%.4f")
+    return table.to_markdown(index=False, floatfmt=".3f") if _has_tabulate() else table.to_string()
+
+
+def _has_tabulate() -> bool:
+    try:
+        import tabulate  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def _run(args: argparse.Namespace) -> str:
     from miketalk.bench.joined import join_clips
+
+    if args.compare:
+        return _compare(args)
     from miketalk.corpus.one_video import segment_video
 
     pool, out = args.pool, args.out
