@@ -92,11 +92,13 @@ def test_one_of_transcript_or_subtitles(tmp_path: Path) -> None:
 
 
 def test_a_clip_span_is_that_part_of_the_video(joined) -> None:
-    frames, fps = read_video(joined.video)
+    frames, _ = read_video(joined.video)
     part, _ = read_video(joined.video, start=3.0, frames=75)
     assert np.array_equal(part, frames[75:150])
     sound = read_media_audio(joined.video)
-    assert np.array_equal(read_media_audio(joined.video, start=3.0, duration=3.0), sound[48000:96000])
+    assert np.array_equal(
+        read_media_audio(joined.video, start=3.0, duration=3.0), sound[48000:96000]
+    )
 
 
 @pytest.fixture(scope="module", params=["transcript", "subtitles"])

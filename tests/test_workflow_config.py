@@ -136,7 +136,8 @@ JOINED = "data/grid_s1/video/bbaf2n.mpg"  # any video: a dry run does not read i
         ),
         ({"media": JOINED}, "config: faces.v.corpus: source video takes video"),
         (
-            {"media": "data/grid_s1/video/nothere.mp4", "transcript": "data/grid_s1/transcripts.txt"},
+            {"media": "data/grid_s1/video/nothere.mp4",
+             "transcript": "data/grid_s1/transcripts.txt"},
             f"faces.v.corpus.media: file not found: {DATA}/video/nothere.mp4",
         ),
         (

@@ -28,7 +28,9 @@ def validate_config():
             raise
         key = ".".join(str(part) for part in cause.absolute_path) or "the config"
         message = cause.message
-        if cause.validator == "oneOf" and key.endswith(".corpus"):  # source video's choices
+        if cause.validator == "oneOf" and key.endswith(
+            ".corpus"
+        ):  # source video's choices
             message = (
                 "source video takes video (a recording of the corpus words), or media with "
                 "its transcript or its subtitles (one of the two)"
@@ -89,6 +91,8 @@ def has_test(face):
     if one_video(face):
         return corpus["heldout_seconds"] > 0
     return corpus["source"] == "clips" and bool(corpus["test"])
+
+
 #: The face every measurement against ground truth uses: the first synthetic one.
 TRUTH_FACE = next((f for f in FACES if source_of(f) == "synthetic"), None)
 #: The face of the figures drawn from a model (the lip-sync diagram, the morph strip).
@@ -256,7 +260,9 @@ def video_problems(face):
         ".srt",
         ".vtt",
     ):
-        problems.append(f"{where}.subtitles must be .srt or .vtt: {corpus['subtitles']}")
+        problems.append(
+            f"{where}.subtitles must be .srt or .vtt: {corpus['subtitles']}"
+        )
     for key in ("train", "test", "timings", "transcripts"):
         if corpus[key]:
             problems.append(

@@ -46,7 +46,9 @@ rule segment_video:
         mem_mb=2000,
         runtime=30,
     params:
-        heldout_seconds=lambda wildcards: FACES[wildcards.face]["corpus"]["heldout_seconds"],
+        heldout_seconds=lambda wildcards: FACES[wildcards.face]["corpus"][
+            "heldout_seconds"
+        ],
     script:
         "../scripts/segment_video.py"
 

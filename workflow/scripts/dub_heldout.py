@@ -6,8 +6,8 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus.one_video import face_clips
     from miketalk.corpus.eigenlips import read_eigenlips
+    from miketalk.corpus.one_video import face_clips
     from miketalk.evaluation.dub_heldout import dub_heldout
     from miketalk.figures.dub_strip import strip
 

@@ -78,19 +78,19 @@ def join_clips(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     table = read_transcripts(transcripts)
-    frames, audio, sentences, cues, words, rows = [], [], [], [], [], []
+    audio, sentences, cues, words, rows = [], [], [], [], []
     spans: dict[str, tuple[float, float]] = {}
     fps = None
     n_total = 0
-    for clip in ids:
+    for clip in ids:  # first the sound and the frame counts: the mp4's sound comes first
         clip_frames, clip_fps = read_video(media.replace("{id}", clip))
         fps = fps or clip_fps
         start, n = n_total / fps, len(clip_frames)
+        del clip_frames  # a long join does not wait in memory
         samples = read_media_audio(media.replace("{id}", clip), rate=RATE)
         need = round(n / fps * RATE)
         samples = np.concatenate([samples, np.zeros(max(0, need - len(samples)), np.int16)])
         audio.append(samples[:need])
-        frames.append(clip_frames)
         text = table[clip]
         sentences.append(text[0].upper() + text[1:] + ".")
         timed = read_word_timings(timings.replace("{id}", clip))
@@ -102,7 +102,7 @@ def join_clips(
     video = out / "joined.mp4"
     write_mp4(
         video,
-        (f for clip_frames in frames for f in clip_frames),
+        (f for clip in ids for f in read_video(media.replace("{id}", clip))[0]),
         fps=fps,
         audio=np.concatenate(audio),
         rate=RATE,

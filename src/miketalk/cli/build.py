@@ -59,7 +59,7 @@ def build_model_from_video(
     """
     from tqdm import tqdm
 
-    from miketalk.corpus.one_video import segment_video
+    from miketalk.corpus.one_video import check_video_inputs, segment_video
     from miketalk.corpus.viseme_choice import choose_visemes_stage
     from miketalk.talk.stages import (
         check_viseme_classes,
@@ -77,6 +77,9 @@ def build_model_from_video(
                 f"{model_dir} exists and holds {what}: give another -o"
                 + (" or --force to replace it" if what == "a model" else "")
             )
+    checked = check_video_inputs(  # before any work: one line for a bad video or script
+        video, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
+    )
     model_dir.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=f".{model_dir.name}.build-", dir=model_dir.parent))
     spec, strategy = defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
@@ -108,7 +111,7 @@ def build_model_from_video(
     steps = {
         "segment": lambda: segment_video(
             video, segments, transcript=transcript, subtitles=subtitles,
-            heldout_seconds=heldout_seconds,
+            heldout_seconds=heldout_seconds, checked=checked,
         ),
         "corpus": lambda: (
             corpus_stage(corpus, settings, segments=segments, workers=workers),

@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +59,7 @@ def segment_video(
     subtitles: str | Path | None = None,
     heldout_seconds: float = 0.0,
     progress: Callable[[str], None] | None = None,
+    checked: VideoInputs | None = None,
 ) -> dict:
     """Align a video's words and cut it into utterances; write ``segments.json`` (``out``).
 
@@ -73,6 +75,8 @@ def segment_video(
         The last seconds held out for the test (0: none).
     progress : callable, optional
         Called with short notes while the alignment runs.
+    checked : VideoInputs, optional
+        What :func:`check_video_inputs` gave for these inputs (not read again).
 
     Returns
     -------
@@ -86,28 +90,13 @@ def segment_video(
         transcript in another language or of another video, nothing left to
         train on.
     """
-    from miketalk.media.decode import read_media_audio, read_video
-    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
     from miketalk.speech.long_align import align_long
 
-    media = Path(media)
-    if not media.is_file():
-        raise MiketalkError(f"video not found: {media}")
-    if heldout_seconds < 0:
-        raise MiketalkError(f"heldout_seconds must be >= 0, got {heldout_seconds}")
-    cues = read_script(transcript=transcript, subtitles=subtitles)
-    _check_english(cues)
-    first, fps = read_video(media, frames=1)
-    samples = read_media_audio(media, rate=RATE)
-    duration = len(samples) / RATE
-    _check_face(media, duration)
-    voiced = float(voiced_frames(samples, RATE).sum() * HOP_SECONDS)
-    if voiced < MIN_VOICED_SECONDS:
-        raise MiketalkError(f"{media} has no speech ({voiced:.1f} s of voiced sound)")
-    if heldout_seconds >= duration:
-        raise MiketalkError(
-            f"heldout_seconds ({heldout_seconds:g}) holds out all of the {duration:.1f} s video"
-        )
+    video = checked or check_video_inputs(
+        media, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
+    )
+    media, cues, samples, fps = video.media, video.cues, video.samples, video.fps
+    duration, voiced = video.duration, video.voiced_seconds
     found = align_long(samples, RATE, cues, progress=progress)
     total = sum(len(c.words) for c in cues)
     if len(found.unaligned) > MAX_UNALIGNED_SHARE * total:
@@ -145,7 +134,7 @@ def segment_video(
     doc = {
         "media": str(media),
         "fps": fps,
-        "size": [int(first.shape[1]), int(first.shape[2])],
+        "size": list(video.size),
         "duration": round(duration, 6),
         "heldout_from": round(boundary, 6),
         "words": total,
@@ -155,6 +144,59 @@ def segment_video(
     }
     write_text_atomic(Path(out), json.dumps(doc, indent=1) + "\n")
     return doc
+
+
+@dataclass(frozen=True)
+class VideoInputs:
+    """A video and its script, checked: what :func:`segment_video` aligns."""
+
+    media: Path
+    cues: list
+    samples: np.ndarray
+    fps: float
+    size: tuple[int, int]
+    duration: float
+    voiced_seconds: float
+
+
+def check_video_inputs(
+    media: str | Path,
+    *,
+    transcript: str | Path | None = None,
+    subtitles: str | Path | None = None,
+    heldout_seconds: float = 0.0,
+) -> VideoInputs:
+    """Read and check a video and its script before any work (see :func:`segment_video`).
+
+    Raises
+    ------
+    MiketalkError
+        One line: a missing or unreadable video or script, another language, no
+        face or several, no speech, everything held out.
+    """
+    from miketalk.media.decode import read_media_audio, read_video
+    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+
+    media = Path(media)
+    if not media.is_file():
+        raise MiketalkError(f"video not found: {media}")
+    if heldout_seconds < 0:
+        raise MiketalkError(f"heldout_seconds must be >= 0, got {heldout_seconds}")
+    cues = read_script(transcript=transcript, subtitles=subtitles)
+    _check_english(cues)
+    first, fps = read_video(media, frames=1)
+    samples = read_media_audio(media, rate=RATE)
+    duration = len(samples) / RATE
+    if heldout_seconds >= duration:
+        raise MiketalkError(
+            f"heldout_seconds ({heldout_seconds:g}) holds out all of the {duration:.1f} s video"
+        )
+    _check_face(media, duration)
+    voiced = float(voiced_frames(samples, RATE).sum() * HOP_SECONDS)
+    if voiced < MIN_VOICED_SECONDS:
+        raise MiketalkError(f"{media} has no speech ({voiced:.1f} s of voiced sound)")
+    size = (int(first.shape[1]), int(first.shape[2]))
+    return VideoInputs(media, cues, samples, fps, size, duration, voiced)
 
 
 def video_clips(segments: str | Path, split: str, *, media: str | Path | None = None) -> list[Clip]:
@@ -179,7 +221,7 @@ def video_clips(segments: str | Path, split: str, *, media: str | Path | None = 
 
 
 def _check_face(media: Path, duration: float) -> None:
-    """Refuse a video that does not show one face (:func:`miketalk.stabilize.faces.check_one_face`)."""
+    """Refuse a video that does not show one face (:mod:`miketalk.stabilize.faces`)."""
     from miketalk.media.decode import read_video
     from miketalk.stabilize.faces import SAMPLES, check_one_face
 
@@ -209,7 +251,9 @@ def _check_english(cues) -> None:
     from miketalk.speech.align.decoder import _LOCK, _shared_aligner
 
     tokens = [w for c in cues for w in c.words]
-    counts = {lang: sum(w in set(common.split()) for w in tokens) for lang, common in _COMMON.items()}
+    counts = {
+        lang: sum(w in set(common.split()) for w in tokens) for lang, common in _COMMON.items()
+    }
     likely = max(counts, key=counts.get)
     if likely != "English" and counts[likely] > max(2, 2 * counts["English"]):
         raise MiketalkError(
@@ -252,7 +296,5 @@ def read_utterance(segments: str | Path, clip: str, *, media: str | Path | None 
     doc = json.loads(Path(segments).read_text(encoding="utf-8"))
     for u in doc["utterances"]:
         if u["id"] == clip:
-            return read_video(
-                media or doc["media"], start=u["start"], frames=u["frames"]
-            )
+            return read_video(media or doc["media"], start=u["start"], frames=u["frames"])
     raise MiketalkError(f"{segments}: no utterance {clip}")

@@ -154,7 +154,9 @@ def model_stage(
     from miketalk.talk.build import build_model, fallbacks_of
 
     table = pd.read_csv(visemes, sep="\t", keep_default_na=False)
-    paths = {v: Path(images) / name for v, name in zip(table["viseme"], table["image"], strict=True)}
+    paths = {
+        v: Path(images) / name for v, name in zip(table["viseme"], table["image"], strict=True)
+    }
     build_model(
         out,
         images=paths,
