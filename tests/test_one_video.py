@@ -181,6 +181,11 @@ def test_no_speech_and_several_faces_are_one_line(joined, tmp_path: Path) -> Non
     two = _video(tmp_path, np.concatenate([frames, frames], axis=2), sound)
     with pytest.raises(MiketalkError, match="several faces"):
         segment_video(two, tmp_path / "s.json", transcript=joined.transcript)
+    t = np.arange(64000) / 16000  # a tune: notes of 0.25 s and rests, no speech
+    tune = 8000 * np.sin(2 * np.pi * (220 + 110 * np.floor(t / 0.4) % 330) * t) * (t % 0.4 < 0.25)
+    music = _video(tmp_path, frames, tune.astype(np.int16))
+    with pytest.raises(MiketalkError, match=r"none of the \d+ words can be aligned"):
+        segment_video(music, tmp_path / "s.json", transcript=joined.transcript)
     blank = _video(tmp_path, np.full_like(frames, 90), sound)
     with pytest.raises(MiketalkError, match="no face found"):
         segment_video(blank, tmp_path / "s.json", transcript=joined.transcript)

@@ -15,7 +15,7 @@ def main() -> None:
         flows=snakemake.input.flows,
         spec=json.loads(snakemake.params.spec),
         strategy=snakemake.params.strategy,
-        grouping=snakemake.params.grouping,
+        grouping=snakemake.params.get("grouping", {}),
         phones=snakemake.input.get("phones"),
         eigenlips=snakemake.input.get("eigenlips"),
         media=snakemake.params.get("media"),

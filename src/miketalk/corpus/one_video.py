@@ -24,6 +24,7 @@ utterances back as clips.
 from __future__ import annotations
 
 import json
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -37,6 +38,8 @@ from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.speech.word_timings import WordTiming
 
+log = logging.getLogger(__name__)
+
 #: The stage's file.
 SEGMENTS = "segments.json"
 
@@ -45,7 +48,7 @@ SEGMENTS = "segments.json"
 MIN_ENGLISH_SHARE = 0.6
 
 #: Above this share of the words left unaligned, the transcript is taken for another video's.
-MAX_UNALIGNED_SHARE = 0.3
+MAX_UNALIGNED_SHARE = 0.1
 
 #: The least voiced audio (s) a video must have to be aligned at all.
 MIN_VOICED_SECONDS = 1.0
@@ -99,11 +102,23 @@ def segment_video(
     duration, voiced = video.duration, video.voiced_seconds
     found = align_long(samples, RATE, cues, progress=progress)
     total = sum(len(c.words) for c in cues)
+    if len(found.unaligned) == total:
+        raise MiketalkError(
+            f"none of the {total} words can be aligned to the sound of {media.name}: it has "
+            "no speech (music?), or the transcript is another video's"
+        )
     if len(found.unaligned) > MAX_UNALIGNED_SHARE * total:
         raise MiketalkError(
             f"{len(found.unaligned)} of the {total} words cannot be aligned to the speech of "
             f"{media.name}: is the transcript this video's?"
         )
+    if found.unaligned:
+        first = found.unaligned[0]
+        log.warning(
+            "%d of the %d words not aligned, their audio left out (listed in %s; the first: "
+            "word %d %r, %s)", len(found.unaligned), total, Path(out).name, first.index + 1,
+            first.word, first.why,
+        )  # fmt: skip
     boundary = duration - heldout_seconds
     utterances, k = [], 0
     for number, (lo, hi, n) in enumerate(found.chunks, 1):

@@ -146,7 +146,7 @@ def align_long(
         note(f"second pass {hi:.0f}/{duration:.0f} s")
     unaligned.sort(key=lambda u: u.index)
     for u in unaligned:
-        log.warning("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
+        log.info("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
     return LongAlignment(tuple(placed), tuple(unaligned), tuple(chunks))
 
 
