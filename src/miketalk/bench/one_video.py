@@ -154,6 +154,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--heldout-seconds", type=float, default=0.0)
     parser.add_argument("--build", action="store_true", help="also run miketalk build")
     parser.add_argument(
+        "--crf", type=int, default=18, help="x264's quality of the joined video (0: lossless)"
+    )
+    parser.add_argument(
         "--compare",
         nargs=3,
         metavar=("CLIPS_CSV", "VIDEO_CSV", "SEGMENTS"),
@@ -202,7 +205,7 @@ def _run(args: argparse.Namespace) -> str:
         media=str(pool / "video" / "{id}.mpg"),
         transcripts=pool / "transcripts.txt",
         timings=str(pool / "align" / "{id}.align"),
-        crf=18,
+        crf=args.crf,
     )
     join_s = time.perf_counter() - started
     truth = pd.read_csv(joined.words, sep="\t", keep_default_na=False, dtype={"word": str})
@@ -210,7 +213,7 @@ def _run(args: argparse.Namespace) -> str:
         "# One video: GRID clips joined, aligned in pieces, against GRID's word timings",
         "",
         f"{len(ids)} clips joined ({sum(b - a for a, b in joined.spans.values()):.0f} s) "
-        f"in {join_s:.0f} s; held out: the last {args.heldout_seconds:g} s.",
+        f"in {join_s:.0f} s (x264 crf {args.crf}); held out: the last {args.heldout_seconds:g} s.",
         "",
         "| script | words | unaligned | boundaries | median ms | p90 ms | max ms | <= 50 ms "
         "| segment s |",
