@@ -45,6 +45,12 @@ CHUNK_MARGIN = 0.8
 MISSING_MARGIN = 0.1
 #: A subtitle cue's words are looked for this far (s) outside its span.
 CUE_MARGIN = 0.5
+#: A word of the second pass whose loud frames (its 90th percentile level) are less than
+#: this many dB above the chunk's quiet (10th percentile) is not said there.
+SILENT_DB = 10.0
+#: ... or whose phones (four or more) last this long (s) or less each: the aligner's
+#: shortest phone is 30 ms, and a word that is not said gets squeezed to it.
+SQUEEZED_PHONE = 0.035
 #: The first pass aligns a piece whole up to this long (s); longer ones are split first.
 WHOLE_SECONDS = 900.0
 
@@ -136,7 +142,7 @@ def align_long(
     for group in _chunks(first_pass, missing):
         lo, hi = _chunk_span(group, first_pass, duration, missing)
         try:
-            spans = _align_span(samples, rate, lo, hi, [words[i] for i, _ in group])
+            group, spans = _second_pass(samples, rate, lo, hi, group, words, unaligned)
         except MiketalkError as err:
             why = f"the second pass failed in {lo:.2f}..{hi:.2f} s ({err})"
             unaligned += [Unaligned(i, words[i], why) for i, _ in group]
@@ -150,18 +156,56 @@ def align_long(
     return LongAlignment(tuple(placed), tuple(unaligned), tuple(chunks))
 
 
+class _SilentWords(MiketalkError):
+    """Words the aligner put where there is no voiced sound (their positions in the chunk)."""
+
+    def __init__(self, message: str, positions: list[int]) -> None:
+        super().__init__(message)
+        self.positions = positions
+
+
+def _second_pass(
+    samples: np.ndarray,
+    rate: int,
+    lo: float,
+    hi: float,
+    group: list[tuple[int, WordTiming]],
+    words: list[str],
+    unaligned: list[Unaligned],
+) -> tuple[list[tuple[int, WordTiming]], list[WordTiming]]:
+    """A chunk aligned again in its own audio; a word placed over silence (a word of the
+    script that is not said) is dropped, reported, and the rest aligned once more."""
+    try:
+        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group], True)
+    except _SilentWords as err:
+        if len(err.positions) == len(group):
+            raise
+        why = f"it is not said in {lo:.2f}..{hi:.2f} s (the aligner put it over silence)"
+        unaligned += [Unaligned(group[k][0], words[group[k][0]], why) for k in err.positions]
+        group = [g for k, g in enumerate(group) if k not in err.positions]
+        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group], True)
+
+
 def _align_span(
-    samples: np.ndarray, rate: int, lo: float, hi: float, words: Sequence[str]
+    samples: np.ndarray,
+    rate: int,
+    lo: float,
+    hi: float,
+    words: Sequence[str],
+    silence_check: bool = False,
 ) -> list[WordTiming]:
     """``words`` aligned in ``[lo, hi)`` of the audio, in recording time.
 
     Raises
     ------
     MiketalkError
-        The aligner cannot place them, or they leave much of the span's voiced
-        audio unexplained (:mod:`miketalk.speech.coverage`).
+        The aligner cannot place them, they leave much of the span's voiced
+        audio unexplained (:mod:`miketalk.speech.coverage`), or (with
+        ``silence_check``) one lies over silence or is squeezed between the
+        words around it (:data:`SILENT_DB`, :data:`SQUEEZED_PHONE`, :class:`_SilentWords`).
     """
     from miketalk.speech.align import align
+    from miketalk.speech.audio_align import HOP, energy_db
     from miketalk.speech.coverage import speech_coverage
 
     part = samples[round(lo * rate) : round(hi * rate)]
@@ -172,6 +216,19 @@ def _align_span(
             f"the words leave {100 * coverage.unexplained_share:.0f} % of the voiced audio "
             "unexplained"
         )
+    if silence_check:
+        level = energy_db(part, rate)  # every 10 ms
+        floor = np.percentile(level, 10)
+        silent = []
+        for k, w in enumerate(result.words):
+            inside = level[int(w.start / HOP) : max(int(w.start / HOP) + 1, int(w.end / HOP))]
+            phones = [p for p in result.phones if w.start - 1e-6 <= p.start < w.end - 1e-6]
+            squeezed = len(phones) >= 4 and w.end - w.start <= SQUEEZED_PHONE * len(phones)
+            if squeezed or (inside.size and np.percentile(inside, 90) < floor + SILENT_DB):
+                silent.append(k)
+        if silent:
+            names = ", ".join(repr(words[k]) for k in silent)
+            raise _SilentWords(f"{names} would lie over silence", silent)
     return [WordTiming(w.word, w.start + lo, w.end + lo) for w in result.words]
 
 
