@@ -7,10 +7,13 @@ align the pieces between them. Here:
 
 1. **First pass.** Subtitle cues are pieces already (each cue's words in its
    span, widened by :data:`CUE_MARGIN`). A plain transcript is aligned whole
-   (:func:`miketalk.speech.align.align`, a few seconds a minute of speech);
-   when that fails, the audio is split at the pause nearest its middle and the
-   words in proportion to their letters, and each half is aligned the same way,
-   down to pieces of one word, which are then reported as unaligned.
+   (:func:`miketalk.speech.align.align`, a few seconds a minute of speech) up
+   to :data:`WHOLE_SECONDS`; when longer, or when that fails, the audio is split
+   at the pause nearest its middle and the words in proportion to their letters,
+   as the voiced sound is on either side of the pause, and each half is aligned
+   the same way, down to pieces of one word, which are then reported as
+   unaligned. A word given to the wrong side of a split is squeezed or stretched
+   there: the second pass finds it and leaves its chunk out.
 2. **Chunks.** The first pass's words are cut into chunks wherever two
    neighbours are :data:`CHUNK_PAUSE` apart (a breath between phrases), and at
    most :data:`CHUNK_SECONDS` long.
@@ -51,8 +54,10 @@ SILENT_DB = 10.0
 #: ... or whose phones (four or more) last this long (s) or less each: the aligner's
 #: shortest phone is 30 ms, and a word that is not said gets squeezed to it.
 SQUEEZED_PHONE = 0.035
-#: The first pass aligns a piece whole up to this long (s); longer ones are split first.
-WHOLE_SECONDS = 900.0
+#: The first pass aligns a piece whole up to this long (s); a longer one is halved
+#: first (the aligner's memory grows with the audio times the words: 6 GB for 10
+#: minutes and 1200 words at once).
+WHOLE_SECONDS = 150.0
 
 
 @dataclass(frozen=True)
@@ -258,11 +263,21 @@ def _first_pass(
         unaligned += [Unaligned(i, words[i], why) for i in indices]
         return []
     letters = np.cumsum([len(words[i]) + 2 for i in indices])
-    share = (cut - lo) / (hi - lo)
+    share = _voiced_share(samples, rate, lo, cut, hi)
     k = int(np.clip(np.searchsorted(letters, share * letters[-1]), 1, len(indices) - 1))
     return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned) + _first_pass(
         samples, rate, cut, hi, indices[k:], words, unaligned
     )
+
+
+def _voiced_share(samples: np.ndarray, rate: int, lo: float, cut: float, hi: float) -> float:
+    """The share of the voiced sound of ``[lo, hi)`` that comes before ``cut``."""
+    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+
+    voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
+    if not voiced.any():
+        return (cut - lo) / (hi - lo)
+    return float(voiced[: int((cut - lo) / HOP_SECONDS)].sum() / voiced.sum())
 
 
 def _pause_near_middle(samples: np.ndarray, rate: int, lo: float, hi: float) -> float | None:
