@@ -6,9 +6,10 @@ aligners (SAIL, Moreno et al. 1998; aeneas; Gentle) first find anchors, then
 align the pieces between them. Here:
 
 1. **First pass.** Subtitle cues are pieces already (each cue's words in its
-   span, widened by :data:`CUE_MARGIN`). A plain transcript is aligned whole
-   (:func:`miketalk.speech.align.align`, a few seconds a minute of speech) up
-   to :data:`WHOLE_SECONDS`; when longer, or when that fails, the audio is split
+   span, widened by :data:`CUE_MARGIN`). A plain transcript is aligned whole by
+   a coarse aligner (pocketsphinx with its default beams:
+   :func:`miketalk.speech.align.decoder.coarse_word_spans`, 18 s and 190 MB for
+   10 minutes of speech); when that fails, the audio is split
    at the pause nearest its middle and the words in proportion to their letters,
    as the voiced sound is on either side of the pause, and each half is aligned
    the same way, down to pieces of one word, which are then reported as
@@ -54,10 +55,6 @@ SILENT_DB = 10.0
 #: ... or whose phones (four or more) last this long (s) or less each: the aligner's
 #: shortest phone is 30 ms, and a word that is not said gets squeezed to it.
 SQUEEZED_PHONE = 0.035
-#: The first pass aligns a piece whole up to this long (s); a longer one is halved
-#: first (the aligner's memory grows with the audio times the words: 6 GB for 10
-#: minutes and 1200 words at once).
-WHOLE_SECONDS = 150.0
 
 
 @dataclass(frozen=True)
@@ -249,14 +246,11 @@ def _first_pass(
     """The words ``indices`` placed in ``[lo, hi)``: whole, else halves (see the module)."""
     if not indices:
         return []
-    if hi - lo <= WHOLE_SECONDS:
-        try:
-            spans = _align_span(samples, rate, lo, hi, [words[i] for i in indices])
-            return list(zip(indices, spans, strict=True))
-        except MiketalkError as err:
-            failure = str(err)
-    else:
-        failure = "too long to align whole"
+    try:
+        spans = _coarse_span(samples, rate, lo, hi, [words[i] for i in indices])
+        return list(zip(indices, spans, strict=True))
+    except MiketalkError as err:
+        failure = str(err)
     cut = _pause_near_middle(samples, rate, lo, hi)
     if len(indices) < 2 or cut is None:
         why = f"cannot be placed in {lo:.2f}..{hi:.2f} s ({failure})"
@@ -268,6 +262,27 @@ def _first_pass(
     return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned) + _first_pass(
         samples, rate, cut, hi, indices[k:], words, unaligned
     )
+
+
+def _coarse_span(
+    samples: np.ndarray, rate: int, lo: float, hi: float, words: Sequence[str]
+) -> list[WordTiming]:
+    """``words`` placed in ``[lo, hi)`` by the coarse aligner (recording time)."""
+    from miketalk.speech.align.decoder import _LOCK, _shared_aligner, _to_pcm, coarse_word_spans
+    from miketalk.speech.align.pronounce import _check_word, _pronunciations, _to_arpabet
+
+    clean = [_check_word(w) for w in words]
+    with _LOCK:
+        extra = _pronunciations(clean, _shared_aligner(), None)
+    arpabet = {w: _to_arpabet(w, p) for w, p in extra.items()}
+    pcm = _to_pcm(samples[round(lo * rate) : round(hi * rate)], rate).tobytes()
+    spans, frate = coarse_word_spans(pcm, clean, arpabet)
+    if len(spans) != len(clean):
+        raise MiketalkError("the coarse pass placed other words")
+    return [
+        WordTiming(w, lo + a / frate, lo + (b + 1) / frate)
+        for w, (a, b) in zip(clean, spans, strict=True)
+    ]
 
 
 def _voiced_share(samples: np.ndarray, rate: int, lo: float, cut: float, hi: float) -> float:
