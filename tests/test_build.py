@@ -1,8 +1,9 @@
 """``miketalk build``: a model from one video (s1's clips joined at test time), then say and dub.
 
-The video is four of the committed GRID s1 clips joined (12 s), its last 3 s
-held out; the model it makes must be one that ``say``, ``say --audio`` and
-``dub`` take. Bad input is one line, exit status 2, and nothing written.
+The video is the .test face s1's six committed GRID clips joined (18 s, the
+``s1_joined`` fixture of conftest.py), its last 6 s held out (``s1_built``); the
+model it makes must be one that ``say``, ``say --audio`` and ``dub`` take.
+Bad input is one line, exit status 2, and nothing written.
 """
 
 from __future__ import annotations
@@ -14,12 +15,10 @@ import pytest
 import yaml
 
 from miketalk import cli, defaults
-from miketalk.bench.joined import join_clips
 from miketalk.speech import FestivalBackend
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data" / "grid_s1"
-CLIPS = ["bbaf2n", "lgwg2n", "pric4p", "swih9a", "bbas3a"]
 
 needs_festival = pytest.mark.skipif(
     not FestivalBackend().is_available(), reason="Festival not installed"
@@ -41,25 +40,13 @@ def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]
 
 
 @pytest.fixture(scope="module")
-def joined(tmp_path_factory: pytest.TempPathFactory):
-    return join_clips(
-        CLIPS,
-        tmp_path_factory.mktemp("joined"),
-        media=str(DATA / "video" / "{id}.mpg"),
-        transcripts=DATA / "transcripts.txt",
-        timings=str(DATA / "align" / "{id}.align"),
-    )
+def joined(s1_joined):
+    return s1_joined
 
 
 @pytest.fixture(scope="module")
-def built(joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    model = tmp_path_factory.mktemp("build") / "model"
-    code = cli.main(
-        ["build", str(joined.video), "--transcript", str(joined.transcript), "-o", str(model),
-         "--heldout-seconds", "3", "--quiet"]
-    )  # fmt: skip
-    assert code == 0
-    return model
+def built(s1_built: Path) -> Path:
+    return s1_built
 
 
 @pytest.mark.slow
@@ -68,7 +55,7 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
     assert manifest["size"] == [288, 360]
     segments = json.loads((built / "build" / "segments.json").read_text())
     splits = [u["split"] for u in segments["utterances"]]
-    assert splits == ["train"] * 4 + ["test"]
+    assert splits == ["train"] * 4 + ["test"] * 2
     assert (built / "background").is_dir() and (built / "coarticulation.json").is_file()
     assert not list(built.parent.glob(".model.build-*"))  # the work folder is gone
 
@@ -122,15 +109,32 @@ def test_an_existing_model_needs_force(
         (["{video}"], "--transcript or its --subtitles"),
         (["{video}", "--subtitles", "{transcript}"], "must be .srt or .vtt"),
         (["{video}", "--transcript", "{transcript}", "--heldout-seconds", "60"], "holds out all"),
+        (["{video}", "--transcript", "{short}"], "too little speech for the viseme classes"),
+        (["{video}", "--subtitles", "{empty}"], "has no words"),
+        (["{text}", "--transcript", "{transcript}"], "could not decode"),
     ],
-    ids=["no-video", "french", "no-script", "not-subtitles", "all-held-out"],
+    ids=[
+        "no-video",
+        "french",
+        "no-script",
+        "not-subtitles",
+        "all-held-out",
+        "too-little",
+        "empty-subtitles",
+        "not-a-video",
+    ],
 )
 def test_bad_input_is_one_line_and_nothing_written(
     joined, tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
 ) -> None:
     french = tmp_path / "fr.txt"
     french.write_text("Le chat est sur la table et il ne dort pas. Nous avons une maison.")
-    names = {"video": joined.video, "transcript": joined.transcript, "french": french}
+    short, empty, text = tmp_path / "short.txt", tmp_path / "empty.srt", tmp_path / "text.mp4"
+    short.write_text("Bin blue at F two now.")  # 9 of the 16 viseme classes
+    empty.write_text("")
+    text.write_text("not a video")
+    names = {"video": joined.video, "transcript": joined.transcript, "french": french,
+             "short": short, "empty": empty, "text": text}  # fmt: skip
     model = tmp_path / "out" / "model"
     code, _, err = _run(
         capsys, "build", *[a.format(**names) for a in args], "-o", str(model), "--quiet"

@@ -1,20 +1,26 @@
 """A face from one video: GRID clips joined, aligned in pieces, built with ``miketalk build``.
 
-``python -m miketalk.bench.one_video --pool DIR --out OUT [--clips ID ...] [--limit N]
-[--build] [--heldout-seconds S]`` joins the pool's clips (``video/<id>.mpg``,
-``align/<id>.align``, ``transcripts.txt``; all of them in name order, or the
-``--clips`` given, in that order) into one video with its plain transcript and
-an SRT of sentence cues (:mod:`miketalk.bench.joined`), then, for each of the
-two, cuts the video into utterances (:func:`miketalk.corpus.one_video.segment_video`)
+``python -m miketalk.bench.one_video --pool DIR --out OUT [--clips ID ... | --face F]
+[--limit N] [--build [--build-from subtitles]] [--heldout-seconds S]`` joins the
+pool's clips (``video/<id>.mpg``, ``align/<id>.align``, ``transcripts.txt``; all
+of them in name order, the ``--clips`` given, in that order, or the training
+clips of face F of ``--config``) into one video with its plain transcript and an
+SRT of sentence cues (:mod:`miketalk.bench.joined`), then, for each of the two,
+cuts the video into utterances (:func:`miketalk.corpus.one_video.segment_video`)
 and measures every aligned word's start and end against GRID's timings (as
 :mod:`miketalk.bench.aligner` does for single clips). With ``--build``, it also
-builds the model from the plain transcript with ``miketalk build`` and reports
-each stage's time.
+builds the model from the plain transcript (or the SRT) with ``miketalk build``
+and reports each stage's time; with ``--face`` too, the model is measured on the
+face's held-out clips (the clip files) and compared, clip by clip, with the
+clips-built face's own held-out measures (``--against``, default
+``results/metrics/heldout/F/clips.csv`` of ``make run``), and the two corpora's
+phones are compared (:mod:`miketalk.bench.video_vs_clips`).
 
-Writes ``OUT/<transcript|subtitles>/segments.json``, ``OUT/boundaries.csv`` and
-``OUT/summary.md``, and prints the summary. ``run(out_dir)`` (``python -m
-miketalk.bench one_video``) does all of it on ``.bench/config.yaml``'s pool, all
-200 clips (10 minutes), with the build.
+Writes ``OUT/<transcript|subtitles>/segments.json``, ``OUT/boundaries.csv``,
+``OUT/summary.md`` (and with ``--face``: ``OUT/heldout/``,
+``OUT/heldout_comparison.csv``, ``OUT/phones.csv``), and prints the summary.
+``run(out_dir)`` (``python -m miketalk.bench one_video``) does all of it on
+``.bench/config.yaml``'s pool, all 200 clips (10 minutes), with the build.
 """
 
 from __future__ import annotations
@@ -81,70 +87,6 @@ def _line(name: str, errors: pd.DataFrame, words: int, unaligned: int, seconds: 
     )
 
 
-#: The held-out measures compared (``clips.csv`` of the held-out evaluation).
-HELDOUT_MEASURES = (
-    "psnr_mouth",
-    "ssim_mouth",
-    "opening_corr_speech",
-    "eigenlip1_corr_speech",
-    "mouth_lmd",
-    "lip_opening_corr_speech",
-)
-
-
-def compare_heldout(
-    clips_built: pd.DataFrame,
-    video_built: pd.DataFrame,
-    segments: dict,
-    spans: pd.DataFrame,
-    *,
-    renderers: Sequence[str] = ("morph", "learned"),
-) -> pd.DataFrame:
-    """The held-out measures of a model from clips and of one from their joined video, paired.
-
-    ``clips_built`` and ``video_built`` are the held-out ``clips.csv`` tables;
-    each test utterance of ``segments`` is paired with the joined clip (``spans``:
-    the join's ``clips.tsv``) it overlaps most. Per renderer (the face's own
-    model) and measure: both means and standard deviations over the paired clips,
-    the mean and sd of the paired difference, and whether the difference's mean
-    lies within the clips-built model's spread (one sd).
-    """
-    pairs = {}
-    for u in segments["utterances"]:
-        if u["split"] != "test":
-            continue
-        overlap = np.minimum(u["end"], spans["start"] + spans["duration"]) - np.maximum(
-            u["start"], spans["start"]
-        )
-        pairs[u["id"]] = spans["clip"].iloc[int(np.argmax(overlap))]
-    own = clips_built["model"].iloc[0]
-    rows = []
-    for renderer in renderers:
-        a = clips_built[(clips_built["renderer"] == renderer) & (clips_built["model"] == own)]
-        b = video_built[(video_built["renderer"] == renderer) & (video_built["model"] == own)]
-        if a.empty or b.empty:
-            continue
-        b = b.assign(clip=b["clip"].map(pairs)).dropna(subset=["clip"]).set_index("clip")
-        a = a.set_index("clip").reindex(b.index)
-        for measure in (m for m in HELDOUT_MEASURES if m in a and m in b):
-            diff = b[measure] - a[measure]
-            rows.append(
-                {
-                    "renderer": renderer,
-                    "measure": measure,
-                    "clips": int(diff.notna().sum()),
-                    "clips_built_mean": a[measure].mean(),
-                    "clips_built_sd": a[measure].std(ddof=1),
-                    "video_built_mean": b[measure].mean(),
-                    "video_built_sd": b[measure].std(ddof=1),
-                    "paired_diff_mean": diff.mean(),
-                    "paired_diff_sd": diff.std(ddof=1),
-                    "within_spread": bool(abs(diff.mean()) <= a[measure].std(ddof=1)),
-                }
-            )
-    return pd.DataFrame(rows)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Join, align, compare (and build); see the module docstring."""
     parser = bench_parser(__name__, __doc__, limit_help="join the first N clips only")
@@ -156,47 +98,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--crf", type=int, default=18, help="x264's quality of the joined video (0: lossless)"
     )
-    parser.add_argument(
-        "--compare",
-        nargs=3,
-        metavar=("CLIPS_CSV", "VIDEO_CSV", "SEGMENTS"),
-        type=pathlib.Path,
-        help="instead: compare the held-out clips.csv of a model from the clips with that of "
-        "the model from their joined video (its segments.json; the join in --out/joined)",
-    )
+    parser.add_argument("--build-from", choices=("transcript", "subtitles"), default="transcript")
+    parser.add_argument("--face", help="join this face's training clips; compare its models")
+    parser.add_argument("--config", type=pathlib.Path, default=ROOT / "config.yaml")
+    parser.add_argument("--against", type=pathlib.Path, help="the clips-built face's clips.csv")
     return run_bench(parser, argv, _run)
-
-
-def _compare(args: argparse.Namespace) -> str:
-    clips_csv, video_csv, segments = args.compare
-    table = compare_heldout(
-        pd.read_csv(clips_csv),
-        pd.read_csv(video_csv),
-        json.loads(segments.read_text()),
-        pd.read_csv(args.out / "joined" / "clips.tsv", sep="\t"),
-    )
-    args.out.mkdir(parents=True, exist_ok=True)
-    table.to_csv(args.out / "heldout_comparison.csv", index=False, float_format="%.4f")
-    return table.to_markdown(index=False, floatfmt=".3f") if _has_tabulate() else table.to_string()
-
-
-def _has_tabulate() -> bool:
-    try:
-        import tabulate  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 def _run(args: argparse.Namespace) -> str:
     from miketalk.bench.joined import join_clips
-
-    if args.compare:
-        return _compare(args)
     from miketalk.corpus.one_video import segment_video
 
     pool, out = args.pool, args.out
-    ids = args.clips or sorted(p.stem for p in (pool / "video").glob("*.mpg"))
+    face = _face(args.config, args.face) if args.face else None
+    ids = args.clips or (face["corpus"]["train"] if face else None)
+    ids = ids or sorted(p.stem for p in (pool / "video").glob("*.mpg"))
     ids = ids[: args.limit]
     started = time.perf_counter()
     joined = join_clips(
@@ -237,19 +153,27 @@ def _run(args: argparse.Namespace) -> str:
     table.to_csv(buffer, index=False, lineterminator="\n")
     (out / "boundaries.csv").write_text(buffer.getvalue(), "utf-8")
     if args.build:
-        lines += ["", _build(joined, out, args.heldout_seconds)]
+        lines += ["", _build(joined, out, args.heldout_seconds, args.build_from)]
+        if face is not None:
+            lines += ["", _versus_clips(args, face, joined)]
     summary = "\n".join(lines) + "\n"
     (out / "summary.md").write_text(summary, "utf-8")
     return summary
 
 
-def _build(joined, out: pathlib.Path, heldout_seconds: float) -> str:
-    """``miketalk build`` on the joined video's transcript, timed; a line of its figures."""
-    model = out / "model"
+def _build(joined, out: pathlib.Path, heldout_seconds: float, script: str) -> str:
+    """``miketalk build`` on the joined video's transcript (or SRT), timed; a line of its figures.
+
+    The corpus is kept (``OUT/corpus``) for the held-out comparison.
+    """
+    import shutil
+
+    model, corpus = out / "model", out / "corpus"
+    shutil.rmtree(corpus, ignore_errors=True)
     command = [
-        sys.executable, "-m", "miketalk", "build", str(joined.video),
-        "--transcript", str(joined.transcript), "-o", str(model), "--force", "--json",
-        "--heldout-seconds", str(heldout_seconds),
+        str(pathlib.Path(sys.executable).parent / "miketalk"), "build", str(joined.video),
+        f"--{script}", str(getattr(joined, script)), "-o", str(model), "--force", "--json",
+        "--heldout-seconds", str(heldout_seconds), "--keep-corpus", str(corpus),
     ]  # fmt: skip
     started = time.perf_counter()
     proc = subprocess.run(command, capture_output=True, text=True)
@@ -259,9 +183,68 @@ def _build(joined, out: pathlib.Path, heldout_seconds: float) -> str:
     (out / "build.json").write_text(json.dumps(result, indent=1) + "\n", "utf-8")
     stages = ", ".join(f"{k} {v:.0f} s" for k, v in result["stage_seconds"].items())
     return (
-        f"miketalk build: {time.perf_counter() - started:.0f} s wall "
+        f"miketalk build --{script}: {time.perf_counter() - started:.0f} s wall "
         f"({result['utterances']} training utterances; {stages})."
     )
+
+
+def _face(config_path: pathlib.Path, name: str) -> dict:
+    """Face ``name`` of a workflow config, with the config's morph and grouping beside it."""
+    import yaml
+
+    config = yaml.safe_load(config_path.read_text())
+    if name not in config.get("faces", {}):
+        raise MiketalkError(f"{config_path}: no face {name}")
+    face = dict(config["faces"][name])
+    face["morph_options"] = {**config.get("morph", {}), **face.get("morph", {})}
+    face["grouping"] = config.get("visemes", {}).get("grouping", {})
+    flow = config.get("flow", {})
+    face["model_name"] = f"{flow.get('method', 'bergen')}/{flow.get('strategy', 'bridge')}"
+    face["root"] = config_path.resolve().parent
+    return face
+
+
+def _versus_clips(args: argparse.Namespace, face: dict, joined) -> str:
+    """The built model on the face's held-out clips against the clips-built one; the phones."""
+    from miketalk.bench.video_vs_clips import compare_heldout, heldout_of_model, phone_errors
+    from miketalk.corpus.clip_sources import clip_sources
+
+    out, root, corpus = args.out, face["root"], face["corpus"]
+    clips = clip_sources(
+        corpus["test"],
+        media=str(root / corpus["media"]),
+        transcripts=root / corpus["transcripts"],
+        timings=str(root / corpus["timings"]),
+    )
+    against = args.against or root / "results/metrics/heldout" / args.face / "clips.csv"
+    if not against.is_file():
+        raise MiketalkError(f"{against} not found: run the workflow for face {args.face} first")
+    started = time.perf_counter()
+    video_built = heldout_of_model(
+        out / "model", out / "corpus", clips, out / "heldout", name=face["model_name"],
+        morph=face["morph_options"], grouping=face["grouping"],
+    )  # fmt: skip
+    seconds = time.perf_counter() - started
+    table = compare_heldout(pd.read_csv(against), video_built, model=face["model_name"])
+    table.to_csv(out / "heldout_comparison.csv", index=False, float_format="%.4f")
+    segments = json.loads((out / "model" / "build" / "segments.json").read_text())
+    spans = pd.read_csv(joined.clips, sep="\t")
+    clips_corpus = against.parents[3] / "corpus" / args.face
+    phones = phone_errors(out / "corpus", segments, clips_corpus, spans)
+    phones.to_csv(out / "phones.csv", index=False)
+    same = phones.drop_duplicates("utterance")["same_phones"]
+    error = phones["error_ms"].abs().dropna()
+    lines = [
+        f"Phones against {clips_corpus}: {int(same.sum())} of {len(same)} utterances with the "
+        f"same spoken phones; {len(error)} boundaries, median {error.median():.1f} ms, "
+        f"{100 * (error <= 50 + 1e-6).mean():.1f} % within 50 ms, max {error.max():.0f} ms.",
+        "",
+        f"Held out ({len(clips)} clips of face {args.face}, {seconds:.0f} s), the model from "
+        f"the video against {against}, paired by clip:",
+        "",
+        table.to_string(index=False, float_format=lambda v: f"{v:.3f}"),
+    ]
+    return "\n".join(lines)
 
 
 def run(out_dir: pathlib.Path) -> dict[str, float]:

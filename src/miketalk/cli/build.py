@@ -47,10 +47,16 @@ def build_model_from_video(
     force: bool = False,
     progress: bool = True,
     report=None,
+    flow: dict | None = None,
+    mixed_window: int = defaults.BUILD_MIXED_WINDOW,
+    keep_corpus: str | Path | None = None,
 ) -> dict:
     """Build a model from one video (see the module docstring); the seconds each stage took.
 
-    ``report(stage, seconds)`` is called after each stage.
+    ``report(stage, seconds)`` is called after each stage. ``flow`` (the flow
+    method's ``estimator`` and ``settings``) and ``mixed_window`` default to the
+    workflow's defaults; ``keep_corpus`` is where the corpus folder is moved at
+    the end (for a held-out test of the model; a new folder), instead of removed.
 
     Raises
     ------
@@ -77,12 +83,14 @@ def build_model_from_video(
                 f"{model_dir} exists and holds {what}: give another -o"
                 + (" or --force to replace it" if what == "a model" else "")
             )
+    if keep_corpus is not None and Path(keep_corpus).exists():
+        raise MiketalkError(f"{keep_corpus} exists: --keep-corpus needs a new folder")
     checked = check_video_inputs(  # before any work: one line for a bad video or script
         video, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
     )
     model_dir.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=f".{model_dir.name}.build-", dir=model_dir.parent))
-    spec, strategy = defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
+    spec, strategy = flow or defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
     corpus, visemes, flows = work / "corpus", work / "visemes", work / "flows"
     segments = work / "segments" / "segments.json"
     settings = {"media": str(Path(video).resolve())}
@@ -102,7 +110,7 @@ def build_model_from_video(
             frames=corpus / "frames",
             spec=spec,
             strategy=name,
-            window=defaults.BUILD_MIXED_WINDOW,
+            window=mixed_window,
             mixed=mixed,
             regions=corpus / "regions.json",
             workers=workers,
@@ -149,6 +157,9 @@ def build_model_from_video(
         if model_dir.exists():
             shutil.rmtree(model_dir)
         (work / "model").rename(model_dir)
+        if keep_corpus is not None:
+            Path(keep_corpus).parent.mkdir(parents=True, exist_ok=True)
+            shutil.move(corpus, keep_corpus)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return seconds
@@ -173,6 +184,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         force=args.force,
         progress=not args.quiet,
         report=None if args.quiet else report,
+        keep_corpus=args.keep_corpus,
     )
     total = time.perf_counter() - started
     segments = json.loads((Path(args.output) / "build" / "segments.json").read_text("utf-8"))
@@ -220,6 +232,11 @@ def add_build_parser(sub) -> None:
     )
     build.add_argument("--workers", type=int, default=2, help="cores to use (default 2)")
     build.add_argument("--force", action="store_true", help="replace an existing model")
+    build.add_argument(
+        "--keep-corpus",
+        metavar="DIR",
+        help="keep the corpus folder (stabilized frames, phones) there, for a held-out test",
+    )
     build.add_argument("--quiet", action="store_true", help="no progress bar or stage times")
     build.add_argument("--json", action="store_true", help="print the result as JSON")
     verbose_option(build)

@@ -50,6 +50,10 @@ MIN_ENGLISH_SHARE = 0.6
 #: Above this share of the words left unaligned, the transcript is taken for another video's.
 MAX_UNALIGNED_SHARE = 0.1
 
+#: A face's corpus needs at least this many of the 16 viseme classes spoken in its
+#: training part; the others borrow an image (data/viseme_fallbacks.tsv).
+MIN_VISEME_CLASSES = 10
+
 #: The least voiced audio (s) a video must have to be aligned at all.
 MIN_VOICED_SECONDS = 1.0
 
@@ -279,10 +283,33 @@ def _check_english(cues) -> None:
     with _LOCK:
         aligner = _shared_aligner()
         known = sum(aligner.in_dictionary(w) for w in words)
+        said = [aligner.decoder.lookup_word(w) for w in words]
     if known < MIN_ENGLISH_SHARE * len(words):
         raise MiketalkError(
             f"only {known} of the {len(words)} different words of the transcript are English "
             "words the aligner knows: is it in another language? (the aligner is English only)"
+        )
+    _check_classes_said(said, len(tokens))
+
+
+def _check_classes_said(pronunciations, words: int) -> None:
+    """Refuse, before any work, a script whose words (by the dictionary) cannot show
+    :data:`MIN_VISEME_CLASSES` viseme classes even if all of it is aligned."""
+    from miketalk.visemes import SILENCE, VisemeTable
+
+    table = VisemeTable()
+    classes: set[str] = set()
+    for phone in {p.lower().rstrip("012") for said in pronunciations if said for p in said.split()}:
+        try:
+            classes |= set(table.visemes_of(phone))
+        except (KeyError, MiketalkError):
+            continue
+    classes.discard(SILENCE)
+    if len(classes) < MIN_VISEME_CLASSES:
+        raise MiketalkError(
+            f"too little speech for the viseme classes: the script's {words} words show "
+            f"{len(classes)} of the classes, at least {MIN_VISEME_CLASSES} are needed: give a "
+            "longer video"
         )
 
 

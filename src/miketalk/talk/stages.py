@@ -18,11 +18,18 @@ from pathlib import Path
 
 import pandas as pd
 
+from miketalk.corpus.one_video import MIN_VISEME_CLASSES
 from miketalk.errors import MiketalkError
 
-#: A face's corpus needs at least this many of the 16 viseme classes spoken in its
-#: training clips; the others borrow an image (data/viseme_fallbacks.tsv).
-MIN_VISEME_CLASSES = 10
+__all__ = [
+    "MIN_VISEME_CLASSES",
+    "check_viseme_classes",
+    "corpus_stage",
+    "eigenlips_stage",
+    "flows_stage",
+    "model_stage",
+    "viseme_classes",
+]
 
 
 def corpus_stage(
