@@ -53,9 +53,10 @@ def build_model_from_video(
 ) -> dict:
     """Build a model from one video (see the module docstring); the seconds each stage took.
 
-    ``report(stage, seconds)`` is called after each stage. ``flow`` (the flow
-    method's ``estimator`` and ``settings``) and ``mixed_window`` default to the
-    workflow's defaults; ``keep_corpus`` is where the corpus folder is moved at
+    ``report(stage, seconds, peak_mb)`` is called after each stage (``peak_mb``: the
+    largest memory the build's process, or a process it started, has held so far).
+    ``flow`` (the flow method's ``estimator`` and ``settings``) and ``mixed_window``
+    default to the workflow's defaults; ``keep_corpus`` is where the corpus folder is moved at
     the end (for a held-out test of the model; a new folder), instead of removed.
 
     Raises
@@ -149,7 +150,7 @@ def build_model_from_video(
                 seconds[name] = time.perf_counter() - started
                 bar.update(1)
                 if report is not None:
-                    report(name, seconds[name])
+                    report(name, seconds[name], peak_mb())
         kept = work / "model" / "build"
         kept.mkdir()
         for name, where in KEPT.items():
@@ -165,14 +166,25 @@ def build_model_from_video(
     return seconds
 
 
+def peak_mb() -> float:
+    """The largest resident memory (MB) this process or a waited-for child has held."""
+    import resource
+
+    who = (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
+    return max(resource.getrusage(w).ru_maxrss for w in who) / 1024
+
+
 def cmd_build(args: argparse.Namespace) -> int:
     """Build a model from one video (see the module docstring)."""
     if (args.transcript is None) == (args.subtitles is None):
         raise MiketalkError("give the video's --transcript or its --subtitles (one of them)")
     started = time.perf_counter()
+    peaks: dict[str, float] = {}
 
-    def report(stage: str, seconds: float) -> None:
-        print(f"miketalk build: {stage}: {seconds:.1f} s", file=sys.stderr)
+    def report(stage: str, seconds: float, peak: float) -> None:
+        peaks[stage] = peak
+        if not args.quiet:
+            print(f"miketalk build: {stage}: {seconds:.1f} s, peak {peak:.0f} MB", file=sys.stderr)
 
     seconds = build_model_from_video(
         args.video,
@@ -183,7 +195,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         workers=args.workers,
         force=args.force,
         progress=not args.quiet,
-        report=None if args.quiet else report,
+        report=report,
         keep_corpus=args.keep_corpus,
     )
     total = time.perf_counter() - started
@@ -196,6 +208,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         "unaligned_words": len(segments["unaligned"]),
         "seconds": round(total, 1),
         "stage_seconds": {k: round(v, 1) for k, v in seconds.items()},
+        "stage_peak_mb": {k: round(v) for k, v in peaks.items()},
     }
     if args.json:
         print(json.dumps(summary), file=args.out)
