@@ -44,10 +44,29 @@ def snakemake(workdir: Path, *args: str, check: bool = True) -> subprocess.Compl
     return proc
 
 
+def with_video_face(workdir: Path, joined) -> None:
+    """The .test config, plus s1's six clips joined into one video (conftest's ``s1_joined``)
+    with its SRT of sentence cues: face ``s1video``, its last 6 s (s1's two test clips) held
+    out."""
+    import yaml
+
+    config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
+    config["faces"]["s1video"] = {
+        "corpus": {
+            "source": "video",
+            "media": str(joined.video),
+            "subtitles": str(joined.subtitles),
+            "heldout_seconds": 6,
+        },
+        "lipsync": {"model": "learned"},
+    }
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def run(tmp_path_factory: pytest.TempPathFactory, s1_joined) -> Path:
     workdir = tmp_path_factory.mktemp("workflow")
-    shutil.copy(ROOT / ".test" / "config.yaml", workdir / "config.yaml")
+    with_video_face(workdir, s1_joined)
     snakemake(workdir)
     return workdir
 
@@ -149,6 +168,117 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert np.allclose(dub["jitter_beyond"], dub["jitter_dub"] - dub["jitter_real"], atol=1e-4)
     assert (results / "dub/s1/srau3s.mp4").stat().st_size > 0
     assert (results / "figures/dub/s1/strip.png").stat().st_size > 0
+
+
+def test_a_face_from_one_video(run: Path) -> None:
+    """s1's clips joined into one video (SRT cues) in the workflow: the same utterances."""
+    import json
+
+    results = run / "results"
+    segments = json.loads((results / "segments/s1video.json").read_text())
+    assert segments["unaligned"] == []
+    assert [u["split"] for u in segments["utterances"]] == ["train"] * 4 + ["test"] * 2
+    clips = pd.read_csv(results / "corpus/s1video/clips.tsv", sep="\t")
+    s1 = pd.read_csv(results / "corpus/s1/clips.tsv", sep="\t")
+    assert list(clips["text"]) == list(s1["text"])
+    assert (results / "model/s1video/manifest.json").exists()
+    said = json.loads((results / "utterances/s1video/hello.json").read_text())
+    assert said["background"]["source"] == f"clip {segments['utterances'][0]['id']}"
+    assert len(pd.read_csv(results / "metrics/heldout/s1video/clips.csv")["clip"].unique()) == 2
+    assert (results / "metrics/dub/s1video/summary.csv").exists()
+    assert (results / "figures/heldout/s1video/strip.png").stat().st_size > 0
+
+
+def one_video_face(run: Path, s1_built: Path, script: str) -> tuple[Path, dict, Path]:
+    """The corpus, segments and model of s1's joined video: from its SRT by the workflow
+    (face s1video), or from its plain transcript by ``miketalk build`` (conftest)."""
+    import json
+
+    results = run / "results"
+    if script == "subtitles":
+        segments = json.loads((results / "segments/s1video.json").read_text())
+        return results / "corpus/s1video", segments, results / "model/s1video"
+    segments = json.loads((s1_built / "build" / "segments.json").read_text())
+    return s1_built.parent / "corpus", segments, s1_built
+
+
+#: The phones of a corpus from the joined video against s1's from its clips (aligned inside
+#: GRID's word timings): the same spoken phones, and their boundaries within the aligner's
+#: accuracy: the issue's target for words (>= 90 % within 50 ms of GRID's) held to the phones,
+#: and their median error within 30 ms.
+PHONES_WITHIN_50MS, PHONES_MEDIAN_MS = 0.90, 30.0
+
+
+@pytest.mark.parametrize("script", ["transcript", "subtitles"])
+def test_one_video_phones_match_the_clips_corpus(
+    run: Path, s1_built: Path, s1_joined, script: str
+) -> None:
+    from miketalk.bench.video_vs_clips import phone_errors
+
+    corpus, segments, _ = one_video_face(run, s1_built, script)
+    assert segments["unaligned"] == []
+    spans = pd.read_csv(s1_joined.clips, sep="\t")
+    errors = phone_errors(corpus, segments, run / "results/corpus/s1", spans)
+    assert errors["same_phones"].all(), errors[~errors["same_phones"]]
+    assert sorted(set(errors["clip"])) == ["bbaf2n", "lgwg2n", "pric4p", "swih9a"]
+    error = errors["error_ms"].abs()
+    assert (error <= 50 + 1e-6).mean() >= PHONES_WITHIN_50MS, errors.sort_values("error_ms")
+    assert error.median() <= PHONES_MEDIAN_MS, errors.sort_values("error_ms")
+
+
+def heldout_gaps(clips_built: pd.DataFrame, video_built: pd.DataFrame) -> list[str]:
+    """Where a model from the joined video falls outside the tolerances of s1's from its
+    clips, on the same held-out clips, the mean of the paired difference (renderers morph
+    and learned): mouth PSNR within 1 dB and mouth landmark distance within 0.5 px either
+    way; the lip opening's correlation with the real one no more than 0.1 lower, its
+    amplitude (as a share of the real one's) no more than 0.1 farther from 1."""
+    from miketalk.bench.video_vs_clips import compare_heldout
+
+    table = compare_heldout(clips_built, video_built, model="bergen/bridge")
+    gaps = []
+    for renderer, part in table.groupby("renderer"):
+        row = part.set_index("measure")
+        diff = row["paired_diff_mean"]
+        amplitude = row.loc["lip_opening_amplitude_speech"]
+        farther = abs(1 - amplitude["video_built_mean"]) - abs(1 - amplitude["clips_built_mean"])
+        for measure, ok in (
+            ("psnr_mouth", abs(diff["psnr_mouth"]) <= 1.0),
+            ("mouth_lmd", abs(diff["mouth_lmd"]) <= 0.5),
+            ("lip_opening_corr_speech", diff["lip_opening_corr_speech"] >= -0.1),
+            ("lip_opening_amplitude_speech", farther <= 0.1),
+        ):
+            if not ok:
+                gaps.append(f"{renderer} {measure} {diff[measure]:+.3f}")
+    assert set(table["renderer"]) == {"morph", "learned"}
+    return gaps
+
+
+@pytest.mark.parametrize("script", ["transcript", "subtitles"])
+def test_one_video_model_matches_the_clips_model_on_held_out_clips(
+    run: Path, s1_built: Path, script: str, tmp_path: Path
+) -> None:
+    """Both models measured on s1's two test clips (the clip files), each in its own
+    corpus's frame, paired clip by clip (see :func:`heldout_gaps`)."""
+    import yaml
+
+    from miketalk.bench.video_vs_clips import heldout_of_model
+    from miketalk.corpus.clip_sources import clip_sources
+
+    corpus, _, model = one_video_face(run, s1_built, script)
+    s1 = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["faces"]["s1"]["corpus"]
+    clips = clip_sources(
+        s1["test"],
+        media=str(ROOT / s1["media"]),
+        transcripts=ROOT / s1["transcripts"],
+        timings=str(ROOT / s1["timings"]),
+    )
+    video_built = heldout_of_model(model, corpus, clips, tmp_path, name="bergen/bridge")
+    clips_built = pd.read_csv(run / "results/metrics/heldout/s1/clips.csv")
+    assert heldout_gaps(clips_built, video_built) == []
+    # the tolerances can fail: a still mouth (the clips-built model's still baseline) fails them
+    still = clips_built[clips_built["renderer"] == "still"]
+    as_models = pd.concat([still.assign(renderer=r) for r in ("morph", "learned")])
+    assert len(heldout_gaps(clips_built, as_models)) >= 2
 
 
 def test_metrics_within_bounds(run: Path) -> None:

@@ -150,3 +150,57 @@ def test_training_clips_sweep_beyond_the_training_clips_takes_the_others_never_a
     assert (
         f"only {len(table) - len(TEST)} clips that are not test clips" in proc.stdout + proc.stderr
     )
+
+
+JOINED = "data/grid_s1/video/bbaf2n.mpg"  # any video: a dry run does not read it
+
+
+@pytest.mark.parametrize(
+    ("corpus", "message"),
+    [
+        (
+            {"media": JOINED, "transcript": "data/grid_s1/transcripts.txt",
+             "subtitles": "data/grid_s1/transcripts.txt"},
+            "config: faces.v.corpus: source video takes video (a recording of the corpus "
+            "words), or media with its transcript or its subtitles (one of the two)",
+        ),
+        ({"media": JOINED}, "config: faces.v.corpus: source video takes video"),
+        (
+            {"media": "data/grid_s1/video/nothere.mp4",
+             "transcript": "data/grid_s1/transcripts.txt"},
+            f"faces.v.corpus.media: file not found: {DATA}/video/nothere.mp4",
+        ),
+        (
+            {"media": JOINED, "subtitles": "data/grid_s1/transcripts.txt"},
+            f"faces.v.corpus.subtitles must be .srt or .vtt: {DATA}/transcripts.txt",
+        ),
+        (
+            {"media": JOINED, "transcript": "data/grid_s1/transcripts.txt", "train": ["bbaf2n"]},
+            "faces.v.corpus.train: not for a face from one video",
+        ),
+        (
+            {"media": JOINED, "transcript": "data/grid_s1/transcripts.txt", "heldout_seconds": -1},
+            "config: faces.v.corpus.heldout_seconds: -1 is less than the minimum of 0",
+        ),
+    ],
+    ids=["both-scripts", "no-script", "missing-media", "not-subtitles", "train-listed",
+         "negative-heldout"],
+)  # fmt: skip
+def test_broken_video_face_fails_the_dry_run(tmp_path: Path, corpus: dict, message: str) -> None:
+    config = dot_test_config()
+    config["faces"] = {"v": {"corpus": {"source": "video", **corpus}}}
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode != 0
+    assert message in proc.stdout + proc.stderr, proc.stdout[-2000:]
+
+
+def test_a_video_face_plans_its_utterances_first(tmp_path: Path) -> None:
+    config = dot_test_config()
+    corpus = {"source": "video", "media": JOINED, "transcript": "data/grid_s1/transcripts.txt",
+              "heldout_seconds": 1}  # fmt: skip
+    config["faces"] = {"v": {"corpus": corpus}}
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for rule in ("segment_video", "corpus_clips", "heldout", "dub_heldout"):
+        assert f"rule {rule}:" in proc.stdout
+    assert "results/segments/v.json" in proc.stdout

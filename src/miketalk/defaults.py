@@ -89,11 +89,11 @@ BLEND_CHIN_WIDTH = 0.7
 BLEND_FEATHER = 0.1
 
 #: Warp the frame's lower face about the blend to follow the synthesized jaw
-#: (:func:`miketalk.render.composite.follow_render`), so its jaw line does not show twice.
+#: (:func:`miketalk.render.follow.follow_render`), so its jaw line does not show twice.
 BLEND_FOLLOW = True
 
 #: Keep the blend off the reference's backdrop and clothes
-#: (:func:`miketalk.render.composite.skin_weight`): the render's collar beside the jaw.
+#: (:func:`miketalk.render.follow.skin_weight`): the render's collar beside the jaw.
 BLEND_SKIN = True
 
 #: Seconds of the person's own frames a model built from clips keeps as the background
@@ -108,3 +108,13 @@ BACKGROUND_SHORTEST = 2.0
 #: s1's held-out clips 0.04 s (one frame at 25 fps) halves the nose's frame-to-frame motion in
 #: the stabilized frames (lbbk4n 0.34 to 0.18 px, prbdzn 0.31 to 0.18); 0 keeps them raw.
 BACKGROUND_SMOOTH = 0.04
+
+#: The flows of a model ``miketalk build`` makes: the workflow's defaults of
+#: ``flow.methods.bergen``, ``flow.strategy`` and ``flow.mixed_window``
+#: (workflow/schemas/config.schema.yaml; tests/test_build.py checks they agree).
+BUILD_FLOW_METHOD = {"estimator": "bergen", "settings": {"levels": 5}}
+BUILD_FLOW_STRATEGY = "bridge"
+BUILD_MIXED_WINDOW = 6
+
+#: Seconds at the end of the video ``miketalk build`` holds out (0: none).
+HELDOUT_SECONDS = 0.0

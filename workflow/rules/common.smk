@@ -28,6 +28,13 @@ def validate_config():
             raise
         key = ".".join(str(part) for part in cause.absolute_path) or "the config"
         message = cause.message
+        if cause.validator == "oneOf" and key.endswith(
+            ".corpus"
+        ):  # source video's choices
+            message = (
+                "source video takes video (a recording of the corpus words), or media with "
+                "its transcript or its subtitles (one of the two)"
+            )
         if cause.validator == "uniqueItems":  # name the repeated items
             items = [str(item) for item in cause.instance]
             message = f"{', '.join(sorted({i for i in items if items.count(i) > 1}))} listed twice"
@@ -85,10 +92,29 @@ def source_of(face):
     return FACES[face]["corpus"]["source"]
 
 
+def one_video(face):
+    """Whether a face's corpus is one video of any speech (source video with media)."""
+    return source_of(face) == "video" and bool(FACES[face]["corpus"].get("media"))
+
+
 #: Faces recorded speaking the paper's corpus words (synthetic, or a person's video of them).
-CORPUS_WORD_FACES = [f for f in FACES if source_of(f) in ("synthetic", "video")]
-#: Faces built from clips of ordinary speech.
-CLIP_FACES = [f for f in FACES if source_of(f) == "clips"]
+CORPUS_WORD_FACES = [
+    f for f in FACES if source_of(f) in ("synthetic", "video") and not one_video(f)
+]
+#: Faces from one video of any speech, cut into utterances (segments.json).
+VIDEO_FACES = [f for f in FACES if one_video(f)]
+#: Faces built from clips of ordinary speech (the utterances of one video too).
+CLIP_FACES = [f for f in FACES if source_of(f) == "clips" or one_video(f)]
+
+
+def has_test(face):
+    """Whether a face from clips (or one video) has held-out clips to measure."""
+    corpus = FACES[face]["corpus"]
+    if one_video(face):
+        return corpus["heldout_seconds"] > 0
+    return corpus["source"] == "clips" and bool(corpus["test"])
+
+
 #: The face every measurement against ground truth uses: the first synthetic one.
 TRUTH_FACE = next((f for f in FACES if source_of(f) == "synthetic"), None)
 #: The face of the figures drawn from a model (the lip-sync diagram, the morph strip).
@@ -100,6 +126,8 @@ VISEMES = str(defaults.visemes_dir("{face}"))
 FLOWS = str(defaults.flows_dir("{face}"))
 MODEL = str(defaults.model_dir("{face}"))
 UTTERANCES = str(defaults.RESULTS / "utterances" / "{face}")
+#: A one-video face's utterances (miketalk.corpus.one_video)
+SEGMENTS = str(defaults.RESULTS / "segments" / "{face}.json")
 VARIANTS = str(defaults.RESULTS / "model_variants" / "{face}")
 METRICS = str(defaults.metrics_dir())
 FIGURES = str(defaults.figures_dir())
@@ -142,7 +170,7 @@ def canonical(value):
 def corpus_settings(face):
     """A face's corpus settings with its paths made absolute (clips: patterns keep {id})."""
     corpus = dict(FACES[face]["corpus"])
-    for key in ("video", "media", "transcripts", "timings"):
+    for key in ("video", "media", "transcripts", "timings", "transcript", "subtitles"):
         corpus[key] = project_path(corpus.get(key))
     return canonical(corpus)
 
@@ -242,12 +270,40 @@ def clip_problems(face):
     return problems
 
 
+def video_problems(face):
+    """What is wrong with a one-video face's files, one line each naming the face."""
+    where = f"faces.{face}.corpus"
+    corpus = corpus_settings(face)
+    problems = []
+    for key in ("media", "transcript", "subtitles"):
+        if corpus[key] and not Path(corpus[key]).is_file():
+            problems.append(f"{where}.{key}: file not found: {corpus[key]}")
+    if corpus["subtitles"] and Path(corpus["subtitles"]).suffix.lower() not in (
+        ".srt",
+        ".vtt",
+    ):
+        problems.append(
+            f"{where}.subtitles must be .srt or .vtt: {corpus['subtitles']}"
+        )
+    for key in ("train", "test", "timings", "transcripts"):
+        if corpus[key]:
+            problems.append(
+                f"{where}.{key}: not for a face from one video (its utterances are found "
+                "in it; heldout_seconds holds out its end)"
+            )
+    return problems
+
+
 def check_clip_faces(shown=5):
     """Refuse, before any job, a face whose clips are not all there (the first few problems)."""
     for face, settings in config["faces"].items():
-        if settings["corpus"]["source"] == "clips" and (
-            problems := clip_problems(face)
-        ):
+        if one_video(face):
+            problems = video_problems(face)
+        elif settings["corpus"]["source"] == "clips":
+            problems = clip_problems(face)
+        else:
+            problems = []
+        if problems:
             more = len(problems) - shown
             tail = [f"... and {more} more"] if more > 0 else []
             raise ValueError("\n".join(problems[:shown] + tail))
@@ -262,6 +318,8 @@ def clip_inputs(split):
 
     def inputs(wildcards):
         corpus = corpus_settings(wildcards.face)
+        if one_video(wildcards.face):
+            return {"media": corpus["media"], "segments": at(SEGMENTS, wildcards.face)}
         files = {
             "transcripts": corpus["transcripts"],
             "media": [clip_path(corpus["media"], clip) for clip in corpus[split]],
@@ -273,6 +331,14 @@ def clip_inputs(split):
         return files
 
     return inputs
+
+
+def video_script(wildcards):
+    """A one-video face's video and its transcript or subtitles."""
+    corpus = corpus_settings(wildcards.face)
+    return {
+        key: corpus[key] for key in ("media", "transcript", "subtitles") if corpus[key]
+    }
 
 
 def sweep_methods():
@@ -325,11 +391,14 @@ def clip_corpus(wildcards):
     (their eigenlip coordinates)."""
     if wildcards.face not in CLIP_FACES:
         return {}
-    return {
+    files = {
         "phones": f"{at(CORPUS, wildcards.face)}/phones.tsv",
         "regions": f"{at(CORPUS, wildcards.face)}/regions.json",
         "eigenlips": f"{at(CORPUS, wildcards.face)}/eigenlips.npz",
     }
+    if one_video(wildcards.face):  # where its reference utterance is in the video
+        files["segments"] = at(SEGMENTS, wildcards.face)
+    return files
 
 
 #: Priority of the jobs of a face from clips. Its chain (corpus, visemes, flows, model,
@@ -337,6 +406,11 @@ def clip_corpus(wildcards):
 #: started first, it runs beside the synthetic face's many short jobs instead of alone
 #: after them.
 CLIP_CHAIN = 10
+
+
+def first_test_clip(face):
+    """The clip of a face's held-out figures (None: the first one measured)."""
+    return None if one_video(face) else FACES[face]["corpus"]["test"][0]
 
 
 def clip_chain_first(wildcards):
@@ -367,8 +441,8 @@ def heldout_models(wildcards):
 def heldout_tables():
     """The held-out summary and figures of every configured face with test clips; its sweep."""
     out = []
-    for face, settings in config["faces"].items():
-        if settings["corpus"]["source"] != "clips" or not settings["corpus"]["test"]:
+    for face in config["faces"]:
+        if not has_test(face):
             continue
         out += [
             f"{METRICS}/heldout/{face}/summary.csv",

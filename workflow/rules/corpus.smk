@@ -28,6 +28,31 @@ rule corpus:
         "../scripts/corpus.py"
 
 
+rule segment_video:
+    input:
+        unpack(video_script),
+    output:
+        SEGMENTS,
+    log:
+        "results/logs/segment_video/{face}.log",
+    benchmark:
+        "results/benchmarks/segment_video/{face}.tsv"
+    wildcard_constraints:
+        face=one_of(VIDEO_FACES),
+    priority: CLIP_CHAIN
+    conda:
+        "../envs/miketalk.yaml"
+    resources:
+        mem_mb=2000,
+        runtime=30,
+    params:
+        heldout_seconds=lambda wildcards: FACES[wildcards.face]["corpus"][
+            "heldout_seconds"
+        ],
+    script:
+        "../scripts/segment_video.py"
+
+
 rule corpus_clips:
     input:
         unpack(clip_inputs("train")),

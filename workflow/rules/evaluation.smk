@@ -141,7 +141,7 @@ rule figure_heldout:
     conda:
         "../envs/miketalk.yaml"
     params:
-        clip=lambda wildcards: FACES[wildcards.face]["corpus"]["test"][0],
+        clip=lambda wildcards: first_test_clip(wildcards.face),
         model=lambda wildcards: "/".join(model_flow(wildcards.face)),
     script:
         "../scripts/heldout_figures.py"

@@ -1,4 +1,5 @@
-"""Rule corpus_clips: a face's training clips of ordinary speech into the corpus folder."""
+"""Rule corpus_clips: a face's training clips of ordinary speech (or the training utterances
+of its one video) into the corpus folder."""
 
 from pathlib import Path
 
@@ -6,17 +7,14 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus.clip_sources import clip_sources
-    from miketalk.corpus.clips import ingest_clips
+    from miketalk.talk.stages import corpus_stage
 
-    corpus = snakemake.params.corpus
-    clips = clip_sources(
-        corpus["train"],
-        media=corpus["media"],
-        transcripts=corpus["transcripts"],
-        timings=corpus["timings"],
+    corpus_stage(
+        Path(snakemake.output.audio).parent,
+        snakemake.params.corpus,
+        segments=snakemake.input.get("segments"),
+        workers=snakemake.threads,
     )
-    ingest_clips(Path(snakemake.output.audio).parent, clips=clips, workers=snakemake.threads)
 
 
 run_stage(snakemake, main)

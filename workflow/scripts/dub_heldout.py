@@ -6,18 +6,13 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus.clip_sources import clip_sources
     from miketalk.corpus.eigenlips import read_eigenlips
+    from miketalk.corpus.one_video import face_clips
     from miketalk.evaluation.dub_heldout import dub_heldout
     from miketalk.figures.dub_strip import strip
 
     corpus = snakemake.params.corpus
-    clips = clip_sources(
-        corpus["test"],
-        media=corpus["media"],
-        transcripts=corpus["transcripts"],
-        timings=corpus["timings"],
-    )
+    clips = face_clips(corpus, "test", segments=snakemake.input.get("segments"))
     dub_heldout(
         model_dir=snakemake.input.model,
         corpus_dir=Path(snakemake.input.words).parent,

@@ -6,10 +6,9 @@ from miketalk.stage import run_stage
 def main() -> None:
     from pathlib import Path
 
-    from miketalk.corpus.eigenlips import fit_corpus_eigenlips, write_eigenlips
+    from miketalk.talk.stages import eigenlips_stage
 
-    corpus_dir = Path(snakemake.input.regions).parent
-    write_eigenlips(snakemake.output[0], fit_corpus_eigenlips(corpus_dir))
+    eigenlips_stage(Path(snakemake.input.regions).parent, snakemake.output[0])
 
 
 run_stage(snakemake, main)

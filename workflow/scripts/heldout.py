@@ -6,17 +6,12 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.corpus.clip_sources import clip_sources
     from miketalk.corpus.eigenlips import read_eigenlips
+    from miketalk.corpus.one_video import face_clips
     from miketalk.evaluation.heldout import heldout_stage
 
     corpus = snakemake.params.corpus
-    clips = clip_sources(
-        corpus["test"],
-        media=corpus["media"],
-        transcripts=corpus["transcripts"],
-        timings=corpus["timings"],
-    )
+    clips = face_clips(corpus, "test", segments=snakemake.input.get("segments"))
     models = {
         name.removeprefix("model:"): path
         for name, path in snakemake.input.items()

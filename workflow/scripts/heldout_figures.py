@@ -13,16 +13,24 @@ def main() -> None:
 
     p, frames, out = snakemake.params, snakemake.input.frames_csv, snakemake.output
     videos = Path(snakemake.input.videos)
-    timeline = videos / f"{p.clip}.json"
-    heldout_trajectory(frames, timeline, out.trajectory, clip=p.clip, model=p.model)
-    heldout_psnr(frames, out.psnr, clip=p.clip, model=p.model)
+    clip = p.clip or _first_clip(frames)  # a face from one video: its first test utterance
+    timeline = videos / f"{clip}.json"
+    heldout_trajectory(frames, timeline, out.trajectory, clip=clip, model=p.model)
+    heldout_psnr(frames, out.psnr, clip=clip, model=p.model)
     heldout_strip(
-        videos / f"{p.clip}.mp4",
+        videos / f"{clip}.mp4",
         timeline,
         out.strip,
         mouth_box=mouth_region(Path(snakemake.input.regions).parent),
         scale=2.5,
     )
+
+
+def _first_clip(frames_csv) -> str:
+    import csv
+
+    with open(frames_csv, newline="", encoding="utf-8") as f:
+        return next(csv.DictReader(f))["clip"]
 
 
 run_stage(snakemake, main)

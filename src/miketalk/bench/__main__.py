@@ -18,7 +18,7 @@ from pathlib import Path
 from miketalk import defaults
 from miketalk.media.atomic import write_text_atomic
 
-MODULES = ("synth_face", "flow", "morph", "pipeline", "sampling", "real_face")
+MODULES = ("synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "one_video")
 
 
 def main() -> int:

@@ -6,6 +6,7 @@ import argparse
 from typing import NoReturn
 
 from miketalk import __version__, defaults
+from miketalk.cli.build import add_build_parser
 from miketalk.cli.cues import cmd_cues
 from miketalk.cli.dub import add_dub_parser
 from miketalk.cli.options import (
@@ -187,4 +188,5 @@ def build_parser() -> argparse.ArgumentParser:
     verbose_option(cues)
     cues.set_defaults(func=cmd_cues)
     add_dub_parser(sub)
+    add_build_parser(sub)
     return parser

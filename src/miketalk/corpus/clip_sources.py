@@ -18,12 +18,26 @@ RATE = 16000
 
 @dataclass(frozen=True)
 class Clip:
-    """One utterance of the corpus: its id, media file, transcript and word timings (if any)."""
+    """One utterance of the corpus: its id, media file, transcript and word timings (if any).
+
+    A clip is a whole media file, or, with ``span`` (first frame, number of
+    frames), that part of a longer one (an utterance cut from one video,
+    :mod:`miketalk.corpus.one_video`), whose word timings are then given as
+    ``given_words`` (clip time) instead of a file.
+    """
 
     id: str
     media: Path
     text: str
     timings: Path | None = None
+    span: tuple[int, int] | None = None
+    fps: float | None = None
+    given_words: tuple[WordTiming, ...] | None = None
+
+    @property
+    def start(self) -> float:
+        """Where the clip starts in its media file (seconds)."""
+        return self.span[0] / self.fps if self.span is not None else 0.0
 
     @property
     def words(self) -> list[str]:
@@ -135,11 +149,19 @@ def decode_clip(clip: Clip) -> DecodedClip:
     from miketalk.speech.align import align
 
     try:
-        frames, fps = read_video(clip.media)
-        samples = read_media_audio(clip.media, rate=RATE)
+        if clip.span is not None:
+            frames, fps = read_video(clip.media, start=clip.start, frames=clip.span[1])
+            samples = read_media_audio(
+                clip.media, rate=RATE, start=clip.start, duration=clip.span[1] / clip.fps
+            )
+        else:
+            frames, fps = read_video(clip.media)
+            samples = read_media_audio(clip.media, rate=RATE)
         if clip.timings is not None and not clip.timings.is_file():
             raise MiketalkError(f"word timing file not found: {clip.timings}")
         words = read_word_timings(clip.timings) if clip.timings is not None else None
+        if clip.given_words is not None:
+            words = list(clip.given_words)
         if words is not None and [w.word.lower() for w in words] != clip.words:
             raise MiketalkError(
                 f"the word timings ({' '.join(w.word for w in words)}) do not match the "

@@ -70,7 +70,7 @@ from miketalk.corpus.folder import (
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.audio import write_wav
-from miketalk.media.images import write_png
+from miketalk.media.images import read_image, write_png
 from miketalk.mouth.region import REGIONS, mouth_box
 
 log = logging.getLogger(__name__)
@@ -149,7 +149,6 @@ def ingest_clips(
     rows_clips, rows_phones, rows_stab, audio, words = [], [], [], [], []
     n_total = 0
     regions: dict = {}
-    video_frames: list[np.ndarray] = []  # the stabilized clips, for corpus.mp4
     for item in decoded:
         clip = item.clip
         if size is None:
@@ -190,7 +189,6 @@ def ingest_clips(
         first, n = n_total, len(steady)
         for k, frame in enumerate(steady):
             write_png(frame_path(frames_dir, first + k), frame)
-        video_frames.append(steady)
         offset = first / fps
         duration = n / fps
         audio.append(_fit(item.samples, round(duration * RATE)))
@@ -236,9 +234,9 @@ def ingest_clips(
     write_text_atomic(out / TRUTH, empty_truth_text())
     regions["clips"] = len(rows_clips)
     write_text_atomic(out / REGIONS, json.dumps(regions, indent=1))
-    write_mp4(
+    write_mp4(  # from the frames written: a long corpus does not wait in memory
         out / VIDEO,
-        (frame for clip_frames in video_frames for frame in clip_frames),
+        (read_image(frame_path(frames_dir, k)) for k in range(n_total)),
         fps=fps,
         audio=samples,
         rate=RATE,
@@ -285,8 +283,21 @@ def _decoded(
         except ClipError as err:
             return err
 
+    from collections import deque
+
+    ahead = 2 * max(1, workers)  # decoded clips wait in memory: a few, not all of them
     with ThreadPoolExecutor(max(1, workers), thread_name_prefix="clip") as pool:
-        for clip, result in zip(clips, pool.map(attempt, clips), strict=True):
+        pending: deque = deque()
+        queue = iter(clips)
+        for clip in queue:
+            pending.append((clip, pool.submit(attempt, clip)))
+            if len(pending) >= ahead:
+                break
+        while pending:
+            clip, future = pending.popleft()
+            result = future.result()
+            if (following := next(queue, None)) is not None:
+                pending.append((following, pool.submit(attempt, following)))
             if isinstance(result, ClipError):
                 _skip(skipped, clip.id, str(result))
             else:

@@ -53,12 +53,10 @@ def corpus_mouths(corpus_dir: str | os.PathLike[str]) -> np.ndarray:
 
     box = mouth_region(corpus_dir)
     frames_dir = Path(corpus_dir) / "frames"
-    return np.stack(
-        [
-            grey_mouths(read_image(frame_path(frames_dir, k))[None], box)[0]
-            for k in range(count_frames(frames_dir))
-        ]
-    )
+    mouths = np.empty((count_frames(frames_dir), box[3], box[2]), np.float32)
+    for k in range(len(mouths)):  # filled in place: a long corpus's mouths are held once
+        mouths[k] = grey_mouths(read_image(frame_path(frames_dir, k))[None], box)[0]
+    return mouths
 
 
 def fit_corpus_eigenlips(

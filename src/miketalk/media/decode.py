@@ -40,14 +40,21 @@ _RATE_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bfr:(\d+)/(\d+)")
 _SIZE_RE = re.compile(r"Output #0.*?Stream #0:0.*?Video: rawvideo\b.*?, (\d+)x(\d+)", re.DOTALL)
 
 
-def read_video(path: str | os.PathLike[str]) -> tuple[np.ndarray, float]:
-    """Decode every frame of the first video stream of ``path``.
+def read_video(
+    path: str | os.PathLike[str], *, start: float | None = None, frames: int | None = None
+) -> tuple[np.ndarray, float]:
+    """Decode every frame of the first video stream of ``path`` (or ``frames`` from ``start``).
 
     Parameters
     ----------
     path : str or os.PathLike
         Any video file ffmpeg reads (GRID's MPEG-1 ``.mpg``, mp4, ...). Audio
         streams are ignored.
+    start : float, optional
+        Seconds from the beginning: decode from the first frame shown at or
+        after it (ffmpeg's accurate input seek).
+    frames : int, optional
+        Decode at most this many frames.
 
     Returns
     -------
@@ -76,8 +83,10 @@ def read_video(path: str | os.PathLike[str]) -> tuple[np.ndarray, float]:
         "verbose",
         "-threads",
         "1",
+        *(["-ss", f"{start:.6f}"] if start else []),
         "-i",
         str(path),
+        *(["-frames:v", str(int(frames))] if frames is not None else []),
         "-map",
         "0:v:0",
         "-an",
@@ -127,10 +136,17 @@ def _tail(log: str) -> str:
     return " | ".join(keep[-_STDERR_TAIL:])
 
 
-def read_media_audio(path: str | Path, *, rate: int = 16000) -> np.ndarray:
+def read_media_audio(
+    path: str | Path,
+    *,
+    rate: int = 16000,
+    start: float | None = None,
+    duration: float | None = None,
+) -> np.ndarray:
     """Decode the first audio stream of a media file to mono int16 at ``rate`` Hz.
 
-    Channels are averaged; ffmpeg resamples.
+    Channels are averaged; ffmpeg resamples. ``start`` and ``duration`` (seconds)
+    decode a part only.
 
     Parameters
     ----------
@@ -160,7 +176,9 @@ def read_media_audio(path: str | Path, *, rate: int = 16000) -> np.ndarray:
     command = [
         imageio_ffmpeg.get_ffmpeg_exe(),
         "-nostdin", "-hide_banner", "-loglevel", "error",
+        *(["-ss", f"{start:.6f}"] if start else []),
         "-i", str(path.resolve()),
+        *(["-t", f"{duration:.6f}"] if duration is not None else []),
         "-map", "0:a:0", "-vn", "-sn", "-dn",
         "-ac", "1", "-ar", str(rate), "-acodec", "pcm_s16le", "-f", "s16le",
         "pipe:1",

@@ -34,8 +34,9 @@ class Eigenlips:
         if len(data) <= n:
             raise MiketalkError(f"eigenlips need more than {n} training frames, got {len(data)}")
         self.mean = data.mean(axis=0)
+        data -= self.mean  # in place: a long corpus's frames are held once
         # the right singular vectors of the centred data are the principal axes
-        _, s, vt = np.linalg.svd(data - self.mean, full_matrices=False)
+        _, s, vt = np.linalg.svd(data, full_matrices=False)
         self.components = vt[:n]
         self.variance = (s[:n] ** 2) / (len(data) - 1)
         self.explained = self.variance / float((s**2).sum() / (len(data) - 1))
@@ -53,7 +54,9 @@ class Eigenlips:
 
     def project(self, mouths: np.ndarray) -> np.ndarray:
         """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
-        return (_flat(mouths) - self.mean) @ self.components.T
+        flat = _flat(mouths)
+        flat -= self.mean
+        return flat @ self.components.T
 
 
 def _flat(mouths: np.ndarray) -> np.ndarray:
@@ -67,4 +70,5 @@ def _flat(mouths: np.ndarray) -> np.ndarray:
     flat = np.asarray(mouths).reshape(len(mouths), -1).astype(np.float64)
     flat -= flat.mean(axis=1, keepdims=True)
     spread = flat.std(axis=1, keepdims=True)
-    return flat / np.where(spread > 0, spread, 1.0)
+    flat /= np.where(spread > 0, spread, 1.0)
+    return flat

@@ -103,6 +103,7 @@ def write_background(
     media: str,
     seconds: float = defaults.BACKGROUND_SECONDS,
     shortest: float = defaults.BACKGROUND_SHORTEST,
+    segments: str | os.PathLike[str] | None = None,
 ) -> dict:
     """Keep ``shortest`` to ``seconds`` of the reference clip as the model's background.
 
@@ -118,9 +119,12 @@ def write_background(
     corpus_dir : path
         Its corpus of clips (the reference, the face mask, the mouth box).
     media : str
-        The clips' media pattern with ``{id}``.
+        The clips' media pattern with ``{id}``, or the one video of a face whose
+        clips are its utterances (``segments``).
     seconds, shortest : float
         The most and the least of the clip to keep.
+    segments : path, optional
+        A one-video face's ``segments.json``: where the reference clip starts in ``media``.
 
     Returns
     -------
@@ -135,7 +139,12 @@ def write_background(
     corpus_dir = Path(corpus_dir)
     regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
     clip = regions["reference"]["clip"]
-    frames, fps = check_video(media.replace("{id}", clip))
+    if segments is not None:
+        from miketalk.corpus.one_video import read_utterance
+
+        frames, fps = read_utterance(segments, clip, media=media)
+    else:
+        frames, fps = check_video(media.replace("{id}", clip))
     stabilizer = corpus_stabilizer(corpus_dir)
     whole = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
     x, y, w, _h = stabilizer.mouth_box

@@ -78,7 +78,8 @@ def normalized(mouths: np.ndarray) -> np.ndarray:
     flat = np.asarray(mouths).reshape(len(mouths), -1).astype(np.float64)
     flat -= flat.mean(axis=1, keepdims=True)
     spread = flat.std(axis=1, keepdims=True)
-    return flat / np.where(spread > 0, spread, 1.0)
+    flat /= np.where(spread > 0, spread, 1.0)  # in place: a long corpus's frames held once
+    return flat
 
 
 def grey(frames: np.ndarray) -> np.ndarray:
@@ -252,16 +253,16 @@ def measure_frames(
 
     with ThreadPoolExecutor(max(1, workers)) as pool:
         list(pool.map(read, range(n)))
-    mouths = grey(patches[:, ry - py : ry - py + rh, rx - px : rx - px + rw])
-    data = normalized(mouths)
+    data = normalized(grey(patches[:, ry - py : ry - py + rh, rx - px : rx - px + rw]))
     if len(data) <= components:
         raise MiketalkError(f"{components} components need more frames than {len(data)}")
     mean = data.mean(axis=0)
-    s, comps = principal_axes(data - mean, components)
+    data -= mean  # centred in place: a long corpus's frames are held once
+    s, comps = principal_axes(data, components)
     # sign convention of the eigenlips: each axis points the way the mouth darkens
     darker = -np.sign(comps.sum(axis=1))
     comps = comps * np.where(darker == 0, 1.0, darker)[:, None]
-    coords = (data - mean) @ comps.T
+    coords = data @ comps.T
     mask = feather_mask(ph, pw)
     band = (mask > 0.02) & (mask < 0.98)
     border = patches[:, band].astype(np.float32).mean(axis=1)

@@ -1,0 +1,342 @@
+"""A person's corpus from one video and its transcript or subtitles: utterances cut at pauses.
+
+:func:`segment_video` is the first stage of a face whose corpus is one video
+(``corpus: {source: video, media: ..., transcript: ... | subtitles: ...}``):
+
+1. the transcript or subtitles are read (:mod:`miketalk.corpus.script`), and a
+   transcript whose words the aligner's English dictionary mostly lacks is
+   refused (another language);
+2. the video's sound is aligned in pieces (:func:`miketalk.speech.long_align.align_long`);
+   words that cannot be placed are reported (``unaligned`` in the file, and the
+   log) and their audio left out;
+3. the second pass's chunks, cut at pauses, are the utterances: each is a span
+   of whole frames of the video with its words (:class:`~miketalk.corpus.clip_sources.Clip`
+   with ``span``), so the rest is the clip corpus's own code: stabilization,
+   skipped-frame reporting, phones;
+4. the last ``heldout_seconds`` of the video are held out: an utterance that
+   starts there is a test utterance, one that ends before it a training one,
+   one across the boundary is used for neither (never interleaved).
+
+It writes ``segments.json``; :func:`video_clips` reads the training or test
+utterances back as clips.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.corpus.clip_sources import RATE, Clip
+from miketalk.corpus.script import read_script
+from miketalk.errors import MiketalkError
+from miketalk.media.atomic import write_text_atomic
+from miketalk.speech.word_timings import WordTiming
+
+log = logging.getLogger(__name__)
+
+#: The stage's file.
+SEGMENTS = "segments.json"
+
+#: Below this share of a transcript's words in the aligner's English dictionary,
+#: the transcript is taken for another language.
+MIN_ENGLISH_SHARE = 0.6
+
+#: Above this share of the words left unaligned, the transcript is taken for another video's.
+MAX_UNALIGNED_SHARE = 0.1
+
+#: A face's corpus needs at least this many of the 16 viseme classes spoken in its
+#: training part; the others borrow an image (data/viseme_fallbacks.tsv).
+MIN_VISEME_CLASSES = 10
+
+#: The least voiced audio (s) a video must have to be aligned at all.
+MIN_VOICED_SECONDS = 1.0
+
+
+def segment_video(
+    media: str | Path,
+    out: str | Path,
+    *,
+    transcript: str | Path | None = None,
+    subtitles: str | Path | None = None,
+    heldout_seconds: float = 0.0,
+    progress: Callable[[str], None] | None = None,
+    checked: VideoInputs | None = None,
+) -> dict:
+    """Align a video's words and cut it into utterances; write ``segments.json`` (``out``).
+
+    Parameters
+    ----------
+    media : path
+        The video (with sound).
+    out : path
+        The JSON file to write (atomically).
+    transcript, subtitles : path
+        Its plain transcript, or its ``.srt`` / ``.vtt`` subtitles (one of them).
+    heldout_seconds : float
+        The last seconds held out for the test (0: none).
+    progress : callable, optional
+        Called with short notes while the alignment runs.
+    checked : VideoInputs, optional
+        What :func:`check_video_inputs` gave for these inputs (not read again).
+
+    Returns
+    -------
+    dict
+        What the file holds.
+
+    Raises
+    ------
+    MiketalkError
+        One line for: a missing or unreadable video, no sound or no speech, a
+        transcript in another language or of another video, nothing left to
+        train on.
+    """
+    from miketalk.speech.long_align import align_long
+
+    video = checked or check_video_inputs(
+        media, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
+    )
+    media, cues, samples, fps = video.media, video.cues, video.samples, video.fps
+    duration, voiced = video.duration, video.voiced_seconds
+    found = align_long(samples, RATE, cues, progress=progress)
+    total = sum(len(c.words) for c in cues)
+    if len(found.unaligned) == total:
+        raise MiketalkError(
+            f"none of the {total} words can be aligned to the sound of {media.name}: it has "
+            "no speech (music?), or the transcript is another video's"
+        )
+    if len(found.unaligned) > MAX_UNALIGNED_SHARE * total:
+        raise MiketalkError(
+            f"{len(found.unaligned)} of the {total} words cannot be aligned to the speech of "
+            f"{media.name}: is the transcript this video's?"
+        )
+    if found.unaligned:
+        first = found.unaligned[0]
+        log.warning(
+            "%d of the %d words not aligned, their audio left out (listed in %s; the first: "
+            "word %d %r, %s)", len(found.unaligned), total, Path(out).name, first.index + 1,
+            first.word, first.why,
+        )  # fmt: skip
+    boundary = duration - heldout_seconds
+    utterances, k = [], 0
+    for number, (lo, hi, n) in enumerate(found.chunks, 1):
+        words = [w for _, w in found.words[k : k + n]]
+        k += n
+        a = min(math.ceil(lo * fps - 1e-6), math.floor(words[0].start * fps + 1e-6))
+        b = max(math.floor(hi * fps + 1e-6), math.ceil(words[-1].end * fps - 1e-6))
+        split = "train" if b / fps <= boundary + 1e-9 else "test" if a / fps >= boundary else None
+        utterances.append(
+            {
+                "id": f"u{number:04d}",
+                "first_frame": a,
+                "frames": b - a,
+                "start": round(a / fps, 6),
+                "end": round(b / fps, 6),
+                "split": split or "neither",
+                "text": " ".join(w.word for w in words),
+                "words": [
+                    [w.word, round(w.start - a / fps, 6), round(w.end - a / fps, 6)] for w in words
+                ],
+            }
+        )
+    if not any(u["split"] == "train" for u in utterances):
+        raise MiketalkError(
+            f"no utterance of {media.name} is left to train on before the held-out "
+            f"last {heldout_seconds:g} s"
+        )
+    doc = {
+        "media": str(media),
+        "fps": fps,
+        "size": list(video.size),
+        "duration": round(duration, 6),
+        "heldout_from": round(boundary, 6),
+        "words": total,
+        "voiced_seconds": round(voiced, 3),
+        "utterances": utterances,
+        "unaligned": [{"index": u.index, "word": u.word, "why": u.why} for u in found.unaligned],
+    }
+    write_text_atomic(Path(out), json.dumps(doc, indent=1) + "\n")
+    return doc
+
+
+@dataclass(frozen=True)
+class VideoInputs:
+    """A video and its script, checked: what :func:`segment_video` aligns."""
+
+    media: Path
+    cues: list
+    samples: np.ndarray
+    fps: float
+    size: tuple[int, int]
+    duration: float
+    voiced_seconds: float
+
+
+def check_video_inputs(
+    media: str | Path,
+    *,
+    transcript: str | Path | None = None,
+    subtitles: str | Path | None = None,
+    heldout_seconds: float = 0.0,
+) -> VideoInputs:
+    """Read and check a video and its script before any work (see :func:`segment_video`).
+
+    Raises
+    ------
+    MiketalkError
+        One line: a missing or unreadable video or script, another language, no
+        face or several, no speech, everything held out.
+    """
+    from miketalk.media.decode import read_media_audio, read_video
+    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+
+    media = Path(media)
+    if not media.is_file():
+        raise MiketalkError(f"video not found: {media}")
+    if heldout_seconds < 0:
+        raise MiketalkError(f"heldout_seconds must be >= 0, got {heldout_seconds}")
+    cues = read_script(transcript=transcript, subtitles=subtitles)
+    _check_english(cues)
+    first, fps = read_video(media, frames=1)
+    samples = read_media_audio(media, rate=RATE)
+    duration = len(samples) / RATE
+    if heldout_seconds >= duration:
+        raise MiketalkError(
+            f"heldout_seconds ({heldout_seconds:g}) holds out all of the {duration:.1f} s video"
+        )
+    _check_face(media, duration)
+    voiced = float(voiced_frames(samples, RATE).sum() * HOP_SECONDS)
+    if voiced < MIN_VOICED_SECONDS:
+        raise MiketalkError(f"{media} has no speech ({voiced:.1f} s of voiced sound)")
+    size = (int(first.shape[1]), int(first.shape[2]))
+    return VideoInputs(media, cues, samples, fps, size, duration, voiced)
+
+
+def video_clips(segments: str | Path, split: str, *, media: str | Path | None = None) -> list[Clip]:
+    """The utterances of ``split`` (``train`` or ``test``) in ``segments.json``, as clips.
+
+    ``media`` (default: the file named in ``segments.json``) is where they are cut from.
+    """
+    doc = json.loads(Path(segments).read_text(encoding="utf-8"))
+    media = Path(media or doc["media"])
+    return [
+        Clip(
+            u["id"],
+            media,
+            u["text"],
+            span=(u["first_frame"], u["frames"]),
+            fps=float(doc["fps"]),
+            given_words=tuple(WordTiming(w, a, b) for w, a, b in u["words"]),
+        )
+        for u in doc["utterances"]
+        if u["split"] == split
+    ]
+
+
+def _check_face(media: Path, duration: float) -> None:
+    """Refuse a video that does not show one face (:mod:`miketalk.stabilize.faces`)."""
+    from miketalk.media.decode import read_video
+    from miketalk.stabilize.faces import SAMPLES, check_one_face
+
+    times = (np.arange(SAMPLES) + 0.5) * duration / SAMPLES
+    frames = [read_video(media, start=float(t), frames=1)[0][0] for t in times]
+    check_one_face(frames, source=media.name)
+
+
+#: The most common words of English and of the languages a transcript is most often in
+#: instead (a word on two lists counts for both).
+_COMMON = {
+    "English": "the and of to is that it was for you with this have not are but they be he "
+    "she what there his her we would could should from which",
+    "French": "le la les et est une des du pas que qui dans pour sur au avec je vous nous il "
+    "elle ce mais ou sont",
+    "Spanish": "el los las y es una del que en por para con se lo su al pero como muy",
+    "German": "der die das und ist ein eine nicht mit den dem zu ich sie es auf für auch",
+    "Italian": "il di che è per una sono della non gli con del mi ti ci anche",
+    "Portuguese": "os as um uma não com para que por mais como mas ao dos das",
+    "Dutch": "de het een en van niet met op zijn voor ik je dat wat",
+}
+
+
+def _check_english(cues) -> None:
+    """Refuse a script in another language: its common words are another language's, or
+    the aligner's English dictionary lacks most of its words."""
+    from miketalk.speech.align.decoder import _LOCK, _shared_aligner
+
+    tokens = [w for c in cues for w in c.words]
+    counts = {
+        lang: sum(w in set(common.split()) for w in tokens) for lang, common in _COMMON.items()
+    }
+    likely = max(counts, key=counts.get)
+    if likely != "English" and counts[likely] > max(2, 2 * counts["English"]):
+        raise MiketalkError(
+            f"the transcript looks like {likely}, another language ({counts[likely]} of its "
+            f"{len(tokens)} words are common {likely} words): the aligner is English only"
+        )
+    words = sorted(set(tokens))
+    with _LOCK:
+        aligner = _shared_aligner()
+        known = sum(aligner.in_dictionary(w) for w in words)
+        said = [aligner.decoder.lookup_word(w) for w in words]
+    if known < MIN_ENGLISH_SHARE * len(words):
+        raise MiketalkError(
+            f"only {known} of the {len(words)} different words of the transcript are English "
+            "words the aligner knows: is it in another language? (the aligner is English only)"
+        )
+    _check_classes_said(said, len(tokens))
+
+
+def _check_classes_said(pronunciations, words: int) -> None:
+    """Refuse, before any work, a script whose words (by the dictionary) cannot show
+    :data:`MIN_VISEME_CLASSES` viseme classes even if all of it is aligned."""
+    from miketalk.visemes import SILENCE, VisemeTable
+
+    table = VisemeTable()
+    classes: set[str] = set()
+    for phone in {p.lower().rstrip("012") for said in pronunciations if said for p in said.split()}:
+        try:
+            classes |= set(table.visemes_of(phone))
+        except (KeyError, MiketalkError):
+            continue
+    classes.discard(SILENCE)
+    if len(classes) < MIN_VISEME_CLASSES:
+        raise MiketalkError(
+            f"too little speech for the viseme classes: the script's {words} words show "
+            f"{len(classes)} of the classes, at least {MIN_VISEME_CLASSES} are needed: give a "
+            "longer video"
+        )
+
+
+def face_clips(corpus: dict, split: str, *, segments: str | Path | None = None) -> list[Clip]:
+    """A face's clips of ``split``: its utterances (``segments.json``) or its listed clips.
+
+    ``corpus`` is the face's corpus settings (paths absolute); ``segments`` the
+    segment stage's file of a face from one video.
+    """
+    from miketalk.corpus.clip_sources import clip_sources
+
+    if segments is not None:
+        return video_clips(segments, split, media=corpus["media"])
+    return clip_sources(
+        corpus[split],
+        media=corpus["media"],
+        transcripts=corpus["transcripts"],
+        timings=corpus["timings"],
+    )
+
+
+def read_utterance(segments: str | Path, clip: str, *, media: str | Path | None = None):
+    """The frames and frame rate of utterance ``clip`` of ``segments.json``."""
+    from miketalk.media.decode import read_video
+
+    doc = json.loads(Path(segments).read_text(encoding="utf-8"))
+    for u in doc["utterances"]:
+        if u["id"] == clip:
+            return read_video(media or doc["media"], start=u["start"], frames=u["frames"])
+    raise MiketalkError(f"{segments}: no utterance {clip}")

@@ -1,0 +1,352 @@
+"""Words of a long recording placed in pieces: a first pass finds chunks, a second aligns each.
+
+A forced aligner given minutes of audio and a whole transcript is slow and
+fragile: one word that is not said (or said differently) stops it. Long-form
+aligners (SAIL, Moreno et al. 1998; aeneas; Gentle) first find anchors, then
+align the pieces between them. Here:
+
+1. **First pass.** Subtitle cues are pieces already (each cue's words in its
+   span, widened by :data:`CUE_MARGIN`). A plain transcript is aligned whole by
+   a coarse aligner (pocketsphinx with its default beams:
+   :func:`miketalk.speech.align.decoder.coarse_word_spans`, 18 s and 190 MB for
+   10 minutes of speech); when that fails, the audio is split
+   at the pause nearest its middle and the words in proportion to their letters,
+   as the voiced sound is on either side of the pause, and each half is aligned
+   the same way, down to pieces of one word, which are then reported as
+   unaligned. A word given to the wrong side of a split is squeezed or stretched
+   there: the second pass finds it and leaves its chunk out.
+2. **Chunks.** The first pass's words are cut into chunks wherever two
+   neighbours are :data:`CHUNK_PAUSE` apart (a breath between phrases), and at
+   most :data:`CHUNK_SECONDS` long.
+3. **Second pass.** Each chunk's words are aligned again in the chunk's own
+   audio, with a little silence each side (where the aligner is at its best,
+   see :mod:`miketalk.speech.align.phones`). A chunk that fails, or whose words
+   leave more than :data:`~miketalk.speech.coverage.UNEXPLAINED_LIMIT` of its
+   voiced audio unexplained, loses its words: they are reported as unaligned
+   (:attr:`LongAlignment.unaligned`) and their span is left out, never forced.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.word_timings import WordTiming
+
+log = logging.getLogger(__name__)
+
+#: A gap between two aligned words at least this long (s) may end a chunk.
+CHUNK_PAUSE = 0.25
+#: The longest chunk of the second pass (s).
+CHUNK_SECONDS = 12.0
+#: Audio kept each side of a chunk's words, at most (s), and half the gap to a neighbour.
+CHUNK_MARGIN = 0.8
+#: Audio kept on the side of a chunk where a word could not be placed (s).
+MISSING_MARGIN = 0.1
+#: A subtitle cue's words are looked for this far (s) outside its span.
+CUE_MARGIN = 0.5
+#: A word of the second pass whose loud frames (its 90th percentile level) are less than
+#: this many dB above the chunk's quiet (10th percentile) is not said there.
+SILENT_DB = 10.0
+#: ... or whose phones (four or more) last this long (s) or less each: the aligner's
+#: shortest phone is 30 ms, and a word that is not said gets squeezed to it.
+SQUEEZED_PHONE = 0.035
+
+
+@dataclass(frozen=True)
+class Unaligned:
+    """A word that was not placed: its index in the script, the word, and why."""
+
+    index: int
+    word: str
+    why: str
+
+
+@dataclass(frozen=True)
+class LongAlignment:
+    """The words placed in a recording, and the ones that could not be.
+
+    Attributes
+    ----------
+    words : tuple of (int, WordTiming)
+        Each placed word's index in the script and its span (recording time), in order.
+    unaligned : tuple of Unaligned
+        The words left out, with why.
+    chunks : tuple of (float, float, int)
+        The audio span of each chunk of the second pass and how many of
+        ``words`` (the next ones) it holds.
+    """
+
+    words: tuple[tuple[int, WordTiming], ...]
+    unaligned: tuple[Unaligned, ...]
+    chunks: tuple[tuple[float, float, int], ...]
+
+
+Progress = Callable[[str], None]
+
+
+def align_long(
+    samples: np.ndarray,
+    rate: int,
+    cues: Sequence,
+    *,
+    progress: Progress | None = None,
+) -> LongAlignment:
+    """Place the words of ``cues`` (:class:`miketalk.corpus.script.Cue`) in a long recording.
+
+    Parameters
+    ----------
+    samples : numpy.ndarray
+        Mono int16 audio.
+    rate : int
+        Its sample rate.
+    cues : sequence of Cue
+        A plain transcript (one cue without times) or subtitle cues.
+    progress : callable, optional
+        Called with a short note after each piece (for a progress bar).
+
+    Returns
+    -------
+    LongAlignment
+    """
+    duration = len(samples) / rate
+    note = progress or (lambda _: None)
+    words: list[str] = []
+    pieces: list[tuple[float, float, list[int]]] = []
+    for i, cue in enumerate(cues):
+        first = len(words)
+        words += cue.words
+        indices = list(range(first, len(words)))
+        if cue.start is None:
+            pieces.append((0.0, duration, indices))
+        else:
+            lo = max(0.0, cue.start - CUE_MARGIN)
+            if i > 0 and cues[i - 1].end is not None:
+                lo = max(lo, min(cue.start, (cues[i - 1].end + cue.start) / 2))
+            hi = min(duration, cue.end + CUE_MARGIN)
+            if i + 1 < len(cues) and cues[i + 1].start is not None:
+                hi = min(hi, max(cue.end, (cue.end + cues[i + 1].start) / 2))
+            pieces.append((lo, hi, indices))
+    unaligned: list[Unaligned] = []
+    first_pass: list[tuple[int, WordTiming]] = []
+    for lo, hi, indices in pieces:
+        if hi - lo < 0.1:
+            unaligned += [Unaligned(i, words[i], "its cue lies outside the audio") for i in indices]
+            continue
+        first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned)
+        note(f"first pass {hi:.0f}/{duration:.0f} s")
+    placed, chunks = [], []
+    missing = {u.index for u in unaligned}
+    for group in _chunks(first_pass, missing):
+        lo, hi = _chunk_span(group, first_pass, duration, missing)
+        try:
+            group, spans = _second_pass(samples, rate, lo, hi, group, words, unaligned)
+        except MiketalkError as err:
+            why = f"the second pass failed in {lo:.2f}..{hi:.2f} s ({err})"
+            unaligned += [Unaligned(i, words[i], why) for i, _ in group]
+            continue
+        placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
+        chunks.append((lo, hi, len(group)))
+        note(f"second pass {hi:.0f}/{duration:.0f} s")
+    unaligned.sort(key=lambda u: u.index)
+    for u in unaligned:
+        log.info("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
+    return LongAlignment(tuple(placed), tuple(unaligned), tuple(chunks))
+
+
+class _SilentWords(MiketalkError):
+    """Words the aligner put where there is no voiced sound (their positions in the chunk)."""
+
+    def __init__(self, message: str, positions: list[int]) -> None:
+        super().__init__(message)
+        self.positions = positions
+
+
+def _second_pass(
+    samples: np.ndarray,
+    rate: int,
+    lo: float,
+    hi: float,
+    group: list[tuple[int, WordTiming]],
+    words: list[str],
+    unaligned: list[Unaligned],
+) -> tuple[list[tuple[int, WordTiming]], list[WordTiming]]:
+    """A chunk aligned again in its own audio; a word placed over silence (a word of the
+    script that is not said) is dropped, reported, and the rest aligned once more."""
+    try:
+        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group], True)
+    except _SilentWords as err:
+        if len(err.positions) == len(group):
+            raise
+        why = f"it is not said in {lo:.2f}..{hi:.2f} s (the aligner put it over silence)"
+        unaligned += [Unaligned(group[k][0], words[group[k][0]], why) for k in err.positions]
+        group = [g for k, g in enumerate(group) if k not in err.positions]
+        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group], True)
+
+
+def _align_span(
+    samples: np.ndarray,
+    rate: int,
+    lo: float,
+    hi: float,
+    words: Sequence[str],
+    silence_check: bool = False,
+) -> list[WordTiming]:
+    """``words`` aligned in ``[lo, hi)`` of the audio, in recording time.
+
+    Raises
+    ------
+    MiketalkError
+        The aligner cannot place them, they leave much of the span's voiced
+        audio unexplained (:mod:`miketalk.speech.coverage`), or (with
+        ``silence_check``) one lies over silence or is squeezed between the
+        words around it (:data:`SILENT_DB`, :data:`SQUEEZED_PHONE`, :class:`_SilentWords`).
+    """
+    from miketalk.speech.align import align
+    from miketalk.speech.audio_align import HOP, energy_db
+    from miketalk.speech.coverage import speech_coverage
+
+    part = samples[round(lo * rate) : round(hi * rate)]
+    result = align(part, rate, words)
+    coverage = speech_coverage(part, rate, result.phones)
+    if coverage.mismatch and coverage.voiced_seconds > 0.5:
+        raise MiketalkError(
+            f"the words leave {100 * coverage.unexplained_share:.0f} % of the voiced audio "
+            "unexplained"
+        )
+    if silence_check:
+        level = energy_db(part, rate)  # every 10 ms
+        floor = np.percentile(level, 10)
+        silent = []
+        for k, w in enumerate(result.words):
+            inside = level[int(w.start / HOP) : max(int(w.start / HOP) + 1, int(w.end / HOP))]
+            phones = [p for p in result.phones if w.start - 1e-6 <= p.start < w.end - 1e-6]
+            squeezed = len(phones) >= 4 and w.end - w.start <= SQUEEZED_PHONE * len(phones)
+            if squeezed or (inside.size and np.percentile(inside, 90) < floor + SILENT_DB):
+                silent.append(k)
+        if silent:
+            names = ", ".join(repr(words[k]) for k in silent)
+            raise _SilentWords(f"{names} would lie over silence", silent)
+    return [WordTiming(w.word, w.start + lo, w.end + lo) for w in result.words]
+
+
+def _first_pass(
+    samples: np.ndarray,
+    rate: int,
+    lo: float,
+    hi: float,
+    indices: list[int],
+    words: list[str],
+    unaligned: list[Unaligned],
+) -> list[tuple[int, WordTiming]]:
+    """The words ``indices`` placed in ``[lo, hi)``: whole, else halves (see the module)."""
+    if not indices:
+        return []
+    try:
+        spans = _coarse_span(samples, rate, lo, hi, [words[i] for i in indices])
+        return list(zip(indices, spans, strict=True))
+    except MiketalkError as err:
+        failure = str(err)
+    cut = _pause_near_middle(samples, rate, lo, hi)
+    if len(indices) < 2 or cut is None:
+        why = f"cannot be placed in {lo:.2f}..{hi:.2f} s ({failure})"
+        unaligned += [Unaligned(i, words[i], why) for i in indices]
+        return []
+    letters = np.cumsum([len(words[i]) + 2 for i in indices])
+    share = _voiced_share(samples, rate, lo, cut, hi)
+    k = int(np.clip(np.searchsorted(letters, share * letters[-1]), 1, len(indices) - 1))
+    return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned) + _first_pass(
+        samples, rate, cut, hi, indices[k:], words, unaligned
+    )
+
+
+def _coarse_span(
+    samples: np.ndarray, rate: int, lo: float, hi: float, words: Sequence[str]
+) -> list[WordTiming]:
+    """``words`` placed in ``[lo, hi)`` by the coarse aligner (recording time)."""
+    from miketalk.speech.align.decoder import _LOCK, _shared_aligner, _to_pcm, coarse_word_spans
+    from miketalk.speech.align.pronounce import _check_word, _pronunciations, _to_arpabet
+
+    clean = [_check_word(w) for w in words]
+    with _LOCK:
+        extra = _pronunciations(clean, _shared_aligner(), None)
+    arpabet = {w: _to_arpabet(w, p) for w, p in extra.items()}
+    pcm = _to_pcm(samples[round(lo * rate) : round(hi * rate)], rate).tobytes()
+    spans, frate = coarse_word_spans(pcm, clean, arpabet)
+    if len(spans) != len(clean):
+        raise MiketalkError("the coarse pass placed other words")
+    return [
+        WordTiming(w, lo + a / frate, lo + (b + 1) / frate)
+        for w, (a, b) in zip(clean, spans, strict=True)
+    ]
+
+
+def _voiced_share(samples: np.ndarray, rate: int, lo: float, cut: float, hi: float) -> float:
+    """The share of the voiced sound of ``[lo, hi)`` that comes before ``cut``."""
+    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+
+    voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
+    if not voiced.any():
+        return (cut - lo) / (hi - lo)
+    return float(voiced[: int((cut - lo) / HOP_SECONDS)].sum() / voiced.sum())
+
+
+def _pause_near_middle(samples: np.ndarray, rate: int, lo: float, hi: float) -> float | None:
+    """The middle of the quiet stretch nearest the middle of ``[lo, hi)``, or None."""
+    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+
+    voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
+    quiet = np.flatnonzero(~voiced)
+    if quiet.size == 0:
+        return None
+    middle = (hi - lo) / 2 / HOP_SECONDS
+    best = quiet[np.argmin(np.abs(quiet - middle))]
+    t = lo + best * HOP_SECONDS
+    return t if lo + 0.5 < t < hi - 0.5 else None
+
+
+def _chunks(
+    first_pass: list[tuple[int, WordTiming]], missing: set[int]
+) -> list[list[tuple[int, WordTiming]]]:
+    """The first pass's words in chunks: cut at pauses, at unaligned words, at the length cap."""
+    groups: list[list[tuple[int, WordTiming]]] = []
+    for i, w in first_pass:
+        if groups:
+            j, last = groups[-1][-1]
+            gap = w.start - last.end
+            skipped = any(k in missing for k in range(j + 1, i))
+            long = w.end - groups[-1][0][1].start > CHUNK_SECONDS
+            if gap < CHUNK_PAUSE and not skipped and not long:
+                groups[-1].append((i, w))
+                continue
+        groups.append([(i, w)])
+    return groups
+
+
+def _chunk_span(
+    group: list[tuple[int, WordTiming]],
+    first_pass: list[tuple[int, WordTiming]],
+    duration: float,
+    missing: set[int],
+) -> tuple[float, float]:
+    """A chunk's audio: its words with up to :data:`CHUNK_MARGIN` each side, never
+    past half the gap to the neighbouring chunk's words, and only
+    :data:`MISSING_MARGIN` towards a word that was not placed (its audio is
+    somewhere in that gap)."""
+    starts = [w.start for _, w in first_pass]
+    ends = [w.end for _, w in first_pass]
+    first, last = group[0][1], group[-1][1]
+    k = starts.index(first.start)
+    before = ends[k - 1] if k > 0 else 0.0
+    after = starts[k + len(group)] if k + len(group) < len(starts) else duration
+    lo = max(0.0, first.start - CHUNK_MARGIN, (before + first.start) / 2)
+    hi = min(duration, last.end + CHUNK_MARGIN, (last.end + after) / 2)
+    if group[0][0] - 1 in missing:
+        lo = max(lo, first.start - MISSING_MARGIN)
+    if group[-1][0] + 1 in missing:
+        hi = min(hi, last.end + MISSING_MARGIN)
+    return lo, hi

@@ -1,0 +1,64 @@
+"""How many faces a video shows: one person talking, or a mistake (none, several).
+
+A face is built from one person's frontal face. :func:`check_one_face` counts
+faces with dlib's frontal face detector (HOG, shipped inside dlib: no model
+file) in a few frames spread over the video, and refuses a video where most of
+them show no face, or several. dlib comes with miketalk's ``evaluation`` extra
+(``make setup`` installs it); without it the check is skipped with a warning,
+and the stabilizer's own rules (:mod:`miketalk.stabilize.locate`) are the only ones.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+
+log = logging.getLogger(__name__)
+
+#: Frames looked at, spread evenly over the video.
+SAMPLES = 7
+
+
+def count_faces(frame: np.ndarray, detector=None) -> int:
+    """The number of frontal faces dlib finds in an RGB frame (upsampled once)."""
+    detector = detector or _detector()
+    return len(detector(np.ascontiguousarray(frame), 1))
+
+
+def check_one_face(frames: Sequence[np.ndarray], *, source: str) -> list[int]:
+    """Refuse frames of which most show no face or several; the count in each.
+
+    Raises
+    ------
+    MiketalkError
+        One line naming ``source``: no face in most frames, or several.
+    """
+    detector = _detector()
+    if detector is None:
+        log.warning("dlib is not installed: %s is not checked for one face", source)
+        return []
+    counts = [count_faces(f, detector) for f in frames]
+    majority = len(counts) // 2 + 1
+    if sum(c == 0 for c in counts) >= majority:
+        raise MiketalkError(
+            f"no face found in {source} ({sum(c == 0 for c in counts)} of {len(counts)} frames "
+            "looked at show none): it needs one person's frontal face"
+        )
+    if sum(c > 1 for c in counts) >= majority:
+        raise MiketalkError(
+            f"several faces in {source} (up to {max(counts)} in one frame): it needs one "
+            "person's face alone in the picture; crop the video to that person"
+        )
+    return counts
+
+
+def _detector():
+    try:
+        import dlib
+    except ImportError:
+        return None
+    return dlib.get_frontal_face_detector()

@@ -1,0 +1,144 @@
+"""``miketalk build``: a model from one video (s1's clips joined at test time), then say and dub.
+
+The video is the .test face s1's six committed GRID clips joined (18 s, the
+``s1_joined`` fixture of conftest.py), its last 6 s held out (``s1_built``); the
+model it makes must be one that ``say``, ``say --audio`` and ``dub`` take.
+Bad input is one line, exit status 2, and nothing written.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from miketalk import cli, defaults
+from miketalk.speech import FestivalBackend
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "data" / "grid_s1"
+
+needs_festival = pytest.mark.skipif(
+    not FestivalBackend().is_available(), reason="Festival not installed"
+)
+
+
+def test_the_build_flows_are_the_workflows_defaults() -> None:
+    schema = yaml.safe_load((ROOT / "workflow/schemas/config.schema.yaml").read_text())
+    flow = schema["properties"]["flow"]["properties"]
+    assert flow["methods"]["default"]["bergen"] == defaults.BUILD_FLOW_METHOD
+    assert flow["strategy"]["default"] == defaults.BUILD_FLOW_STRATEGY
+    assert flow["mixed_window"]["default"] == defaults.BUILD_MIXED_WINDOW
+
+
+def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
+    code = cli.main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def joined(s1_joined):
+    return s1_joined
+
+
+@pytest.fixture(scope="module")
+def built(s1_built: Path) -> Path:
+    return s1_built
+
+
+@pytest.mark.slow
+def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
+    manifest = json.loads((built / "manifest.json").read_text())
+    assert manifest["size"] == [288, 360]
+    segments = json.loads((built / "build" / "segments.json").read_text())
+    splits = [u["split"] for u in segments["utterances"]]
+    assert splits == ["train"] * 4 + ["test"] * 2
+    assert (built / "background").is_dir() and (built / "coarticulation.json").is_file()
+    assert not list(built.parent.glob(".model.build-*"))  # the work folder is gone
+
+
+@pytest.mark.slow
+@needs_festival
+def test_say_and_dub_take_the_built_model(
+    built: Path, joined, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = _run(
+        capsys,
+        "say",
+        "Bin blue at F two now.",
+        "--model",
+        str(built),
+        "-o",
+        str(tmp_path / "a.mp4"),
+    )
+    assert code == 0, err
+    code, _, err = _run(
+        capsys, "say", "--audio", str(DATA / "video" / "bbas3a.mpg"), "--text",
+        "bin blue at s three again", "--model", str(built), "--lipsync-model", "learned",
+        "-o", str(tmp_path / "b.mp4"),
+    )  # fmt: skip
+    assert code == 0, err
+    code, _, err = _run(
+        capsys, "dub", str(DATA / "video" / "srau3s.mpg"), "--text", "Hello world.",
+        "--model", str(built), "-o", str(tmp_path / "c.mp4"),
+    )  # fmt: skip
+    assert code == 0, err
+    assert all((tmp_path / f"{n}.mp4").stat().st_size > 0 for n in "abc")
+
+
+@pytest.mark.slow
+def test_an_existing_model_needs_force(
+    built: Path, joined, capsys: pytest.CaptureFixture[str]
+) -> None:
+    before = (built / "manifest.json").read_bytes()
+    code, _, err = _run(
+        capsys, "build", str(joined.video), "--transcript", str(joined.transcript), "-o", str(built)
+    )
+    assert code == 2 and err.count("\n") == 1 and "--force" in err
+    assert (built / "manifest.json").read_bytes() == before
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["nothere.mp4", "--transcript", "{transcript}"], "video not found"),
+        (["{video}", "--transcript", "{french}"], "another language"),
+        (["{video}"], "--transcript or its --subtitles"),
+        (["{video}", "--subtitles", "{transcript}"], "must be .srt or .vtt"),
+        (["{video}", "--transcript", "{transcript}", "--heldout-seconds", "60"], "holds out all"),
+        (["{video}", "--transcript", "{short}"], "too little speech for the viseme classes"),
+        (["{video}", "--subtitles", "{empty}"], "has no words"),
+        (["{text}", "--transcript", "{transcript}"], "could not decode"),
+    ],
+    ids=[
+        "no-video",
+        "french",
+        "no-script",
+        "not-subtitles",
+        "all-held-out",
+        "too-little",
+        "empty-subtitles",
+        "not-a-video",
+    ],
+)
+def test_bad_input_is_one_line_and_nothing_written(
+    joined, tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    french = tmp_path / "fr.txt"
+    french.write_text("Le chat est sur la table et il ne dort pas. Nous avons une maison.")
+    short, empty, text = tmp_path / "short.txt", tmp_path / "empty.srt", tmp_path / "text.mp4"
+    short.write_text("Bin blue at F two now.")  # 9 of the 16 viseme classes
+    empty.write_text("")
+    text.write_text("not a video")
+    names = {"video": joined.video, "transcript": joined.transcript, "french": french,
+             "short": short, "empty": empty, "text": text}  # fmt: skip
+    model = tmp_path / "out" / "model"
+    code, _, err = _run(
+        capsys, "build", *[a.format(**names) for a in args], "-o", str(model), "--quiet"
+    )
+    assert code == 2, err
+    assert err.count("\n") == 1 and message in err, err
+    assert not model.exists() and not list((tmp_path / "out").glob(".*"))
