@@ -18,6 +18,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures.process import BrokenProcessPool
 from itertools import pairwise
 from pathlib import Path
 
@@ -747,3 +748,46 @@ def test_a_signal_handled_inside_a_deferred_block_is_held_until_it_ends(signum: 
             ran.append("rest of the block")
     assert ran == ["rest of the block"]
     assert getattr(raised.value, "signum", signal.SIGINT) == signum
+
+
+def _failing_cli(monkeypatch: pytest.MonkeyPatch, failure: BaseException):
+    """The CLI's entry module, with every subcommand raising ``failure``."""
+    import argparse
+    import importlib
+
+    cli_main = importlib.import_module("miketalk.cli.main")
+
+    def fail(_args: argparse.Namespace) -> int:
+        raise failure
+
+    parser = cli_main.build_parser()
+    monkeypatch.setattr(
+        parser, "parse_args", lambda _argv: argparse.Namespace(verbose=False, func=fail)
+    )
+    monkeypatch.setattr(cli_main, "build_parser", lambda: parser)
+    return cli_main
+
+
+@pytest.mark.parametrize(
+    ("failure", "line"),
+    [
+        (OSError(28, "No space left on device", "/full/x.mp4"),
+         "miketalk: error: no space left on the disk: /full/x.mp4"),
+        (BrokenProcessPool("a child process terminated abruptly"),
+         "miketalk: error: a worker process died"),
+    ],
+    ids=["disk-full", "worker-killed"],
+)  # fmt: skip
+def test_a_full_disk_or_a_killed_worker_is_one_line_not_a_traceback(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, failure: Exception, line: str
+) -> None:
+    cli_main = _failing_cli(monkeypatch, failure)
+    assert cli_main.main(["phones", "x"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(line), err
+
+
+def test_other_os_errors_are_not_hidden(monkeypatch: pytest.MonkeyPatch) -> None:
+    cli_main = _failing_cli(monkeypatch, PermissionError(13, "Permission denied"))
+    with pytest.raises(PermissionError):
+        cli_main.main(["phones", "x"])

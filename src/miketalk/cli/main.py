@@ -4,14 +4,19 @@ Every user mistake (a bad setting, an output that cannot be written, a text
 Festival cannot read, a broken model) is one line on stderr and exit status 2,
 found before the work starts where it can be. stdout carries only the result
 (:mod:`miketalk.console`); ``-v`` logs progress and timings on stderr.
-SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind.
+SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind. A full disk
+or a worker process killed under it (by the kernel, when memory runs out) is one line and
+exit status 1: not the user's mistake, but not a traceback either; outputs are written
+atomically, so nothing half-written is left.
 """
 
 from __future__ import annotations
 
+import errno
 import logging
 import sys
 from collections.abc import Sequence
+from concurrent.futures.process import BrokenProcessPool
 
 from miketalk.cli.parser import build_parser
 from miketalk.console import handle_termination, native_output_logged
@@ -45,6 +50,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 128 + signum
+        except BrokenProcessPool:
+            print(
+                "miketalk: error: a worker process died (killed when memory or disk "
+                "ran out?); the output was not written",
+                file=sys.stderr,
+            )
+            return 1
         except BrokenPipeError:
             # the reader went away (e.g. `| head`): stop quietly
             import contextlib
@@ -54,3 +66,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation):
                 os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
             return 0
+        except OSError as err:
+            if err.errno not in (errno.ENOSPC, errno.EDQUOT):
+                raise
+            where = f": {err.filename}" if err.filename else ""
+            print(f"miketalk: error: no space left on the disk{where}", file=sys.stderr)
+            return 1
