@@ -188,6 +188,33 @@ def test_trained_face_learns_and_draws_a_new_sentence(tmp_path: Path) -> None:
     assert np.corrcoef(dark, truth)[0, 1] > 0.8
 
 
+def test_a_trained_face_fitted_before_the_cross_validated_gain_still_draws(
+    tmp_path: Path,
+) -> None:
+    """A ``trained.json`` written before ``cv_gain`` and ``amplitude_gain_cv`` existed is
+    read with the fitted gain it was made with, and draws the same target as then."""
+    import json
+
+    corpus = _synthetic_corpus(tmp_path)
+    fit_trained(corpus, tmp_path / "model", components=6)
+    now = read_trained(tmp_path / "model")
+    manifest = tmp_path / "model" / "trained" / "trained.json"
+    doc = json.loads(manifest.read_text())
+    for fit in doc["fit"].values():
+        if isinstance(fit, dict):
+            fit.pop("amplitude_gain_cv", None)
+    doc["selection"].pop("cv_gain")
+    manifest.write_text(json.dumps(doc))
+    old = read_trained(tmp_path / "model")
+    assert old.selection.cv_gain is False
+    phones = _sentence(np.random.default_rng(7))
+    timeline = plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
+    as_then = type(now)(**(now.__dict__ | {"selection": old.selection}))
+    assert np.array_equal(old.target(timeline), as_then.target(timeline))
+    assert not np.array_equal(old.target(timeline), now.target(timeline))
+    assert old.plan(timeline)
+
+
 def test_a_model_without_a_trained_face_is_refused_in_one_line(tmp_path: Path) -> None:
     with pytest.raises(MiketalkError, match="no trained face") as err:
         read_trained(tmp_path)

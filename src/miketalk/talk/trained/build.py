@@ -348,7 +348,9 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
             )
             for name in TRAJECTORIES
         }
-        selection = SelectionSettings(**doc["selection"])
+        # a face fitted before the cross-validated gain has no amplitude_gain_cv: it keeps
+        # the fitted gain it was made with (its other later settings default to the old ways)
+        selection = SelectionSettings(**({"cv_gain": False} | doc["selection"]))
         table = VisemeTable(grouping=doc.get("grouping") or None)
         default = str(doc["default"])
     except (OSError, ValueError, KeyError, TypeError) as err:
