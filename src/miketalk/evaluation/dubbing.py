@@ -45,7 +45,6 @@ __all__ = [
     "dub_measures",
     "jitter_measures",
     "nose_jitter",
-    "nose_positions",
     "psnr_frames",
     "seam_ratio",
 ]
@@ -147,39 +146,6 @@ def nose_jitter(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) ->
         moves.append(np.median(flow, axis=0))
     m = np.asarray(moves)
     return float(np.sqrt(np.mean((m * m).sum(axis=1)))) if len(m) else 0.0
-
-
-def nose_positions(
-    frames: np.ndarray, reference: np.ndarray, mouth_box: tuple[int, int, int, int]
-) -> np.ndarray:
-    """Where the reference's nose is in each frame: (N, 2) ``x, y`` pixels.
-
-    The nose (0.5 mouth widths either side of the mouth's centre, from 0.8 to
-    0.1 widths above the mouth box) is found by normalized cross-correlation
-    (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``) over the whole frame, the
-    peak refined to a fraction of a pixel by a parabola through it and its
-    neighbours: a tracker independent of the stabilization.
-    """
-    x, y, w, _ = mouth_box
-    cx = x + w / 2
-    x0, x1 = round(cx - 0.5 * w), round(cx + 0.5 * w)
-    y0, y1 = round(y - 0.8 * w), round(y - 0.1 * w)
-    template = cv2.cvtColor(np.ascontiguousarray(reference[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
-    out = np.empty((len(frames), 2))
-    for i, frame in enumerate(frames):
-        score = cv2.matchTemplate(
-            cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY), template, cv2.TM_CCOEFF_NORMED
-        )
-        _, _, _, (px, py) = cv2.minMaxLoc(score)
-        dx = dy = 0.0
-        if 0 < px < score.shape[1] - 1:
-            left, mid, right = score[py, px - 1 : px + 2]
-            dx = 0.5 * (left - right) / (left - 2 * mid + right + 1e-12)
-        if 0 < py < score.shape[0] - 1:
-            up, mid, down = score[py - 1 : py + 2, px]
-            dy = 0.5 * (up - down) / (up - 2 * mid + down + 1e-12)
-        out[i] = px + dx + (x1 - x0) / 2, py + dy + (y1 - y0) / 2
-    return out
 
 
 def dub_measures(
