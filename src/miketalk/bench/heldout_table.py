@@ -29,22 +29,27 @@ MEASURES = (
 
 def tables(clips: pd.DataFrame, *, model: str, against: str = "morph") -> tuple[str, str]:
     """The two Markdown tables (see the module docstring) of one held-out ``clips.csv``."""
+    from miketalk.evaluation.landmark_scores import paired_differences
+
     rows = clips[clips["model"] == model]
-    base = rows[rows["renderer"] == against].set_index("clip")
+    margins = paired_differences(rows, reference=(against, model), measures=MEASURES)
+    both = set(rows.loc[rows["renderer"] == against, "clip"])
     head = "| renderer | clips | " + " | ".join(MEASURES) + " | lag within ±1 |"
     rule = "|---" * (len(MEASURES) + 3) + "|"
     spread, paired = [head, rule], [head.replace(" lag within ±1 |", ""), rule[:-4]]
     for renderer, part in rows.groupby("renderer", sort=False):
-        part = part.set_index("clip")
         cells = [f"{part[m].mean():.3f} ± {part[m].std(ddof=1):.3f}" for m in MEASURES]
         within = float((part["lip_opening_lag"].abs() <= 1).mean())
         spread.append(f"| {renderer} | {len(part)} | " + " | ".join(cells) + f" | {within:.2f} |")
         if renderer == against:
             continue
-        margin = part[list(MEASURES)] - base[list(MEASURES)].reindex(part.index)
-        margin = margin.dropna()
-        cells = [f"{margin[m].mean():+.3f} (sd {margin[m].std(ddof=1):.3f})" for m in MEASURES]
-        paired.append(f"| {renderer} − {against} | {len(margin)} | " + " | ".join(cells) + " |")
+        margin = margins.loc[(renderer, model)]
+        cells = [
+            f"{margin[f'{m}_vs_{against}_mean']:+.3f} (sd {margin[f'{m}_vs_{against}_sd']:.3f})"
+            for m in MEASURES
+        ]
+        n = len(set(part["clip"]) & both)
+        paired.append(f"| {renderer} − {against} | {n} | " + " | ".join(cells) + " |")
     return "\n".join(spread), "\n".join(paired)
 
 

@@ -61,32 +61,22 @@ def parse_variant(text: str) -> tuple[str, dict]:
 
 def refit_frames(frames, rows: np.ndarray, components: int):
     """``frames`` restricted to ``rows``, its principal components fitted on them alone."""
-    from miketalk.talk.trained.mouths import grey, normalized, principal_axes
+    from miketalk.talk.trained.mouths import describe
 
-    px, py, _, _ = frames.patch
-    rx, ry, rw, rh = frames.region
     patches = np.asarray(frames.patches[rows])
-    data = normalized(grey(patches[:, ry - py : ry - py + rh, rx - px : rx - px + rw]))
-    mean = data.mean(axis=0)
-    s, comps = principal_axes(data - mean, components)
-    darker = -np.sign(comps.sum(axis=1))
-    comps = comps * np.where(darker == 0, 1.0, darker)[:, None]
+    coords, mean, comps, variance = describe(
+        patches, patch=frames.patch, region=frames.region, components=components
+    )
     clip_old = frames.clip[rows]
     kept = np.unique(clip_old)
     remap = np.full(len(frames.clip_ids), -1)
     remap[kept] = np.arange(len(kept))
     return dataclasses.replace(
-        frames, coords=(data - mean) @ comps.T, patches=patches, border=frames.border[rows],
+        frames, coords=coords, patches=patches, border=frames.border[rows],
         clip=remap[clip_old], clip_frame=frames.clip_frame[rows],
         clip_ids=tuple(frames.clip_ids[k] for k in kept), mean=mean, components=comps,
-        variance=(s**2) / (len(data) - 1),
+        variance=variance,
     )  # fmt: skip
-
-
-def _corr(a: np.ndarray, b: np.ndarray) -> float:
-    if a.std() == 0 or b.std() == 0:
-        return float("nan")
-    return float(np.corrcoef(a, b)[0, 1])
 
 
 def cross_validate(
@@ -98,11 +88,13 @@ def cross_validate(
     from miketalk.evaluation.heldout import compare, speech_frames
     from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores
     from miketalk.evaluation.landmarks import face_landmarks
+    from miketalk.evaluation.measures import correlation
     from miketalk.media.images import read_image
     from miketalk.mouth import mouth_region
+    from miketalk.mouth.region import grey_mouths
     from miketalk.talk.lipsync import plan
     from miketalk.talk.model import Model
-    from miketalk.talk.trained.build import fitted_face, training_set
+    from miketalk.talk.trained.build import TrainedFace, fitted_face, training_set
     from miketalk.talk.trained.mouths import measure_frames
     from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings
     from miketalk.visemes import SILENCE, VisemeTable
@@ -115,56 +107,51 @@ def cross_validate(
     eigenlips = read_eigenlips(corpus_dir / "eigenlips.npz").eigenlips
     box = mouth_region(corpus_dir)
     landmarks = face_landmarks()
-    n_clips = len(everything.clip_ids)
     rows_out = []
-    for fold in range(folds):
-        valid = [c for c in range(n_clips) if c % folds == fold][:limit]
-        train = [c for c in range(n_clips) if c % folds != fold]
+    for fold, (train, held_out) in enumerate(data.folds(folds)):
         frames = refit_frames(
             everything, np.flatnonzero(np.isin(everything.clip, train)), components
         )
+        compositor = PatchCompositor(frames, silence)
+        # only centred and half change the fit: variants differing in the rest share it
+        fitted: dict[tuple, TrainedFace] = {}
+        faces = {}
         for name, change in variants:
             t0 = time.perf_counter()
             selection = SelectionSettings(**(SelectionSettings().to_dict() | change))
-            face = fitted_face(frames, corpus_dir, selection=selection, table=table)
-            compositor = PatchCompositor(face.frames, silence)
-            fit_s = time.perf_counter() - t0
-            for c in valid:
-                clip_rows = np.flatnonzero(everything.clip == c)
-                real = np.stack(
-                    [read_image(frame_path(corpus_dir / "frames", int(k))) for k in clip_rows]
-                )
-                phones = data.phones[c]
-                timeline = plan(
-                    phones, table, fps=everything.fps, duration=len(real) / everything.fps
-                )
+            key = (selection.centred, selection.half)
+            if key not in fitted:
+                fitted[key] = fitted_face(frames, corpus_dir, selection=selection, table=table)
+            faces[name] = dataclasses.replace(fitted[key], selection=selection)
+            log.info("fold %d %s: fitted in %.1f s", fold, name, time.perf_counter() - t0)
+        for c in held_out[:limit]:
+            clip_rows = np.flatnonzero(everything.clip == c)
+            real = np.stack(
+                [read_image(frame_path(corpus_dir / "frames", int(k))) for k in clip_rows]
+            )
+            timeline = plan(
+                data.phones[c], table, fps=everything.fps, duration=len(real) / everything.fps
+            )
+            speech = speech_frames(timeline)
+            sp = np.arange(len(real))[speech]
+            marks = ClipLandmarks(landmarks, real)
+            truth = frames.project(grey_mouths(real, frames.region))
+            for name, face in faces.items():
                 target = face.target(timeline)
-                chosen = face.plan(timeline)
+                chosen = face.plan(timeline, target=target)
                 synth = np.stack([compositor.frame(r) for r in chosen])
-                speech = speech_frames(timeline)
-                marks = ClipLandmarks(landmarks, real)
                 _, lm = landmark_scores(marks.real, marks.of(synth), speech=speech, max_lag=5)
                 scores = compare(real, synth, mouth_box=box, eigenlips=eigenlips, speech=speech)
-                truth = frames.project(_regions(real, frames))
                 picked = np.array([sum(w * frames.coords[s] for s, w in r) for r in chosen])
                 row = {"variant": name, "fold": fold, "clip": everything.clip_ids[c]}
                 row |= {k: lm[k] for k in MEASURES if k in lm}
                 row |= {k: scores.summary[k] for k in ("eigenlip1_corr_speech", "psnr_mouth")}
-                sp = np.arange(len(real))[speech]
                 for d in range(3):
-                    row[f"traj_r{d + 1}"] = _corr(target[sp, d], truth[sp, d])
-                    row[f"chosen_r{d + 1}"] = _corr(picked[sp, d], target[sp, d])
+                    row[f"traj_r{d + 1}"] = correlation(target[sp, d], truth[sp, d])
+                    row[f"chosen_r{d + 1}"] = correlation(picked[sp, d], target[sp, d])
                     row[f"amp{d + 1}"] = float(picked[sp, d].std() / truth[sp, d].std())
                 rows_out.append(row)
-            log.info("fold %d %s: fitted in %.1f s", fold, name, fit_s)
     return pd.DataFrame(rows_out)
-
-
-def _regions(real: np.ndarray, frames) -> np.ndarray:
-    from miketalk.talk.trained.mouths import grey
-
-    rx, ry, rw, rh = frames.region
-    return grey(real[:, ry : ry + rh, rx : rx + rw])
 
 
 def summarize(clips: pd.DataFrame) -> pd.DataFrame:

@@ -30,7 +30,7 @@ class Eigenlips:
     """
 
     def __init__(self, mouths: np.ndarray, *, n: int = N_EIGENLIPS) -> None:
-        data = _flat(mouths)
+        data = normalized(mouths)
         if len(data) <= n:
             raise MiketalkError(f"eigenlips need more than {n} training frames, got {len(data)}")
         self.mean = data.mean(axis=0)
@@ -54,13 +54,13 @@ class Eigenlips:
 
     def project(self, mouths: np.ndarray) -> np.ndarray:
         """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
-        flat = _flat(mouths)
+        flat = normalized(mouths)
         flat -= self.mean
         return flat @ self.components.T
 
 
-def _flat(mouths: np.ndarray) -> np.ndarray:
-    """Each mouth box as a vector, normalized to zero mean and unit variance.
+def normalized(mouths: np.ndarray) -> np.ndarray:
+    """Each mouth box ``(N, h, w)`` as a row (float64), normalized to zero mean and unit variance.
 
     The normalization removes what differs between recordings rather than
     between mouth shapes (exposure, white balance, light on the face), which
@@ -70,5 +70,5 @@ def _flat(mouths: np.ndarray) -> np.ndarray:
     flat = np.asarray(mouths).reshape(len(mouths), -1).astype(np.float64)
     flat -= flat.mean(axis=1, keepdims=True)
     spread = flat.std(axis=1, keepdims=True)
-    flat /= np.where(spread > 0, spread, 1.0)
+    flat /= np.where(spread > 0, spread, 1.0)  # in place: a long corpus's frames held once
     return flat

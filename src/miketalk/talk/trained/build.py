@@ -123,11 +123,15 @@ class TrainedFace:
         mean = self.described().mean(axis=0)
         return mean + gain * (target - mean)
 
-    def plan(self, timeline: Timeline, *, kind: str | None = None) -> list:
-        """Each frame's training frames and weights (:func:`~.selection.drawn`)."""
+    def plan(
+        self, timeline: Timeline, *, kind: str | None = None, target: np.ndarray | None = None
+    ) -> list:
+        """Each frame's training frames and weights (:func:`~.selection.drawn`), aiming at
+        ``target`` (default :meth:`target`, when the caller has it already)."""
         kind = kind or self.default
         weights = self.report["fit"][kind].get("cv_r2") if self.selection.weighted else None
-        target = self.target(timeline, kind=kind)
+        if target is None:
+            target = self.target(timeline, kind=kind)
         path = select(
             self.frames, target, self.selection, weights=weights, described=self.described()
         )
@@ -290,10 +294,7 @@ def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) 
     """Per component, the real spread over the spread of the cross-validated predictions
     (each clip predicted by a model fitted without it; >= 1): the shrinkage a new sentence's
     trajectory has, whatever the number of training clips."""
-    predicted = np.concatenate([predictions[i] for i in range(len(data.coords))])
-    spread = predicted.std(axis=0)
-    gain = np.concatenate(data.coords).std(axis=0) / np.where(spread > 0, spread, 1.0)
-    return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
+    return _spread_ratio([predictions[i] for i in range(len(data.coords))], data)
 
 
 def amplitude_gain(
@@ -306,12 +307,16 @@ def amplitude_gain(
     frames that move less than he does. Scaling the predicted deviation from
     the mean by this gain gives the target his own amplitude.
     """
-    predicted = np.concatenate(
-        [model.predict(p, t, table) for p, t in zip(data.phones, data.times, strict=True)]
+    return _spread_ratio(
+        [model.predict(p, t, table) for p, t in zip(data.phones, data.times, strict=True)], data
     )
-    real = np.concatenate(data.coords)
-    spread = predicted.std(axis=0)
-    gain = real.std(axis=0) / np.where(spread > 0, spread, 1.0)
+
+
+def _spread_ratio(predicted: list[np.ndarray], data: TrainingSet) -> list[float]:
+    """Per component, the clips' real spread over ``predicted``'s (one array per clip),
+    clipped to 1 to 4."""
+    spread = np.concatenate(predicted).std(axis=0)
+    gain = np.concatenate(data.coords).std(axis=0) / np.where(spread > 0, spread, 1.0)
     return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
 
 
@@ -384,7 +389,7 @@ def render_trained(
             )
         if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
             raise MiketalkError("centred and half are fitted with the model: refit it instead")
-        settings = SelectionSettings(**(trained.selection.to_dict() | dict(selection)))
+        settings = dataclasses.replace(trained.selection, **selection)
         trained = dataclasses.replace(trained, selection=settings)
     rows = trained.plan(timeline, kind=kind)
     compositor = PatchCompositor(trained.frames, model.image(SILENCE))

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.mouth.eigenlips import normalized
 
 Box = tuple[int, int, int, int]
 
@@ -71,15 +72,6 @@ def feather_mask(
     mask = np.zeros((height, width), np.float32)
     mask[inset : height - inset, inset : width - inset] = 1.0
     return cv2.GaussianBlur(mask, (0, 0), sigma, borderType=cv2.BORDER_CONSTANT)
-
-
-def normalized(mouths: np.ndarray) -> np.ndarray:
-    """Grey mouth regions ``(N, h, w)`` as rows of zero mean and unit variance (float64)."""
-    flat = np.asarray(mouths).reshape(len(mouths), -1).astype(np.float64)
-    flat -= flat.mean(axis=1, keepdims=True)
-    spread = flat.std(axis=1, keepdims=True)
-    flat /= np.where(spread > 0, spread, 1.0)  # in place: a long corpus's frames held once
-    return flat
 
 
 def grey(frames: np.ndarray) -> np.ndarray:
@@ -253,16 +245,8 @@ def measure_frames(
 
     with ThreadPoolExecutor(max(1, workers)) as pool:
         list(pool.map(read, range(n)))
-    data = normalized(grey(patches[:, ry - py : ry - py + rh, rx - px : rx - px + rw]))
-    if len(data) <= components:
-        raise MiketalkError(f"{components} components need more frames than {len(data)}")
-    mean = data.mean(axis=0)
-    data -= mean  # centred in place: a long corpus's frames are held once
-    s, comps = principal_axes(data, components)
-    # sign convention of the eigenlips: each axis points the way the mouth darkens
-    darker = -np.sign(comps.sum(axis=1))
-    comps = comps * np.where(darker == 0, 1.0, darker)[:, None]
-    coords = data @ comps.T
+    coords, mean, comps, variance = describe(patches, patch=patch, region=region,
+                                             components=components)  # fmt: skip
     mask = feather_mask(ph, pw)
     band = (mask > 0.02) & (mask < 0.98)
     border = patches[:, band].astype(np.float32).mean(axis=1)
@@ -278,5 +262,33 @@ def measure_frames(
     return MouthFrames(
         coords=coords, patches=patches, border=border, clip=clip, clip_frame=clip_frame,
         clip_ids=tuple(str(c) for c in clips["clip"]), mean=mean, components=comps,
-        variance=(s[:components] ** 2) / (len(data) - 1), region=region, patch=patch, fps=fps,
+        variance=variance, region=region, patch=patch, fps=fps,
     )  # fmt: skip
+
+
+def describe(
+    patches: np.ndarray, *, patch: Box, region: Box, components: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The principal components of the mouth regions of ``patches`` (N, ph, pw, 3) uint8.
+
+    Each frame's grey mouth region (``region``, inside ``patch``) normalized
+    (:func:`~miketalk.mouth.eigenlips.normalized`), centred, and its ``components`` largest
+    principal axes, each pointing the way the mouth darkens (the eigenlips' sign).
+
+    Returns
+    -------
+    coords, mean, components, variance : numpy.ndarray
+        ``(N, n)`` each frame's description, the mean row, ``(n, h*w)`` the axes and
+        ``(n,)`` the variance along each.
+    """
+    px, py, _, _ = patch
+    rx, ry, rw, rh = region
+    data = normalized(grey(patches[:, ry - py : ry - py + rh, rx - px : rx - px + rw]))
+    if len(data) <= components:
+        raise MiketalkError(f"{components} components need more frames than {len(data)}")
+    mean = data.mean(axis=0)
+    data -= mean  # centred in place: a long corpus's frames are held once
+    s, comps = principal_axes(data, components)
+    darker = -np.sign(comps.sum(axis=1))
+    comps = comps * np.where(darker == 0, 1.0, darker)[:, None]
+    return data @ comps.T, mean, comps, (s[:components] ** 2) / (len(data) - 1)
