@@ -57,7 +57,7 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
     splits = [u["split"] for u in segments["utterances"]]
     assert splits == ["train"] * 4 + ["test"] * 2
     assert (built / "background").is_dir() and (built / "coarticulation.json").is_file()
-    assert not list(built.parent.glob(".model.build-*"))  # the work folder is gone
+    assert not list(built.parent.glob("miketalk-build-*"))  # the work folder is gone
 
 
 @pytest.mark.slow

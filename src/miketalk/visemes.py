@@ -14,7 +14,7 @@ Two tables, kept as package data so they can be read and edited without code:
 from __future__ import annotations
 
 import csv
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -212,6 +212,18 @@ class VisemeTable:
     def visemes_of(self, phone: str) -> tuple[str, ...]:
         """The viseme(s) of a Festival phone: one, or two (first and second nucleus)."""
         return tuple(t.viseme for t in self.targets_of(phone))
+
+    def spoken_visemes(self, phones: Iterable[str]) -> set[str]:
+        """The viseme classes ``phones`` show, silence left out; a phone the table does not
+        know (a recognizer's noise label) shows none."""
+        classes: set[str] = set()
+        for phone in set(phones):
+            try:
+                classes |= set(self.visemes_of(phone))
+            except (KeyError, MiketalkError):
+                continue
+        classes.discard(SILENCE)
+        return classes
 
     def word_of(self, phone: str) -> str:
         """The corpus word that instantiates a phone's label (``"-"`` for silence)."""

@@ -140,13 +140,3 @@ def _tsv(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
     writer.writerow(header)
     writer.writerows(rows)
     return buf.getvalue()
-
-
-def write_joined_config(joined: Joined, *, heldout_seconds: float) -> dict:
-    """The corpus settings of a ``source: video`` face of the joined video (plain transcript)."""
-    return {
-        "source": "video",
-        "media": str(joined.video),
-        "transcript": str(joined.transcript),
-        "heldout_seconds": heldout_seconds,
-    }

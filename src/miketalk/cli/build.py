@@ -20,17 +20,14 @@ import argparse
 import json
 import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.media.scratch import scratch_dir
 
 __all__ = ["add_build_parser", "build_model_from_video", "cmd_build"]
-
-#: The stages, in order, as the progress bar names them.
-STAGES = ("segment", "corpus", "visemes", "eigenlips", "flows (mixed)", "flows (bridge)", "model")
 
 #: What MODEL_DIR/build/ keeps of the work.
 KEPT = {"segments.json": "segments", "skipped.tsv": "corpus", "clips.tsv": "corpus"}
@@ -69,7 +66,6 @@ def build_model_from_video(
     from miketalk.corpus.one_video import check_video_inputs, segment_video
     from miketalk.corpus.viseme_choice import choose_visemes_stage
     from miketalk.talk.stages import (
-        check_viseme_classes,
         corpus_stage,
         eigenlips_stage,
         flows_stage,
@@ -90,58 +86,54 @@ def build_model_from_video(
         video, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
     )
     model_dir.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{model_dir.name}.build-", dir=model_dir.parent))
-    spec, strategy = flow or defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
-    corpus, visemes, flows = work / "corpus", work / "visemes", work / "flows"
-    segments = work / "segments" / "segments.json"
-    settings = {"media": str(Path(video).resolve())}
-    out = argparse.Namespace(
-        targets=visemes / "candidates.tsv",
-        visemes=visemes / "visemes.tsv",
-        images=visemes / "images",
-        sheet=visemes / "contact_sheet.png",
-    )
-
-    def flows_of(name: str, mixed: Path | None = None) -> None:
-        flows_stage(
-            flows / name,
-            flows / f"{name}.tsv",
-            visemes=out.visemes,
-            images=out.images,
-            frames=corpus / "frames",
-            spec=spec,
-            strategy=name,
-            window=mixed_window,
-            mixed=mixed,
-            regions=corpus / "regions.json",
-            workers=workers,
+    # the work folder beside the model (the model is renamed out of it), swept if killed
+    with scratch_dir("build", directory=model_dir.parent) as work:
+        spec, strategy = flow or defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
+        corpus, visemes, flows = work / "corpus", work / "visemes", work / "flows"
+        segments = work / "segments" / "segments.json"
+        settings = {"media": str(Path(video).resolve())}
+        out = argparse.Namespace(
+            targets=visemes / "candidates.tsv",
+            visemes=visemes / "visemes.tsv",
+            images=visemes / "images",
+            sheet=visemes / "contact_sheet.png",
         )
 
-    steps = {
-        "segment": lambda: segment_video(
-            video, segments, transcript=transcript, subtitles=subtitles,
-            heldout_seconds=heldout_seconds, checked=checked,
-        ),
-        "corpus": lambda: (
-            corpus_stage(corpus, settings, segments=segments, workers=workers),
-            check_viseme_classes(corpus),
-        ),
-        "visemes": lambda: choose_visemes_stage(corpus_dir=corpus, grouping={}, out=out),
-        "eigenlips": lambda: eigenlips_stage(corpus, corpus / "eigenlips.npz"),
-        "flows (mixed)": lambda: flows_of("mixed"),
-        "flows (bridge)": lambda: flows_of(strategy, mixed=flows / "mixed"),
-        "model": lambda: model_stage(
-            work / "model", visemes=out.visemes, images=out.images, flows=flows / strategy,
-            spec=spec, strategy=strategy, grouping={}, phones=corpus / "phones.tsv",
-            eigenlips=corpus / "eigenlips.npz", media=settings["media"], segments=segments,
-        ),
-    }  # fmt: skip
-    assert tuple(steps) == STAGES
-    seconds: dict[str, float] = {}
-    try:
+        def flows_of(name: str, mixed: Path | None = None) -> None:
+            flows_stage(
+                flows / name,
+                flows / f"{name}.tsv",
+                visemes=out.visemes,
+                images=out.images,
+                frames=corpus / "frames",
+                spec=spec,
+                strategy=name,
+                window=mixed_window,
+                mixed=mixed,
+                regions=corpus / "regions.json",
+                workers=workers,
+            )
+
+        steps = {
+            "segment": lambda: segment_video(
+                video, segments, transcript=transcript, subtitles=subtitles,
+                heldout_seconds=heldout_seconds, checked=checked,
+            ),
+            "corpus": lambda: corpus_stage(corpus, settings, segments=segments, workers=workers),
+            "visemes": lambda: choose_visemes_stage(corpus_dir=corpus, grouping={}, out=out),
+            "eigenlips": lambda: eigenlips_stage(corpus, corpus / "eigenlips.npz"),
+            "flows (mixed)": lambda: flows_of("mixed"),
+            "flows (bridge)": lambda: flows_of(strategy, mixed=flows / "mixed"),
+            "model": lambda: model_stage(
+                work / "model", visemes=out.visemes, images=out.images, flows=flows / strategy,
+                spec=spec, strategy=strategy, grouping={}, phones=corpus / "phones.tsv",
+                eigenlips=corpus / "eigenlips.npz", media=settings["media"], segments=segments,
+            ),
+        }  # fmt: skip
+        seconds: dict[str, float] = {}
         out.visemes.parent.mkdir(parents=True)
         segments.parent.mkdir(parents=True)
-        bar = tqdm(total=len(STAGES), unit="stage", disable=not progress, file=sys.stderr)
+        bar = tqdm(total=len(steps), unit="stage", disable=not progress, file=sys.stderr)
         with bar:
             for name, step in steps.items():
                 bar.set_description(f"build: {name}")
@@ -155,14 +147,12 @@ def build_model_from_video(
         kept.mkdir()
         for name, where in KEPT.items():
             shutil.copyfile(work / where / name, kept / name)
-        if model_dir.exists():
-            shutil.rmtree(model_dir)
+        if model_dir.exists():  # --force: the old model is moved aside, removed with the work
+            model_dir.rename(work / "replaced")
         (work / "model").rename(model_dir)
         if keep_corpus is not None:
             Path(keep_corpus).parent.mkdir(parents=True, exist_ok=True)
             shutil.move(corpus, keep_corpus)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
     return seconds
 
 

@@ -295,16 +295,10 @@ def _check_english(cues) -> None:
 def _check_classes_said(pronunciations, words: int) -> None:
     """Refuse, before any work, a script whose words (by the dictionary) cannot show
     :data:`MIN_VISEME_CLASSES` viseme classes even if all of it is aligned."""
-    from miketalk.visemes import SILENCE, VisemeTable
+    from miketalk.visemes import VisemeTable
 
-    table = VisemeTable()
-    classes: set[str] = set()
-    for phone in {p.lower().rstrip("012") for said in pronunciations if said for p in said.split()}:
-        try:
-            classes |= set(table.visemes_of(phone))
-        except (KeyError, MiketalkError):
-            continue
-    classes.discard(SILENCE)
+    phones = (p.lower().rstrip("012") for said in pronunciations if said for p in said.split())
+    classes = VisemeTable().spoken_visemes(phones)
     if len(classes) < MIN_VISEME_CLASSES:
         raise MiketalkError(
             f"too little speech for the viseme classes: the script's {words} words show "

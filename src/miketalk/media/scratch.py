@@ -106,7 +106,7 @@ def deferred_signals() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def scratch_dir(kind: str) -> Iterator[Path]:
+def scratch_dir(kind: str, *, directory: str | os.PathLike[str] | None = None) -> Iterator[Path]:
     """A private directory in the temporary directory, removed on leaving (whatever happened).
 
     Named ``miketalk-<kind>-<pid>.<start>-XXXX``; leftovers of runs that were
@@ -116,13 +116,16 @@ def scratch_dir(kind: str) -> Iterator[Path]:
     ----------
     kind : str
         Lower-case letters and digits: what the directory is for (``festival``, ``mp4``).
+    directory : path-like, optional
+        Where to make it (default: the temporary directory); e.g. beside an output that
+        is renamed out of it at the end (one file system).
     """
     if not re.fullmatch(r"[a-z0-9]+", kind):
         raise ValueError(f"scratch kind must be lower-case letters and digits, not {kind!r}")
-    sweep_scratch()
+    sweep_scratch(directory)
     with contextlib.ExitStack() as stack:
         with deferred_signals():
-            path = Path(tempfile.mkdtemp(prefix=f"miketalk-{kind}-{owner_tag()}-"))
+            path = Path(tempfile.mkdtemp(prefix=f"miketalk-{kind}-{owner_tag()}-", dir=directory))
             stack.callback(shutil.rmtree, path, ignore_errors=True)
         yield path
 

@@ -251,13 +251,16 @@ def _first_pass(
         return list(zip(indices, spans, strict=True))
     except MiketalkError as err:
         failure = str(err)
-    cut = _pause_near_middle(samples, rate, lo, hi)
+    from miketalk.speech.coverage import voiced_frames
+
+    voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
+    cut = _pause_near_middle(voiced, lo, hi)
     if len(indices) < 2 or cut is None:
         why = f"cannot be placed in {lo:.2f}..{hi:.2f} s ({failure})"
         unaligned += [Unaligned(i, words[i], why) for i in indices]
         return []
     letters = np.cumsum([len(words[i]) + 2 for i in indices])
-    share = _voiced_share(samples, rate, lo, cut, hi)
+    share = _voiced_share(voiced, lo, cut, hi)
     k = int(np.clip(np.searchsorted(letters, share * letters[-1]), 1, len(indices) - 1))
     return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned) + _first_pass(
         samples, rate, cut, hi, indices[k:], words, unaligned
@@ -285,21 +288,20 @@ def _coarse_span(
     ]
 
 
-def _voiced_share(samples: np.ndarray, rate: int, lo: float, cut: float, hi: float) -> float:
-    """The share of the voiced sound of ``[lo, hi)`` that comes before ``cut``."""
-    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+def _voiced_share(voiced: np.ndarray, lo: float, cut: float, hi: float) -> float:
+    """The share of the voiced sound of ``[lo, hi)`` (its voiced frames) before ``cut``."""
+    from miketalk.speech.coverage import HOP_SECONDS
 
-    voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
     if not voiced.any():
         return (cut - lo) / (hi - lo)
     return float(voiced[: int((cut - lo) / HOP_SECONDS)].sum() / voiced.sum())
 
 
-def _pause_near_middle(samples: np.ndarray, rate: int, lo: float, hi: float) -> float | None:
-    """The middle of the quiet stretch nearest the middle of ``[lo, hi)``, or None."""
-    from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
+def _pause_near_middle(voiced: np.ndarray, lo: float, hi: float) -> float | None:
+    """The middle of the quiet stretch nearest the middle of ``[lo, hi)`` (its voiced frames),
+    or None."""
+    from miketalk.speech.coverage import HOP_SECONDS
 
-    voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
     quiet = np.flatnonzero(~voiced)
     if quiet.size == 0:
         return None

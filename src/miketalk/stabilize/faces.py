@@ -23,14 +23,9 @@ log = logging.getLogger(__name__)
 SAMPLES = 7
 
 
-def count_faces(frame: np.ndarray, detector=None) -> int:
-    """The number of frontal faces dlib finds in an RGB frame (upsampled once)."""
-    detector = detector or _detector()
-    return len(detector(np.ascontiguousarray(frame), 1))
-
-
-def check_one_face(frames: Sequence[np.ndarray], *, source: str) -> list[int]:
-    """Refuse frames of which most show no face or several; the count in each.
+def check_one_face(frames: Sequence[np.ndarray], *, source: str) -> None:
+    """Refuse frames of which most show no face or several (dlib's frontal faces, each frame
+    upsampled once).
 
     Raises
     ------
@@ -40,8 +35,8 @@ def check_one_face(frames: Sequence[np.ndarray], *, source: str) -> list[int]:
     detector = _detector()
     if detector is None:
         log.warning("dlib is not installed: %s is not checked for one face", source)
-        return []
-    counts = [count_faces(f, detector) for f in frames]
+        return
+    counts = [len(detector(np.ascontiguousarray(f), 1)) for f in frames]
     majority = len(counts) // 2 + 1
     if sum(c == 0 for c in counts) >= majority:
         raise MiketalkError(
@@ -53,7 +48,6 @@ def check_one_face(frames: Sequence[np.ndarray], *, source: str) -> list[int]:
             f"several faces in {source} (up to {max(counts)} in one frame): it needs one "
             "person's face alone in the picture; crop the video to that person"
         )
-    return counts
 
 
 def _detector():

@@ -42,30 +42,26 @@ def corpus_stage(
     """The training clips of a face (or its one video's training utterances) into its corpus.
 
     ``corpus`` is the face's corpus settings (paths absolute); ``segments`` the
-    ``segments.json`` of a face from one video.
+    ``segments.json`` of a face from one video, whose training part must show
+    :data:`MIN_VISEME_CLASSES` viseme classes (:func:`check_viseme_classes`).
     """
     from miketalk.corpus.clips import ingest_clips
     from miketalk.corpus.one_video import face_clips
 
     clips = face_clips(dict(corpus), "train", segments=segments)
-    return ingest_clips(Path(corpus_dir), clips=clips, workers=workers)
+    report = ingest_clips(Path(corpus_dir), clips=clips, workers=workers)
+    if segments is not None:  # a face from one video: its utterances must show the classes
+        check_viseme_classes(corpus_dir)
+    return report
 
 
 def viseme_classes(corpus_dir: str | Path, *, grouping: Mapping | None = None) -> set[str]:
     """The viseme classes the corpus's aligned phones show (silence left out)."""
     from miketalk.corpus.clips import PHONES_TABLE
-    from miketalk.visemes import SILENCE, VisemeTable
+    from miketalk.visemes import VisemeTable
 
-    table = VisemeTable(grouping=dict(grouping or {}))
     phones = pd.read_csv(Path(corpus_dir) / PHONES_TABLE, sep="\t", keep_default_na=False)
-    classes = set()
-    for name in set(phones["phone"]):
-        try:
-            classes |= set(table.visemes_of(name))
-        except (KeyError, MiketalkError):
-            continue
-    classes.discard(SILENCE)
-    return classes
+    return VisemeTable(grouping=dict(grouping or {})).spoken_visemes(phones["phone"])
 
 
 def check_viseme_classes(corpus_dir: str | Path, *, grouping: Mapping | None = None) -> None:

@@ -150,15 +150,13 @@ class _Aligner:
 _LOCK = threading.Lock()  # one alignment at a time: the decoder is shared
 
 
-_SHARED: list[_Aligner] = []  # the shared aligner, once loaded
+_SHARED: dict[str, _Aligner] = {}  # the shared aligners, once loaded: "fine" and "coarse"
 
 
 #: The coarse aligner's settings: pocketsphinx's default beams and no best-path pass.
 #: It finds where the words of minutes of speech are (10 minutes and 1200 words: 18 s,
 #: 190 MB; the wide beams above take 6 GB), for a finer alignment of each piece.
 COARSE_SETTINGS: dict[str, object] = {"bestpath": False}
-
-_COARSE: list[_Aligner] = []
 
 
 def coarse_word_spans(pcm: bytes, words: Sequence[str], extra: Mapping[str, tuple[str, ...]]):
@@ -171,12 +169,7 @@ def coarse_word_spans(pcm: bytes, words: Sequence[str], extra: Mapping[str, tupl
         When it cannot place all the words.
     """
     with _LOCK:
-        if not _COARSE or any(_COARSE[0].added.get(w, a) != a for w, a in extra.items()):
-            _COARSE[:] = [_Aligner(COARSE_SETTINGS)]
-        aligner = _COARSE[0]
-        for word, arpa in extra.items():
-            if word not in aligner.added:
-                aligner.add(word, arpa)
+        aligner = _shared_aligner(extra, coarse=True)
         if _strip(aligner.words_placed(pcm, words)) != list(words):
             raise MiketalkError("the coarse pass could not place every word")
         spans = [
@@ -187,18 +180,22 @@ def coarse_word_spans(pcm: bytes, words: Sequence[str], extra: Mapping[str, tupl
     return spans, aligner.frate
 
 
-def _shared_aligner(pronunciations: Mapping[str, tuple[str, ...]] | None = None) -> _Aligner:
-    """The shared aligner, with ``pronunciations`` (ARPAbet) in its dictionary.
+def _shared_aligner(
+    pronunciations: Mapping[str, tuple[str, ...]] | None = None, *, coarse: bool = False
+) -> _Aligner:
+    """The shared aligner (the coarse one: :data:`COARSE_SETTINGS`), with ``pronunciations``
+    (ARPAbet) in its dictionary.
 
     A word added earlier with another pronunciation cannot be replaced in
     pocketsphinx's dictionary: the aligner is then loaded afresh.
     """
     pronunciations = pronunciations or {}
-    if not _SHARED or any(
-        _SHARED[0].added.get(w, arpa) != arpa for w, arpa in pronunciations.items()
+    kind = "coarse" if coarse else "fine"
+    aligner = _SHARED.get(kind)
+    if aligner is None or any(
+        aligner.added.get(w, arpa) != arpa for w, arpa in pronunciations.items()
     ):
-        _SHARED[:] = [_Aligner()]
-    aligner = _SHARED[0]
+        aligner = _SHARED[kind] = _Aligner(COARSE_SETTINGS if coarse else None)
     for word, arpa in pronunciations.items():
         if word not in aligner.added:
             try:
