@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
 
 log = logging.getLogger(__name__)
@@ -39,7 +40,7 @@ def dub_heldout(
     blend: dict | None = None,
     method: str = "feather",
     corpus_eigenlips=None,
-    smooth: float | None = None,
+    smooth: float = defaults.BACKGROUND_SMOOTH,
     follow: bool = True,
     skin: bool = True,
 ) -> pd.DataFrame:
@@ -76,8 +77,7 @@ def dub_heldout(
         The corpus's eigenlips fitted before
         (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
     smooth : float, optional
-        Sigma (s) of the transforms' smoothing in time (None: the default,
-        :data:`miketalk.defaults.BACKGROUND_SMOOTH`; 0: raw).
+        Sigma (s) of the transforms' smoothing in time (0: raw).
     follow, skin : bool
         The frame's jaw warped to follow the render's, and the blend kept off the
         reference's backdrop and clothes (:class:`miketalk.render.composite.Compositor`).
@@ -185,7 +185,12 @@ def main(argv: list[str] | None = None) -> int:
         help="the blend ellipse in mouth widths (default: miketalk.defaults)",
     )
     parser.add_argument("--method", default="feather", choices=("feather", "poisson"))
-    parser.add_argument("--smooth", type=float, help="transforms' smoothing sigma, s (0: raw)")
+    parser.add_argument(
+        "--smooth",
+        type=float,
+        default=defaults.BACKGROUND_SMOOTH,
+        help="transforms' smoothing sigma, s (0: raw; default %(default)s)",
+    )
     parser.add_argument("--no-follow", action="store_true", help="do not warp the jaw")
     parser.add_argument("--no-skin", action="store_true", help="blend over backdrop and clothes")
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")

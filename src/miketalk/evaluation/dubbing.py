@@ -37,6 +37,7 @@ from itertools import pairwise
 import cv2
 import numpy as np
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
 
 __all__ = [
@@ -83,20 +84,19 @@ def dub_clip(
     stabilizer,
     compositor,
     rest: np.ndarray | None = None,
-    smooth: float | None = None,
+    smooth: float = defaults.BACKGROUND_SMOOTH,
 ) -> DubbedClip:
     """Composite ``renders`` into the clip's own ``frames`` (see the module docstring).
 
     ``rest`` (the model's silence image) matches the mouth's colour once for
     the clip; without it, frame by frame. ``smooth``: the transforms' smoothing in time,
-    seconds (:func:`~miketalk.talk.background.background_from_video`; None, its default).
+    seconds (:func:`~miketalk.talk.background.background_from_video`; 0: raw).
     """
     from miketalk.talk.background import background_from_video, composited
 
     if len(frames) != len(renders):
         raise MiketalkError(f"{len(renders)} renders for {len(frames)} frames")
-    more = {} if smooth is None else {"smooth": smooth}
-    background = background_from_video(frames, fps, stabilizer, source="the clip", **more)
+    background = background_from_video(frames, fps, stabilizer, source="the clip", smooth=smooth)
     dubbed = np.stack(list(composited(renders, background, compositor, fps=fps, rest=rest)))
     alphas = np.stack(
         [
