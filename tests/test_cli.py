@@ -228,6 +228,13 @@ def test_learned_lipsync_needs_a_model_that_learned_it(
     bad = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--lipsync-model", "dominance",
               cwd=work, scratch=scratch)  # fmt: skip
     assert_user_error(bad, "--lipsync-model")
+    # the heard trajectory listens to a recording; a trajectory is the trained face's only
+    heard = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--lipsync-model", "trained",
+                "--trajectory", "heard", cwd=work, scratch=scratch)  # fmt: skip
+    assert_user_error(heard, "--trajectory heard", "--audio")
+    paper = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--trajectory", "window",
+                cwd=work, scratch=scratch)  # fmt: skip
+    assert_user_error(paper, "--trajectory goes with --lipsync-model trained")
     assert list(work.iterdir()) == [] and list(scratch.iterdir()) == []
 
 

@@ -72,6 +72,8 @@ def test_side_by_side_columns() -> None:
     assert video_columns({"morph:m": real}, "m") == ["paper", "difference"]
     both = {"morph:m": real, "learned:m": real, "trained:m": real}
     assert video_columns(both, "m") == ["paper", "learned", "trained"]
+    heard = both | {"trained_heard:m": real}
+    assert video_columns(heard, "m") == ["paper", "learned", "trained", "trained_heard"]
 
 
 def test_the_strip_puts_each_column_in_its_own_row(tmp_path: Path) -> None:

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
+from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import plan
 from miketalk.talk.trained import fit_trained, read_trained
-from miketalk.talk.trained.build import render_trained
+from miketalk.talk.trained.build import render_trained, trained_trajectories
 from miketalk.talk.trained.mouths import MouthFrames, feather_mask
 from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, select
 from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
@@ -252,7 +253,7 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     with pytest.raises(MiketalkError, match="unknown selection setting jion") as err:
         list(render_trained(face, timeline, trained=trained, selection={"jion": 1.0}))
     assert "\n" not in str(err.value)
-    with pytest.raises(MiketalkError, match="unknown trajectory model") as err:
+    with pytest.raises(MiketalkError, match="no trajectory model .splines.") as err:
         list(render_trained(face, timeline, trained=trained, kind="splines"))
     assert "\n" not in str(err.value)
     frames = measure_frames(corpus, components=6)
@@ -293,3 +294,37 @@ def test_heldout_table_pairs_each_renderer_with_the_morph_by_clip() -> None:
     assert "| morph | 3 | 2.000 ± 1.000 |" in spread and spread.endswith("| 0.33 |")
     assert "| trained − morph | 3 | +1.500 (sd 1.000) |" in paired
     assert main(["/nonexistent/clips.csv"]) == 2
+
+
+def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
+    tmp_path: Path,
+) -> None:
+    corpus = _synthetic_corpus(tmp_path)
+    fit_trained(corpus, tmp_path / "model", components=6)
+    assert trained_trajectories(tmp_path / "model") == ("window", "regularized", "heard")
+    face = read_trained(tmp_path / "model")
+    assert face.kind_for(None, recorded=True) == "heard"
+    assert face.kind_for(None, recorded=False) == "window"
+    assert face.kind_for("window", recorded=True) == "window"
+    with pytest.raises(MiketalkError, match="listens to a recording") as err:
+        face.kind_for("heard", recorded=False)
+    assert "\n" not in str(err.value)
+    phones = (Phone("pau", 0.0, 0.3), Phone("aa", 0.3, 0.6), Phone("pau", 0.6, 0.9))
+    timeline = plan(phones, default_table(), fps=FPS, duration=0.9)
+    sound = Recording(np.zeros(round(0.9 * RATE), np.int16), RATE)
+    texture = np.full((120, 160), 150.0, np.float32)
+    model = SimpleNamespace(
+        directory=tmp_path / "model", image=lambda _: face_with(texture, phones, 0.0)
+    )
+    drawn = list(render_trained(model, timeline, trained=face, recording=sound))
+    assert len(drawn) == len(timeline.frames)
+    # a face fitted before the heard trajectory: read, drawn from its phones, heard refused
+    manifest = tmp_path / "model" / "trained" / "trained.json"
+    doc = json.loads(manifest.read_text())
+    del doc["trajectories"]["heard"], doc["fit"]["heard"]
+    manifest.write_text(json.dumps(doc))
+    old = read_trained(tmp_path / "model")
+    assert tuple(old.trajectories) == ("window", "regularized")
+    assert old.kind_for(None, recorded=True) == "window"
+    with pytest.raises(MiketalkError, match="no trajectory model 'heard'"):
+        old.kind_for("heard", recorded=True)

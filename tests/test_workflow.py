@@ -124,10 +124,11 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     summary = pd.read_csv(results / "metrics/heldout/s1/summary.csv")
     assert set(summary["renderer"]) == {
         "morph", "still", "flipbook", "dissolve", "learned", "trained", "trained_regularized",
-        "trained_previous", "real_late1", "real_late2",
+        "trained_previous", "trained_heard", "real_late1", "real_late2",
     }  # fmt: skip
     trained = json.loads((results / "model/s1/trained/trained.json").read_text())
     assert trained["default"] == "window" and trained["fit"]["clips"] == len(clips)
+    assert set(trained["trajectories"]) == {"window", "regularized", "heard"}
     assert (summary["clips"] == 2).all()
     assert summary["eigenlip1_corr_speech_mean"].between(-1, 1).all()
     # the landmark measures: the real mouth late is near, but not the real mouth
@@ -144,7 +145,7 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     assert summary["lip_opening_corr_speech_mean"].between(-1, 1).all()
     # the side-by-side videos show the three lip-sync models, and the strip is drawn from them
     side = json.loads((results / "heldout/s1/bbas3a.json").read_text())
-    assert side["columns"] == ["real", "paper", "learned", "trained"]
+    assert side["columns"] == ["real", "paper", "learned", "trained", "trained_heard"]
     assert (results / "figures/heldout/s1/strip.png").stat().st_size > 0
     # s1 speaks with what it learned (its config), at the speech's own speed
     said = json.loads((results / "utterances/s1/hello.json").read_text())

@@ -36,8 +36,14 @@ from miketalk.talk.trained.selection import PREVIOUS_SELECTION
 
 log = logging.getLogger(__name__)
 
-#: Named variants: the settings each changes from the defaults (``key=value`` also works).
-VARIANTS: dict[str, dict] = {"default": {}, "previous": PREVIOUS_SELECTION}
+#: Named variants: the settings each changes from the defaults (``key=value`` also works;
+#: ``kind`` names the trajectory model, default the face's own; ``heard`` hears each clip's
+#: recording).
+VARIANTS: dict[str, dict] = {
+    "default": {},
+    "previous": PREVIOUS_SELECTION,
+    "heard": {"kind": "heard"},
+}
 
 MEASURES = (
     "mouth_lmd", "lip_opening_corr_speech", "lip_opening_amplitude_speech",
@@ -118,11 +124,14 @@ def cross_validate(
         faces = {}
         for name, change in variants:
             t0 = time.perf_counter()
+            change = dict(change)
+            kind = change.pop("kind", None)
             selection = SelectionSettings(**(SelectionSettings().to_dict() | change))
             key = (selection.centred, selection.half)
             if key not in fitted:
                 fitted[key] = fitted_face(frames, corpus_dir, selection=selection, table=table)
-            faces[name] = dataclasses.replace(fitted[key], selection=selection)
+            face = dataclasses.replace(fitted[key], selection=selection)
+            faces[name] = (face, kind or face.default)
             log.info("fold %d %s: fitted in %.1f s", fold, name, time.perf_counter() - t0)
         for c in held_out[:limit]:
             clip_rows = np.flatnonzero(everything.clip == c)
@@ -136,9 +145,10 @@ def cross_validate(
             sp = np.arange(len(real))[speech]
             marks = ClipLandmarks(landmarks, real)
             truth = frames.project(grey_mouths(real, frames.region))
-            for name, face in faces.items():
-                target = face.target(timeline)
-                chosen = face.plan(timeline, target=target)
+            for name, (face, kind) in faces.items():
+                heard = {"kind": kind, "recording": data.recordings[c]}
+                target = face.target(timeline, **heard)
+                chosen = face.plan(timeline, target=target, **heard)
                 synth = np.stack([compositor.frame(r) for r in chosen])
                 _, lm = landmark_scores(marks.real, marks.of(synth), speech=speech, max_lag=5)
                 scores = compare(real, synth, mouth_box=box, eigenlips=eigenlips, speech=speech)

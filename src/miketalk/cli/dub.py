@@ -80,7 +80,8 @@ def cmd_dub(args: argparse.Namespace) -> int:
             said = say_recorded(
                 args.audio, output, model=model, text=text, timings=args.timings, fps=fps,
                 max_px_per_frame=max_px, sampling=args.sampling,
-                lipsync_model=args.lipsync_model, progress=progress, overwrite=args.force,
+                lipsync_model=args.lipsync_model, trajectory=args.trajectory,
+                progress=progress, overwrite=args.force,
                 background=background,
             )  # fmt: skip
         motion, seconds = said.motion, said.audio_seconds
@@ -93,6 +94,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
             spoken = speak(
                 speech, output, model=model, fps=fps, max_px_per_frame=max_px,
                 sampling=args.sampling, lipsync_model=args.lipsync_model,
+                trajectory=args.trajectory,
                 progress=progress, overwrite=args.force, background=background,
             )  # fmt: skip
         motion, seconds = spoken.motion, spoken.motion.duration
@@ -132,6 +134,7 @@ def add_dub_parser(sub) -> None:
         checked,
         max_px_value,
         text_options,
+        trajectory_option,
         verbose_option,
         voice_option,
     )
@@ -161,6 +164,7 @@ def add_dub_parser(sub) -> None:
         default=defaults.LIPSYNC_MODEL,
         help=f"how the mouth moves, as in `miketalk say` (default {defaults.LIPSYNC_MODEL})",
     )
+    trajectory_option(dub)
     voice_option(dub)
     dub.add_argument("--force", action="store_true", help="overwrite a .json not by miketalk")
     dub.add_argument("--json", action="store_true", help="print the result as JSON")

@@ -61,6 +61,19 @@ def voice_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def trajectory_option(parser: argparse.ArgumentParser) -> None:
+    from miketalk.talk.trained.trajectory import TRAJECTORIES
+
+    parser.add_argument(
+        "--trajectory",
+        choices=TRAJECTORIES,
+        default=None,
+        help="with --lipsync-model trained: its trajectory model, window (the phone context), "
+        "regularized (MMM's) or heard (the phones and the recording: --audio only). "
+        "Default: heard with --audio when the face has it, else the face's own",
+    )
+
+
 def verbose_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-v",

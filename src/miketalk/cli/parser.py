@@ -17,6 +17,7 @@ from miketalk.cli.options import (
     max_px_value,
     max_slowdown_value,
     text_options,
+    trajectory_option,
     verbose_option,
     voice_option,
 )
@@ -124,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
         "recorded clips has learned) or trained (his own frames along a trajectory trained on "
         "all of them)",
     )
+    trajectory_option(say)
     voice_option(say)
     say.add_argument(
         "--force",

@@ -78,6 +78,7 @@ def cmd_say(args: argparse.Namespace) -> int:
                 sampling=sampling,
                 max_slowdown=args.max_slowdown,
                 lipsync_model=args.lipsync_model,
+                trajectory=args.trajectory,
                 progress=args.progress or (long_text and sys.stderr.isatty()),
                 overwrite=args.force,
                 background=background,
@@ -110,7 +111,15 @@ def cmd_say(args: argparse.Namespace) -> int:
 
 def check_lipsync_model(args: argparse.Namespace) -> None:
     """``--lipsync-model learned`` (``trained``) needs a model with learned coarticulation (a
-    trained face): say so now, in one line."""
+    trained face, with the ``--trajectory`` asked for): say so now, in one line."""
+    trajectory = getattr(args, "trajectory", None)
+    if trajectory is not None and args.lipsync_model != "trained":
+        raise MiketalkError("--trajectory goes with --lipsync-model trained")
+    if trajectory == "heard" and args.audio is None:
+        raise MiketalkError(
+            "--trajectory heard listens to a recording: give --audio, or use window or "
+            "regularized with typed text"
+        )
     if args.lipsync_model not in ("learned", "trained"):
         return
     from miketalk.talk.say import default_model_dir
@@ -121,10 +130,20 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
 
         read_params(directory)
     else:
-        from miketalk.talk.trained.build import DIRECTORY, MANIFEST, read_trained
+        from miketalk.talk.trained.build import (
+            DIRECTORY,
+            MANIFEST,
+            read_trained,
+            trained_trajectories,
+        )
 
         if not (Path(directory) / DIRECTORY / MANIFEST).is_file():
             read_trained(directory)  # raises the one-line error
+        if trajectory is not None and trajectory not in trained_trajectories(directory):
+            raise MiketalkError(
+                f"the trained face in {directory} has no {trajectory} trajectory (fitted "
+                "before it existed: rebuild the model)"
+            )
 
 
 def _say_recorded(
@@ -159,6 +178,7 @@ def _say_recorded(
             max_px_per_frame=max_px,
             sampling=sampling,
             lipsync_model=args.lipsync_model,
+            trajectory=args.trajectory,
             progress=args.progress,
             overwrite=args.force,
             background=background,

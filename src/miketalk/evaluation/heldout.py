@@ -31,7 +31,8 @@ coarticulation (``coarticulation.json``), that model (``learned``), and for one
 with a trained face (``trained/``, :mod:`miketalk.talk.trained`) its frames
 drawn from the person's own along the trained trajectory (``trained``, and
 ``trained_regularized`` with the other trajectory model, ``trained_previous``
-with the selection settings it had before they were cross-validated). Calibration rows
+with the selection settings it had before they were cross-validated, ``trained_heard``
+with the trajectory that hears the clip's recording as well as its phones). Calibration rows
 measure the real frames themselves 1 and 2 frames late (``real_late1``,
 ``real_late2``; :data:`CALIBRATION_DELAYS`): what a small lag alone costs.
 """
@@ -51,11 +52,13 @@ from miketalk.evaluation.measures import lag_frames, psnr, ssim
 from miketalk.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
+from miketalk.speech.acoustic import Recording
 from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
 from miketalk.talk.trained.build import DIRECTORY as TRAINED
 from miketalk.talk.trained.build import MANIFEST as TRAINED_MANIFEST
+from miketalk.talk.trained.build import trained_trajectories
 from miketalk.visemes import SILENCE
 
 #: Largest lag (frames) searched by the cross-correlation.
@@ -233,16 +236,20 @@ def evaluate_clip(
         if (models[baselines_of].directory / TRAINED / TRAINED_MANIFEST).exists():
             jobs += [(r, baselines_of) for r in ("trained", "trained_regularized")]
             jobs.append(("trained_previous", baselines_of))
+            if "heard" in trained_trajectories(models[baselines_of].directory):
+                jobs.append(("trained_heard", baselines_of))
         jobs += [(f"real_late{k}", baselines_of) for k in CALIBRATION_DELAYS]
     summaries, tables, renders = [], [], {}
     speech = speech_frames(heldout.timeline)
     marks = None if landmarks is None else ClipLandmarks(landmarks, heldout.real)
+    recording = Recording(heldout.samples, heldout.rate)
     for renderer, name in jobs:
         late = int(renderer.removeprefix("real_late")) if renderer.startswith("real_late") else 0
         if late:
             frames = delayed(heldout.real, late)
         else:
-            frames = np.stack(list(RENDERERS[renderer](models[name], heldout.timeline)))
+            render = RENDERERS[renderer](models[name], heldout.timeline, recording)
+            frames = np.stack(list(render))
         scores = compare(
             heldout.real, frames, mouth_box=mouth_box, eigenlips=eigenlips, speech=speech
         )
@@ -272,9 +279,13 @@ def side_by_side(real: np.ndarray, *columns: np.ndarray, gain: float | None = 3.
 
 def video_columns(renders: dict[str, np.ndarray], default_model: str) -> list[str]:
     """What the side-by-side videos show after the real clip: the paper's morph, then the
-    learned coarticulation and the trained face when the model has them (with neither,
-    ``|real - morph| x 3``)."""
-    extra = [name for name in ("learned", "trained") if f"{name}:{default_model}" in renders]
+    learned coarticulation and the trained face (from the phones, then hearing the recording
+    too) when the model has them (with none, ``|real - morph| x 3``)."""
+    extra = [
+        name
+        for name in ("learned", "trained", "trained_heard")
+        if f"{name}:{default_model}" in renders
+    ]
     return ["paper", *extra] if extra else ["paper", "difference"]
 
 

@@ -3,7 +3,8 @@
 The paper's morph, the still face (the silence viseme held), the flip-book (the
 nearest viseme held), the cross-dissolve with the morph's alpha, and the models a
 face has learned (``learned``, ``trained``, ``trained_regularized``,
-``trained_previous``).
+``trained_previous``, ``trained_heard``). Each is ``(model, timeline, recording)``:
+the recording that drives the timeline, which only ``trained_heard`` hears.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from miketalk.speech.acoustic import Recording
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
 from miketalk.visemes import SILENCE
@@ -23,20 +25,26 @@ def _pairs(model: Model, timeline: Timeline) -> Iterator[tuple[str, str, float]]
         yield t.source, t.target, sample.alpha
 
 
-def render_still(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_still(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """The silence viseme held: a face that does not speak."""
     image = model.image(SILENCE)
     for _ in timeline.frames:
         yield image
 
 
-def render_flipbook(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_flipbook(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """The nearest viseme held, no morph: ``alpha < 0.5`` shows the source, else the target."""
     for a, b, alpha in _pairs(model, timeline):
         yield model.image(a if alpha < 0.5 else b)
 
 
-def render_dissolve(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_dissolve(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """A cross-dissolve with the morph's alpha: ``(1 - alpha) A + alpha B``, no flow."""
     for a, b, alpha in _pairs(model, timeline):
         blend = (1.0 - alpha) * model.image(a).astype(np.float32) + alpha * model.image(b).astype(
@@ -45,33 +53,43 @@ def render_dissolve(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
         yield np.clip(blend + 0.5, 0, 255).astype(np.uint8)
 
 
-def render_morph(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_morph(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """The paper's morph (what ``miketalk say`` renders)."""
     return model.render(timeline)
 
 
-def render_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_learned(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """Learned coarticulation (:mod:`miketalk.talk.coarticulation`) drawn by the N-way morph."""
     from miketalk.talk.learned import render_model_learned
 
     return render_model_learned(model, timeline)
 
 
-def render_trained(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_trained(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """The trained face (:mod:`miketalk.talk.trained`): his frames along its default trajectory."""
     from miketalk.talk.trained.build import render_trained as render
 
     return render(model, timeline)
 
 
-def render_trained_regularized(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_trained_regularized(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """The trained face with the MMM-style regularized trajectory (the other trajectory model)."""
     from miketalk.talk.trained.build import render_trained as render
 
     return render(model, timeline, kind="regularized")
 
 
-def render_trained_previous(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
+def render_trained_previous(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
     """The trained face with the selection settings it had before they were chosen by
     cross-validation on the training clips
     (:data:`miketalk.talk.trained.selection.PREVIOUS_SELECTION`), for a paired comparison."""
@@ -81,8 +99,17 @@ def render_trained_previous(model: Model, timeline: Timeline) -> Iterator[np.nda
     return render(model, timeline, selection=PREVIOUS_SELECTION)
 
 
+def render_trained_heard(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
+    """The trained face along the ``heard`` trajectory: the phones and the recording."""
+    from miketalk.talk.trained.build import render_trained as render
+
+    return render(model, timeline, kind="heard", recording=recording)
+
+
 #: Renderers of a timeline, by the name the tables use.
-RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
+RENDERERS: dict[str, Callable[..., Iterator[np.ndarray]]] = {
     "still": render_still,
     "flipbook": render_flipbook,
     "dissolve": render_dissolve,
@@ -91,4 +118,5 @@ RENDERERS: dict[str, Callable[[Model, Timeline], Iterator[np.ndarray]]] = {
     "trained": render_trained,
     "trained_regularized": render_trained_regularized,
     "trained_previous": render_trained_previous,
+    "trained_heard": render_trained_heard,
 }

@@ -331,6 +331,7 @@ def heldout_trajectory(
         ("morph", "-", "paper (morph)"),
         ("learned", "-", "learned"),
         ("trained", "-", "trained"),
+        ("trained_heard", "-", "trained, heard"),
         ("trained_previous", "-.", "trained, previous settings"),
         ("dissolve", ":", "dissolve"),
         ("flipbook", "--", "flip-book"),
@@ -374,7 +375,7 @@ def heldout_psnr(frames_csv: Path_, out: Path_, *, clip: str, model: str) -> Non
 
 
 #: The training-clips figure's renderers and measures (mean and sd over the held-out clips).
-SWEEP_RENDERERS = ("morph", "learned", "trained")
+SWEEP_RENDERERS = ("morph", "learned", "trained", "trained_heard")
 SWEEP_MEASURES = (
     ("mouth_lmd", "mouth LMD (px)"),
     ("lip_opening_corr_speech", "inner-lip opening r, speech"),

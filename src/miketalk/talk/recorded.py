@@ -183,6 +183,7 @@ def say_recorded(
     max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
     sampling: Sampling = "blur",
     lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
+    trajectory: str | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
     overwrite: bool = False,
@@ -211,6 +212,9 @@ def say_recorded(
     lipsync_model : {"paper", "learned", "trained"}
         The paper's transitions, the model's learned coarticulation or its trained face (see
         :func:`miketalk.talk.say.speak`).
+    trajectory : str, optional
+        With ``"trained"``: its trajectory model (default ``heard``, which listens to the
+        recording as well as its phones, when the face has it; else the face's default).
     table : VisemeTable, optional
         Phone -> viseme (default: the paper's).
     progress : bool
@@ -227,6 +231,7 @@ def say_recorded(
         A bad setting or output name (before the recording is read), and the
         errors of :func:`align_recording`.
     """
+    from miketalk.speech.acoustic import Recording
     from miketalk.talk.background import background_doc
     from miketalk.talk.output import check_output
     from miketalk.talk.say import learned_coarticulation
@@ -245,6 +250,10 @@ def say_recorded(
     )  # fmt: skip
     coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
     trained = read_trained(model.directory) if lipsync_model == "trained" else None
+    if trained is not None:
+        trajectory = trained.kind_for(trajectory, recorded=True)
+    elif trajectory is not None:
+        raise MiketalkError("a trajectory model is chosen for lipsync model 'trained' only")
     output = check_output(output, overwrite=overwrite)
     aligned = align_recording(audio, text=text, timings=timings)
     timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)
@@ -267,9 +276,12 @@ def say_recorded(
             "max_slowdown": None,
             "lipsync_model": lipsync_model,
         }
+        | ({"trajectory": trajectory} if trained is not None else {})
         | background_doc(background),
         coarticulation=coarticulation,
         trained=trained,
+        trajectory=trajectory,
+        recording=Recording(aligned.samples, aligned.rate),
         progress=progress,
         overwrite=overwrite,
         background=background,

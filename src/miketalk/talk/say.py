@@ -109,6 +109,7 @@ def speak(
     sampling: Sampling = DEFAULT_SAMPLING,
     max_slowdown: float | None = None,
     lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
+    trajectory: str | None = None,
     backend: SpeechBackend | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
@@ -161,6 +162,9 @@ def speak(
         sets only the speech's duration (blur's extra morphs are not drawn;
         the learned path is smooth of itself); ``"trained"`` draws each frame
         from his own frames along a trained trajectory (:mod:`miketalk.talk.trained`).
+    trajectory : str, optional
+        With ``"trained"``: its trajectory model (default the face's; ``heard`` listens to
+        a recording, which synthesized speech is not, and is refused here).
     backend : SpeechBackend, optional
         The engine for a ``str`` text (default Festival).
     table : VisemeTable, optional
@@ -199,6 +203,9 @@ def speak(
             from miketalk.talk.trained import read_trained
 
             trained = read_trained(model.directory)
+            trajectory = trained.kind_for(trajectory, recorded=False)
+        elif trajectory is not None:
+            raise MiketalkError("a trajectory model is chosen for lipsync model 'trained' only")
         output = check_output(output, overwrite=overwrite)
         if speech is None:
             speech = (backend or get_backend("festival")).start(str(text))
@@ -254,9 +261,11 @@ def speak(
             # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
             "planned_duration": planned_duration,
         }
+        | ({"trajectory": trajectory} if trained is not None else {})
         | _background_doc(background),
         coarticulation=coarticulation,
         trained=trained,
+        trajectory=trajectory,
         progress=progress,
         overwrite=overwrite,
         background=background,

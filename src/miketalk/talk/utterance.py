@@ -24,6 +24,7 @@ from miketalk.talk.output import TIMELINE_FORMAT, check_output
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
+    from miketalk.speech.acoustic import Recording
     from miketalk.talk.background import Background
     from miketalk.talk.coarticulation import CoarticulationParams
     from miketalk.talk.trained import TrainedFace
@@ -65,6 +66,8 @@ def write_utterance(
     extra: dict,
     coarticulation: CoarticulationParams | None = None,
     trained: TrainedFace | None = None,
+    trajectory: str | None = None,
+    recording: Recording | None = None,
     progress: bool = False,
     overwrite: bool = False,
     background: Background | None = None,
@@ -85,6 +88,12 @@ def write_utterance(
     trained : TrainedFace, optional
         Draw the frames from the person's own with this trained face
         (:func:`miketalk.talk.trained.build.render_trained`).
+    trajectory : str, optional
+        The trained face's trajectory model (default: ``heard`` with a ``recording`` when
+        the face has it, else the face's default).
+    recording : Recording, optional
+        The recording of the speech the frames follow (``say --audio``, ``dub``): the
+        trained face's ``heard`` trajectory listens to it. None for synthesized speech.
     background : Background, optional
         Frames of the person to composite each rendered mouth into
         (:func:`miketalk.talk.background.composited`); the video then has the
@@ -105,7 +114,9 @@ def write_utterance(
     if trained is not None:
         from miketalk.talk.trained.build import render_trained
 
-        rendered = render_trained(model, timeline, trained=trained)
+        rendered = render_trained(
+            model, timeline, trained=trained, kind=trajectory, recording=recording
+        )
     elif coarticulation is None:
         rendered = model.render(timeline)
     else:

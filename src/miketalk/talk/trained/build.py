@@ -5,7 +5,8 @@
 ``patches.npy``, ``description.npz``, ``frames.json``
     every training frame's description and patch (:mod:`~miketalk.talk.trained.mouths`);
 ``trajectory.npz``
-    both trajectory models' arrays, their keys prefixed ``window.`` and ``regularized.``;
+    the trajectory models' arrays, their keys prefixed ``window.``, ``regularized.`` and
+    ``heard.``;
 ``trained.json``
     ``format``, the default trajectory model, each model's settings and its
     cross-validation report, the selection settings.
@@ -30,10 +31,12 @@ from typing import Any
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.speech.acoustic import Recording
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
 from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, drawn, select
 from miketalk.talk.trained.trajectory import (
+    HEARD_HALF,
     TRAJECTORIES,
     Context,
     RegularizedTrajectory,
@@ -81,16 +84,31 @@ class TrainedFace:
     table: VisemeTable
     report: dict
 
-    def trajectory(self, timeline: Timeline, *, kind: str | None = None) -> np.ndarray:
-        """The predicted description at each frame's time (plus the selection's ``lead``),
-        ``(n_frames, n)``."""
-        kind = kind or self.default
+    def kind_for(self, kind: str | None, *, recorded: bool) -> str:
+        """The trajectory model to use: ``kind``, else ``heard`` for an utterance driven by a
+        recording (``recorded``) when the face has it, else the face's default."""
+        if kind is None:
+            kind = "heard" if recorded and "heard" in self.trajectories else self.default
         if kind not in self.trajectories:
             raise MiketalkError(
-                f"unknown trajectory model {kind!r} (known: {', '.join(self.trajectories)})"
+                f"this trained face has no trajectory model {kind!r} "
+                f"(it has {', '.join(self.trajectories)})"
             )
+        if kind == "heard" and not recorded:
+            raise MiketalkError(
+                "the heard trajectory listens to a recording: give one (--audio), or use the "
+                "window or regularized trajectory"
+            )
+        return kind
+
+    def trajectory(
+        self, timeline: Timeline, *, kind: str | None = None, recording: Recording | None = None
+    ) -> np.ndarray:
+        """The predicted description at each frame's time (plus the selection's ``lead``),
+        ``(n_frames, n)``."""
+        kind = self.kind_for(kind, recorded=recording is not None)
         times = np.array([f.time for f in timeline.frames], float) + self.selection.lead
-        return self.trajectories[kind].predict(timeline.phones, times, self.table)
+        return self.trajectories[kind].predict(timeline.phones, times, self.table, recording)
 
     def described(self) -> np.ndarray:
         """The training frames' descriptions as the trajectories predict them: with
@@ -99,10 +117,12 @@ class TrainedFace:
             return self.frames.coords
         return self.frames.coords - clip_offsets(self.frames)[self.frames.clip]
 
-    def target(self, timeline: Timeline, *, kind: str | None = None) -> np.ndarray:
+    def target(
+        self, timeline: Timeline, *, kind: str | None = None, recording: Recording | None = None
+    ) -> np.ndarray:
         """What the selection aims at: the trajectory, amplified (:meth:`amplified`)."""
-        kind = kind or self.default
-        target = self.trajectory(timeline, kind=kind)
+        kind = self.kind_for(kind, recorded=recording is not None)
+        target = self.trajectory(timeline, kind=kind, recording=recording)
         if self.selection.amplitude > 0:
             target = self.amplified(target, self.report["fit"][kind])
         return target
@@ -124,14 +144,19 @@ class TrainedFace:
         return mean + gain * (target - mean)
 
     def plan(
-        self, timeline: Timeline, *, kind: str | None = None, target: np.ndarray | None = None
+        self,
+        timeline: Timeline,
+        *,
+        kind: str | None = None,
+        target: np.ndarray | None = None,
+        recording: Recording | None = None,
     ) -> list:
         """Each frame's training frames and weights (:func:`~.selection.drawn`), aiming at
         ``target`` (default :meth:`target`, when the caller has it already)."""
-        kind = kind or self.default
+        kind = self.kind_for(kind, recorded=recording is not None)
         weights = self.report["fit"][kind].get("cv_r2") if self.selection.weighted else None
         if target is None:
-            target = self.target(timeline, kind=kind)
+            target = self.target(timeline, kind=kind, recording=recording)
         path = select(
             self.frames, target, self.selection, weights=weights, described=self.described()
         )
@@ -187,7 +212,7 @@ def fit_trained(
     frames.save(out)
     arrays: dict[str, np.ndarray] = {}
     settings: dict[str, Any] = {}
-    for name, model in (("window", window), ("regularized", regularized)):
+    for name, model in face.trajectories.items():
         a, s = to_arrays(model)
         arrays |= {f"{name}.{k}": v for k, v in a.items()}
         settings[name] = s
@@ -204,9 +229,8 @@ def fit_trained(
             "clips": len(frames.clip_ids),
             "components": components,
             "explained_variance": [float(v) for v in frames.variance],
-            "window": window_report,
-            "regularized": regularized_report,
-        },
+        }
+        | face.report["fit"],
     }
     write_text_atomic(out / MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
     log.info(
@@ -220,13 +244,18 @@ def fit_trained(
 
 
 def training_set(corpus_dir: str | os.PathLike[str], frames: MouthFrames) -> TrainingSet:
-    """Each training clip's aligned phones (``phones.tsv``), frame times and descriptions."""
+    """Each training clip's aligned phones (``phones.tsv``), frame times, descriptions and
+    sound (``audio.wav`` from the clip's start in ``clips.tsv``)."""
     import pandas as pd
 
+    from miketalk.media.audio import read_wav
     from miketalk.speech.types import Phone
 
     phones_table = pd.read_csv(Path(corpus_dir) / "phones.tsv", sep="\t", dtype={"clip": str})
-    phones, times, coords = [], [], []
+    clips = pd.read_csv(Path(corpus_dir) / "clips.tsv", sep="\t", dtype={"clip": str})
+    starts = dict(zip(clips["clip"], clips["start"], strict=True))
+    samples, rate = read_wav(Path(corpus_dir) / "audio.wav")
+    phones, times, coords, recordings = [], [], [], []
     for c, clip_id in enumerate(frames.clip_ids):
         own = phones_table[phones_table["clip"] == clip_id].sort_values("index")
         phones.append(
@@ -238,7 +267,10 @@ def training_set(corpus_dir: str | os.PathLike[str], frames: MouthFrames) -> Tra
         rows = np.flatnonzero(frames.clip == c)
         times.append(frames.clip_frame[rows] / frames.fps)
         coords.append(frames.coords[rows])
-    return TrainingSet(tuple(phones), tuple(times), tuple(coords))
+        first = round(float(starts[clip_id]) * rate)
+        last = first + round(len(rows) / frames.fps * rate)
+        recordings.append(Recording(samples[first:last], rate))
+    return TrainingSet(tuple(phones), tuple(times), tuple(coords), tuple(recordings))
 
 
 def clip_offsets(frames: MouthFrames) -> np.ndarray:
@@ -266,27 +298,24 @@ def fitted_face(
     data = training_set(corpus_dir, frames)
     if selection.centred:
         offsets = clip_offsets(frames)
-        data = TrainingSet(
-            data.phones, data.times,
-            tuple(c - offsets[k] for k, c in enumerate(data.coords)),
-        )  # fmt: skip
+        data = dataclasses.replace(
+            data, coords=tuple(c - offsets[k] for k, c in enumerate(data.coords))
+        )
     seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
     context = Context(tuple(seen), tuple(table.visemes))
-    held: dict[str, dict] = {"window": {}, "regularized": {}}
-    window, window_report = fit_window(
-        data, context, table, half=selection.half, predictions=held["window"]
-    )
-    regularized, regularized_report = fit_regularized(
-        data, context, table, predictions=held["regularized"]
-    )
-    for name, model, report in (
-        ("window", window, window_report),
-        ("regularized", regularized, regularized_report),
-    ):
+    held: dict[str, dict] = {name: {} for name in TRAJECTORIES}
+    fitted = {
+        "window": fit_window(data, context, table, half=selection.half, predictions=held["window"]),
+        "regularized": fit_regularized(data, context, table, predictions=held["regularized"]),
+        "heard": fit_window(
+            data, context, table, half=selection.half, heard=HEARD_HALF, predictions=held["heard"]
+        ),
+    }
+    for name, (model, report) in fitted.items():
         report["amplitude_gain"] = amplitude_gain(model, data, table)
         report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
-    report = {"fit": {"window": window_report, "regularized": regularized_report}}
-    models = {"window": window, "regularized": regularized}
+    report = {"fit": {name: report for name, (_, report) in fitted.items()}}
+    models = {name: model for name, (model, _) in fitted.items()}
     return TrainedFace(frames, models, default, selection, table, report)
 
 
@@ -307,8 +336,13 @@ def amplitude_gain(
     frames that move less than he does. Scaling the predicted deviation from
     the mean by this gain gives the target his own amplitude.
     """
+    recordings = data.recordings or (None,) * len(data.phones)
     return _spread_ratio(
-        [model.predict(p, t, table) for p, t in zip(data.phones, data.times, strict=True)], data
+        [
+            model.predict(p, t, table, r)
+            for p, t, r in zip(data.phones, data.times, recordings, strict=True)
+        ],
+        data,
     )
 
 
@@ -352,6 +386,7 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
                 doc["trajectories"][name],
             )
             for name in TRAJECTORIES
+            if name in doc["trajectories"]  # a face fitted before ``heard`` has not got it
         }
         # a face fitted before the cross-validated gain has no amplitude_gain_cv: it keeps
         # the fitted gain it was made with (its other later settings default to the old ways)
@@ -363,6 +398,17 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
     return TrainedFace(load_frames(d), trajectories, default, selection, table, doc)
 
 
+def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
+    """The trajectory models of the trained face in ``model_dir`` (none: no trained face)."""
+    path = Path(model_dir) / DIRECTORY / MANIFEST
+    if not path.is_file():
+        return ()
+    try:
+        return tuple(json.loads(path.read_text(encoding="utf-8")).get("trajectories", {}))
+    except (OSError, ValueError, AttributeError) as err:
+        raise MiketalkError(f"cannot read the trained face in {path.parent}: {err!r}") from None
+
+
 def render_trained(
     model: Any,
     timeline: Timeline,
@@ -370,6 +416,7 @@ def render_trained(
     trained: TrainedFace | None = None,
     kind: str | None = None,
     selection: Mapping[str, Any] | None = None,
+    recording: Recording | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames of ``timeline`` drawn from the person's own frames.
 
@@ -378,7 +425,9 @@ def render_trained(
     training frames and they are composited onto the model's silence image.
     The ``(model, timeline)`` signature of the held-out evaluation's renderers.
     ``selection`` overrides some of the face's selection settings (those that
-    need no refitting: not ``centred`` or ``half``).
+    need no refitting: not ``centred`` or ``half``). ``recording``, the sound that drives
+    the timeline, lets a face with the ``heard`` trajectory hear it (unless ``kind``
+    names another).
     """
     trained = trained or read_trained(model.directory)
     if selection:
@@ -391,7 +440,7 @@ def render_trained(
             raise MiketalkError("centred and half are fitted with the model: refit it instead")
         settings = dataclasses.replace(trained.selection, **selection)
         trained = dataclasses.replace(trained, selection=settings)
-    rows = trained.plan(timeline, kind=kind)
+    rows = trained.plan(timeline, kind=kind, recording=recording)
     compositor = PatchCompositor(trained.frames, model.image(SILENCE))
     for row in rows:
         yield compositor.frame(row)

@@ -19,9 +19,15 @@ with coarticulation learned from the data rather than assumed:
     frame rate): a phone of small variance (a closure) is reached, one of
     large variance yields to its neighbours. ``lambda`` is chosen by
     cross-validation over clips.
+``heard`` (:class:`WindowRegression` with ``heard > 0``)
+    the ``window`` regression with, beside the phones, the recording's own
+    log-mel energies around the frame (:func:`miketalk.speech.acoustic.heard_features`):
+    how loud and how open a vowel is, which its phone does not say. Only for
+    an utterance driven by a recording (``say --audio``, ``dub``, the held-out
+    evaluation); typed text has no recording of the person to hear.
 
-Both give :meth:`predict` ``(phones, times) -> (len(times), n)``; both are
-kept as arrays and a JSON-ready dict (:func:`to_arrays`, :func:`from_arrays`).
+All give :meth:`predict` ``(phones, times, table, recording=None) -> (len(times), n)``;
+all are kept as arrays and a JSON-ready dict (:func:`to_arrays`, :func:`from_arrays`).
 """
 
 from __future__ import annotations
@@ -32,11 +38,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.speech.acoustic import Recording, heard_features
 from miketalk.speech.types import Phone
 from miketalk.visemes import SILENCE, VisemeTable
 
-#: The trajectory models, the default first.
-TRAJECTORIES = ("window", "regularized")
+#: The trajectory models, the default first; ``heard`` needs the utterance's recording.
+TRAJECTORIES = ("window", "regularized", "heard")
+
+#: The ``heard`` model's window of the recording: half-width (steps) and step (s).
+HEARD_HALF, HEARD_STEP = 6, 0.02
 
 #: Edges (s) of the bins of the distance to the speech in a silence (:func:`pause_features`).
 PAUSE_BINS = (0.04, 0.08, 0.16, 0.24, 0.36, 0.5, 0.7, 1.0)
@@ -100,16 +110,36 @@ class WindowRegression:
     intercept: np.ndarray  # (n,)
     ridge: float
     pauses: bool = True
+    heard: int = 0  # the recording's window half-width (HEARD_STEP steps); 0: phones only
 
-    def features(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable):
-        """``(len(times), (2 half + 1) (P + V))`` one-hot phone and viseme at each offset."""
-        return window_features(
+    def features(
+        self,
+        phones: Sequence[Phone],
+        times: np.ndarray,
+        table: VisemeTable,
+        recording: Recording | None = None,
+    ) -> np.ndarray:
+        """``(len(times), (2 half + 1) (P + V))`` one-hot phone and viseme at each offset
+        (then the pauses, then with ``heard`` the recording's window)."""
+        x = window_features(
             self.context, phones, times, table, half=self.half, step=self.step, pauses=self.pauses
         )
+        if not self.heard:
+            return x
+        if recording is None:
+            raise MiketalkError("the heard trajectory needs the utterance's recording")
+        heard = heard_features(recording, times, half=self.heard, step=HEARD_STEP)
+        return np.concatenate([x, heard], axis=1)
 
-    def predict(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
-        """The description ``(len(times), n)`` along the phones."""
-        return self.features(phones, times, table) @ self.weights + self.intercept
+    def predict(
+        self,
+        phones: Sequence[Phone],
+        times: np.ndarray,
+        table: VisemeTable,
+        recording: Recording | None = None,
+    ) -> np.ndarray:
+        """The description ``(len(times), n)`` along the phones (and the recording)."""
+        return self.features(phones, times, table, recording) @ self.weights + self.intercept
 
 
 def window_features(
@@ -195,8 +225,15 @@ class RegularizedTrajectory:
         mean[unknown], var[unknown] = 0.0, self.scale
         return mean, var
 
-    def predict(self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable) -> np.ndarray:
-        """The trajectory ``(len(times), n)`` of least regularized cost along the phones."""
+    def predict(
+        self,
+        phones: Sequence[Phone],
+        times: np.ndarray,
+        table: VisemeTable,
+        recording: Recording | None = None,
+    ) -> np.ndarray:
+        """The trajectory ``(len(times), n)`` of least regularized cost along the phones
+        (``recording`` is not used)."""
         times = np.asarray(times, float)
         mean, var = self.targets(phones, times, table)
         return smooth_targets(mean, var, self.scale, self.smoothness, times)
@@ -256,6 +293,7 @@ class TrainingSet:
     phones: tuple[tuple[Phone, ...], ...]
     times: tuple[np.ndarray, ...]
     coords: tuple[np.ndarray, ...]
+    recordings: tuple[Recording, ...] | None = None  # each clip's sound, for ``heard``
 
     def folds(self, k: int) -> list[tuple[list[int], list[int]]]:
         """``k`` (train, validation) splits of the clips, every ``k``-th clip held out."""
@@ -274,18 +312,23 @@ def fit_window(
     half: int = 6,
     step: float = 0.04,
     pauses: bool = True,
+    heard: int = 0,
     grid: Sequence[float] = RIDGE_GRID,
     folds: int = 5,
     predictions: dict | None = None,
 ) -> tuple[WindowRegression, dict]:
     """Fit :class:`WindowRegression` (ridge strength by cross-validation); it and a report.
 
+    With ``heard`` (the recording's window half-width) it hears ``data.recordings``.
     ``predictions``, when given, receives each clip's cross-validated prediction at
     the chosen strength (``clip index -> (frames, n)``: fitted without that clip).
     """
+    if heard and data.recordings is None:
+        raise MiketalkError("the heard trajectory is fitted on the training clips' recordings")
+    shape = WindowRegression(context, half, step, np.zeros(0), np.zeros(0), 0.0, pauses, heard)
     xs = [
-        window_features(context, p, t, table, half=half, step=step, pauses=pauses)
-        for p, t in zip(data.phones, data.times, strict=True)
+        shape.features(p, t, table, data.recordings[k] if heard else None)
+        for k, (p, t) in enumerate(zip(data.phones, data.times, strict=True))
     ]
     errors, held = {}, {}
     for strength in grid:
@@ -306,7 +349,8 @@ def fit_window(
         predictions.update(held[best])
     w, b = ridge(np.concatenate(xs), np.concatenate(data.coords), best)
     report = _report(errors, best, data)
-    return WindowRegression(context, half, step, w, b, best, pauses), report | {"ridge": best}
+    fitted = WindowRegression(context, half, step, w, b, best, pauses, heard)
+    return fitted, report | {"ridge": best}
 
 
 def _report(errors: Mapping[float, np.ndarray], best: float, data: TrainingSet) -> dict:
@@ -371,7 +415,7 @@ def to_arrays(model: WindowRegression | RegularizedTrajectory) -> tuple[dict, di
         arrays = {"weights": model.weights, "intercept": model.intercept}
         return arrays, base | {
             "kind": "window", "half": model.half, "step": model.step, "ridge": model.ridge,
-            "pauses": model.pauses,
+            "pauses": model.pauses, "heard": model.heard,
         }  # fmt: skip
     arrays = {
         "phone_mean": model.phone_mean, "phone_var": model.phone_var,
@@ -390,6 +434,7 @@ def from_arrays(
         return WindowRegression(
             context, int(settings["half"]), float(settings["step"]), arrays["weights"],
             arrays["intercept"], float(settings["ridge"]), bool(settings.get("pauses", False)),
+            int(settings.get("heard", 0)),
         )  # fmt: skip
     if kind == "regularized":
         return RegularizedTrajectory(
