@@ -1,6 +1,6 @@
 """How much of the mouth the phones predict: the trajectory's cross-validated R², by model.
 
-``python -m miketalk.bench.trajectory_cv --corpus DIR [--mlp 128 512]``
+``python -m miketalk.bench.trajectory_cv --corpus DIR [--mlp 128 512] [--heard] [--opening]``
 
 The trained face's description of every frame of a corpus folder
 (:func:`miketalk.talk.trained.mouths.measure_frames`) predicted from the phone
@@ -12,6 +12,15 @@ layer of each given size; scikit-learn is not a miketalk dependency: install it
 to try this). Prints, per model, the R² of the first components and the R² of
 the whole description (1 - mean squared error / mean variance). Training clips
 only: the ceiling a phone model meets, judged without the held-out clips.
+
+``--heard`` adds the ``heard`` trajectory's features (the clip's recording,
+:func:`miketalk.speech.acoustic.heard_features`) beside the phones. ``--opening``
+asks the question in the held-out evaluation's own terms, without the description
+or the selection in between: dlib marks every training frame (evaluation only), and
+the same ridge predicts the inner-lip opening itself, phones alone and phones with
+the recording; printed is the mean over clips of the cross-validated prediction's
+correlation with the real opening over the speech (and its amplitude), beside the
+real opening one frame late.
 """
 
 from __future__ import annotations
@@ -19,6 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -76,6 +86,61 @@ def mlp_fit(hidden: int, alpha: float) -> Fit:
     return fit
 
 
+def opening_ceiling(
+    corpus: Path, data, xs: dict[str, list[np.ndarray]], strengths: Sequence[float]
+) -> list[str]:
+    """The cross-validated ridge's opening r and amplitude over the speech, per feature set
+    and strength (see the module docstring); the real opening one frame late first."""
+    import pandas as pd
+
+    from miketalk.corpus.folder import frame_path
+    from miketalk.evaluation.landmarks import face_landmarks, lip_opening
+    from miketalk.evaluation.measures import correlation
+    from miketalk.media.images import read_image
+    from miketalk.visemes import SILENCE, VisemeTable
+
+    table = VisemeTable()
+    frames = pd.read_csv(corpus / "frames.tsv", sep="\t", dtype={"clip": str})
+    openings, speech = [], []
+    landmarks = face_landmarks()
+    box = None
+    for phones, times, clip in zip(data.phones, data.times, data.clips, strict=True):
+        rows = frames[frames["clip"] == clip].sort_values("clip_frame")["frame"].to_numpy()
+        real = np.stack([read_image(frame_path(corpus / "frames", int(k))) for k in rows])
+        box = box or landmarks.face_box(real)
+        openings.append(lip_opening(landmarks.points(real, box))[: len(times)])
+        spoken = [p for p in phones if SILENCE not in table.visemes_of(p.name)]
+        speech.append((times >= spoken[0].start) & (times < spoken[-1].end))
+
+    def scores(predicted: Sequence[np.ndarray]) -> tuple[float, float]:
+        r = [correlation(p[m], o[m]) for p, o, m in zip(predicted, openings, speech, strict=True)]
+        a = [p[m].std() / o[m].std() for p, o, m in zip(predicted, openings, speech, strict=True)]
+        return float(np.nanmean(r)), float(np.mean(a))
+
+    late = [np.r_[o[:1], o[:-1]] for o in openings]
+    r, a = scores(late)
+    lines = [f"opening r {r:.3f}, amplitude {a:.2f}: the real opening one frame late"]
+    targets = [o[:, None] for o in openings]
+    for name, x in xs.items():
+        for strength in strengths:
+            held: list[np.ndarray] = [np.empty(0)] * len(x)
+            for f in range(5):
+                train = [i for i in range(len(x)) if i % 5 != f]
+                w, b = _ridge(np.concatenate([x[i] for i in train]),
+                              np.concatenate([targets[i] for i in train]), strength)  # fmt: skip
+                for i in range(f, len(x), 5):
+                    held[i] = (x[i] @ w + b)[:, 0]
+            r, a = scores(held)
+            lines.append(f"opening r {r:.3f}, amplitude {a:.2f}: {name} ridge {strength:g}")
+    return lines
+
+
+def _ridge(x: np.ndarray, y: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
+    from miketalk.talk.trained.trajectory import ridge
+
+    return ridge(x, y, strength)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Command line (see the module docstring)."""
     parser = bench_parser(__name__, __doc__, limit_help="(unused: every clip is used)")
@@ -84,6 +149,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--ridges", type=float, nargs="+", default=[30.0, 100.0, 300.0])
     parser.add_argument("--mlp", type=int, nargs="*", default=[], help="hidden layer sizes")
     parser.add_argument("--alpha", type=float, default=0.1, help="the MLP's L2 penalty")
+    parser.add_argument("--heard", action="store_true", help="also hear each clip's recording")
+    parser.add_argument(
+        "--opening", action="store_true", help="predict dlib's lip opening itself (slow)"
+    )
 
     def check(args) -> str | None:
         if not (args.corpus / "phones.tsv").is_file():
@@ -91,9 +160,15 @@ def main(argv: list[str] | None = None) -> int:
         return None
 
     def work(args) -> str:
+        from miketalk.speech.acoustic import heard_features
         from miketalk.talk.trained.build import training_set
         from miketalk.talk.trained.mouths import measure_frames
-        from miketalk.talk.trained.trajectory import Context, window_features
+        from miketalk.talk.trained.trajectory import (
+            HEARD_HALF,
+            HEARD_STEP,
+            Context,
+            window_features,
+        )
         from miketalk.visemes import VisemeTable
 
         frames = measure_frames(args.corpus)
@@ -109,6 +184,12 @@ def main(argv: list[str] | None = None) -> int:
                 for p, t in zip(data.phones, data.times, strict=True)
             ]
 
+        def heard(phones: list[np.ndarray]) -> list[np.ndarray]:
+            return [
+                np.concatenate([x, heard_features(r, t, half=HEARD_HALF, step=HEARD_STEP)], 1)
+                for x, r, t in zip(phones, data.recordings, data.times, strict=True)
+            ]
+
         def report(name: str, xs: list[np.ndarray], fit: Fit) -> None:
             t0 = time.perf_counter()
             whole, per = cross_validated_r2(xs, data.coords, fit)
@@ -121,6 +202,15 @@ def main(argv: list[str] | None = None) -> int:
             xs = features(half)
             for strength in args.ridges:
                 report(f"ridge half {half} strength {strength:g}", xs, ridge_fit(strength))
+        if args.heard:
+            for strength in args.ridges:
+                report(f"heard ridge half 6 strength {strength:g}", heard(features(6)),
+                       ridge_fit(strength))  # fmt: skip
+        if args.opening:
+            xs = {"phones": features(6)}
+            xs["phones and recording"] = heard(xs["phones"])
+            clipped = SimpleNamespace(**vars(data), clips=frames.clip_ids)
+            lines += opening_ceiling(args.corpus, clipped, xs, args.ridges)
         if args.mlp:
             xs = features(6)
             for hidden in args.mlp:
