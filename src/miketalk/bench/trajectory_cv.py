@@ -28,12 +28,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from miketalk.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
+
+if TYPE_CHECKING:
+    from miketalk.talk.trained.trajectory import TrainingSet
 
 Fit = Callable[[np.ndarray, np.ndarray, Sequence[np.ndarray]], list[np.ndarray]]
 
@@ -87,7 +90,11 @@ def mlp_fit(hidden: int, alpha: float) -> Fit:
 
 
 def opening_ceiling(
-    corpus: Path, data, xs: dict[str, list[np.ndarray]], strengths: Sequence[float]
+    corpus: Path,
+    data: TrainingSet,
+    clip_ids: Sequence[str],
+    xs: dict[str, list[np.ndarray]],
+    strengths: Sequence[float],
 ) -> list[str]:
     """The cross-validated ridge's opening r and amplitude over the speech, per feature set
     and strength (see the module docstring); the real opening one frame late first."""
@@ -97,6 +104,7 @@ def opening_ceiling(
     from miketalk.evaluation.landmarks import face_landmarks, lip_opening
     from miketalk.evaluation.measures import correlation
     from miketalk.media.images import read_image
+    from miketalk.talk.trained.trajectory import ridge
     from miketalk.visemes import SILENCE, VisemeTable
 
     table = VisemeTable()
@@ -104,7 +112,7 @@ def opening_ceiling(
     openings, speech = [], []
     landmarks = face_landmarks()
     box = None
-    for phones, times, clip in zip(data.phones, data.times, data.clips, strict=True):
+    for phones, times, clip in zip(data.phones, data.times, clip_ids, strict=True):
         rows = frames[frames["clip"] == clip].sort_values("clip_frame")["frame"].to_numpy()
         real = np.stack([read_image(frame_path(corpus / "frames", int(k))) for k in rows])
         box = box or landmarks.face_box(real)
@@ -124,21 +132,14 @@ def opening_ceiling(
     for name, x in xs.items():
         for strength in strengths:
             held: list[np.ndarray] = [np.empty(0)] * len(x)
-            for f in range(5):
-                train = [i for i in range(len(x)) if i % 5 != f]
-                w, b = _ridge(np.concatenate([x[i] for i in train]),
-                              np.concatenate([targets[i] for i in train]), strength)  # fmt: skip
-                for i in range(f, len(x), 5):
+            for train, valid in data.folds(5):
+                w, b = ridge(np.concatenate([x[i] for i in train]),
+                             np.concatenate([targets[i] for i in train]), strength)  # fmt: skip
+                for i in valid:
                     held[i] = (x[i] @ w + b)[:, 0]
             r, a = scores(held)
             lines.append(f"opening r {r:.3f}, amplitude {a:.2f}: {name} ridge {strength:g}")
     return lines
-
-
-def _ridge(x: np.ndarray, y: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
-    from miketalk.talk.trained.trajectory import ridge
-
-    return ridge(x, y, strength)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -209,8 +210,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.opening:
             xs = {"phones": features(6)}
             xs["phones and recording"] = heard(xs["phones"])
-            clipped = SimpleNamespace(**vars(data), clips=frames.clip_ids)
-            lines += opening_ceiling(args.corpus, clipped, xs, args.ridges)
+            lines += opening_ceiling(args.corpus, data, frames.clip_ids, xs, args.ridges)
         if args.mlp:
             xs = features(6)
             for hidden in args.mlp:

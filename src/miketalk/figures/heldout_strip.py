@@ -3,7 +3,7 @@
 The held-out videos (:func:`miketalk.evaluation.heldout.heldout_stage`) put the
 real clip and its re-syntheses side by side, one column each. The strip cuts
 the mouth region out of every column at evenly spaced frames of the speech
-and lays them out with one row per column (real, paper, learned, trained), each tile
+and lays them out with one row per column (real, paper, learned, trained, trained_heard), each tile
 labelled with its frame and the phone spoken then, so a reader compares the
 mouths at the same instant down a column of the strip.
 """
