@@ -253,7 +253,7 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     with pytest.raises(MiketalkError, match="unknown selection setting jion") as err:
         list(render_trained(face, timeline, trained=trained, selection={"jion": 1.0}))
     assert "\n" not in str(err.value)
-    with pytest.raises(MiketalkError, match="no trajectory model .splines.") as err:
+    with pytest.raises(MiketalkError, match="no trajectory model 'splines'") as err:
         list(render_trained(face, timeline, trained=trained, kind="splines"))
     assert "\n" not in str(err.value)
     frames = measure_frames(corpus, components=6)
