@@ -110,7 +110,8 @@ class WindowRegression:
     intercept: np.ndarray  # (n,)
     ridge: float
     pauses: bool = True
-    heard: int = 0  # the recording's window half-width (HEARD_STEP steps); 0: phones only
+    heard: int = 0  # the recording's window half-width (heard_step steps); 0: phones only
+    heard_step: float = HEARD_STEP
 
     def features(
         self,
@@ -128,7 +129,7 @@ class WindowRegression:
             return x
         if recording is None:
             raise MiketalkError("the heard trajectory needs the utterance's recording")
-        heard = heard_features(recording, times, half=self.heard, step=HEARD_STEP)
+        heard = heard_features(recording, times, half=self.heard, step=self.heard_step)
         return np.concatenate([x, heard], axis=1)
 
     def predict(
@@ -415,7 +416,7 @@ def to_arrays(model: WindowRegression | RegularizedTrajectory) -> tuple[dict, di
         arrays = {"weights": model.weights, "intercept": model.intercept}
         return arrays, base | {
             "kind": "window", "half": model.half, "step": model.step, "ridge": model.ridge,
-            "pauses": model.pauses, "heard": model.heard,
+            "pauses": model.pauses, "heard": model.heard, "heard_step": model.heard_step,
         }  # fmt: skip
     arrays = {
         "phone_mean": model.phone_mean, "phone_var": model.phone_var,
@@ -434,7 +435,7 @@ def from_arrays(
         return WindowRegression(
             context, int(settings["half"]), float(settings["step"]), arrays["weights"],
             arrays["intercept"], float(settings["ridge"]), bool(settings.get("pauses", False)),
-            int(settings.get("heard", 0)),
+            int(settings.get("heard", 0)), float(settings.get("heard_step", HEARD_STEP)),
         )  # fmt: skip
     if kind == "regularized":
         return RegularizedTrajectory(
