@@ -183,6 +183,34 @@ def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
     assert not any(key.startswith("still_") for key in figures)
 
 
+def test_the_bench_finds_the_faces_own_model_and_sweeps_each_trained_renderer(
+    tmp_path: Path,
+) -> None:
+    """The own model is the one the baselines draw (not a name written in the bench), and the
+    sweep reports the morph and both trained renderers of that model only."""
+    from miketalk.bench.real_face import LANDMARK_FIGURES, own_model, sweep_figures
+
+    rows = [
+        {"training_clips": n, "renderer": renderer, "model": model}
+        | {f"{m}_mean": float(n) for m in LANDMARK_FIGURES}
+        for n in (5, 40)
+        for renderer, model in (
+            ("still", "dis/direct"), ("morph", "dis/direct"), ("morph", "bergen/bridge"),
+            ("trained", "dis/direct"), ("trained_heard", "dis/direct"), ("learned", "dis/direct"),
+        )
+    ]  # fmt: skip
+    table = pd.DataFrame(rows)
+    assert own_model(table) == "dis/direct"
+    with pytest.raises(ValueError, match="still"):
+        own_model(table[table["renderer"] != "still"])
+    table.to_csv(tmp_path / "training_clips.csv", index=False)
+    figures = sweep_figures(tmp_path)
+    renderers = {"morph", "trained", "trained_heard"}
+    assert len(figures) == 2 * len(renderers) * len(LANDMARK_FIGURES)
+    assert figures["sweep_n40_trained_heard_mouth_lmd_mean"] == 40.0
+    assert sweep_figures(tmp_path / "none") == {}
+
+
 def test_mouth_to_nose_jitter_and_eye_openness() -> None:
     from miketalk.evaluation.landmarks import eye_openness, mouth_nose_jitter
 

@@ -49,6 +49,14 @@ LANDMARK_FIGURES = (
 BASELINES = ("still", "flipbook", "dissolve")
 
 
+def own_model(table: pd.DataFrame) -> str:
+    """The face's own model in a held-out table: the one its baselines (``still``) draw."""
+    still = table.loc[table["renderer"] == "still", "model"]
+    if still.empty:
+        raise ValueError("a held-out table without the still baseline names no own model")
+    return str(still.iloc[0])
+
+
 def landmark_figures(clips: pd.DataFrame, own: str) -> dict[str, float]:
     """The held-out landmark measures of each lip-sync renderer of the face's own model.
 
@@ -117,7 +125,7 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
 
     summary = pd.read_csv(workdir / "results" / "metrics" / "heldout" / "s1" / "summary.csv")
     clips = pd.read_csv(workdir / "results" / "metrics" / "heldout" / "s1" / "clips.csv")
-    own = "bergen/bridge"
+    own = own_model(clips)
     morph = clips[(clips["renderer"] == "morph") & (clips["model"] == own)].set_index("clip")
     figures["heldout_clips"] = float(len(morph))
     figures["eigenlip1_corr_mean"] = float(morph["eigenlip1_corr"].mean())
@@ -154,15 +162,16 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
 
 def sweep_figures(heldout: pathlib.Path) -> dict[str, float]:
     """The training-clips sweep (``training_clips.csv``): per number of training clips, the
-    landmark means of the paper's morph and the trained face (nothing without a sweep)."""
+    landmark means of the paper's morph and the trained face, from the phones and hearing the
+    recording (nothing without a sweep)."""
     path = heldout / "training_clips.csv"
     if not path.exists():
         return {}
     table = pd.read_csv(path)
     figures: dict[str, float] = {}
-    for row in table[table["renderer"].isin(("morph", "trained"))].itertuples(index=False):
-        if row.renderer == "morph" and row.model != "bergen/bridge":
-            continue
+    own = own_model(table)
+    shown = table["renderer"].isin(("morph", "trained", "trained_heard")) & (table["model"] == own)
+    for row in table[shown].itertuples(index=False):
         for measure in LANDMARK_FIGURES:
             key = f"sweep_n{row.training_clips}_{row.renderer}_{measure}_mean"
             figures[key] = float(getattr(row, f"{measure}_mean"))
