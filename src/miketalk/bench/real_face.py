@@ -9,7 +9,9 @@ the pool it names), then
 3. the workflow on that configuration (``snakemake --directory .bench``): the s1
    model from 40 clips, the training-clips sweep and the held-out evaluation,
    with each rule's time from its benchmark file;
-4. ``miketalk say`` of a 10-word sentence on the s1 model, warm.
+4. ``miketalk say`` of a 10-word sentence on the s1 model, warm (the paper's morph and
+   the trained face), and ``say --audio`` of a held-out clip's own recording with the
+   trained face, which hears it.
 
 It returns the figures the issues set targets for.
 """
@@ -143,15 +145,27 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     figures |= sweep_figures(workdir / "results" / "metrics" / "heldout" / "s1")
 
     model = workdir / "results" / "model" / "s1"
-    for lipsync, label in ((None, "s1_say_10_words"), ("trained", "s1_say_10_words_trained")):
+    # a held-out clip's own recording: the trained face hears it (the heard trajectory)
+    clip = corpus["test"][0]
+    recording = (ROOT / corpus["media"].format(id=clip)).resolve()
+    words = {}
+    for line in (pool / "transcripts.txt").read_text(encoding="utf-8").splitlines():
+        key, _, text = line.partition(" ")
+        words[key] = text
+    runs = (
+        ("s1_say_10_words", [SENTENCE]),
+        ("s1_say_10_words_trained", [SENTENCE, "--lipsync-model", "trained"]),
+        ("s1_say_audio_trained_heard",
+         ["--audio", str(recording), "--text", words[clip], "--lipsync-model", "trained"]),
+    )  # fmt: skip
+    for label, arguments in runs:
         with tempfile.TemporaryDirectory() as tmp:
             times = []
             for i in range(4):
                 t0 = time.monotonic()
                 subprocess.run(
-                    [str(pathlib.Path(sys.executable).parent / "miketalk"), "say", SENTENCE,
-                     "--model", str(model), "-o", os.path.join(tmp, f"s{i}.mp4"),
-                     *(["--lipsync-model", lipsync] if lipsync else [])],
+                    [str(pathlib.Path(sys.executable).parent / "miketalk"), "say", *arguments,
+                     "--model", str(model), "-o", os.path.join(tmp, f"s{i}.mp4")],
                     check=True, capture_output=True,
                 )  # fmt: skip
                 times.append(time.monotonic() - t0)
