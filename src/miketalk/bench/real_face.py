@@ -148,10 +148,9 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     # a held-out clip's own recording: the trained face hears it (the heard trajectory)
     clip = corpus["test"][0]
     recording = (ROOT / corpus["media"].format(id=clip)).resolve()
-    words = {}
-    for line in (pool / "transcripts.txt").read_text(encoding="utf-8").splitlines():
-        key, _, text = line.partition(" ")
-        words[key] = text
+    from miketalk.corpus.clip_sources import read_transcripts
+
+    words = read_transcripts(ROOT / corpus["transcripts"])
     runs = (
         ("s1_say_10_words", [SENTENCE]),
         ("s1_say_10_words_trained", [SENTENCE, "--lipsync-model", "trained"]),

@@ -161,12 +161,10 @@ def main(argv: list[str] | None = None) -> int:
         return None
 
     def work(args) -> str:
-        from miketalk.speech.acoustic import heard_features
         from miketalk.talk.trained.build import training_set
         from miketalk.talk.trained.mouths import measure_frames
         from miketalk.talk.trained.trajectory import (
             HEARD_HALF,
-            HEARD_STEP,
             Context,
             window_features,
         )
@@ -185,10 +183,12 @@ def main(argv: list[str] | None = None) -> int:
                 for p, t in zip(data.phones, data.times, strict=True)
             ]
 
-        def heard(phones: list[np.ndarray]) -> list[np.ndarray]:
+        def heard(half: int) -> list[np.ndarray]:
             return [
-                np.concatenate([x, heard_features(r, t, half=HEARD_HALF, step=HEARD_STEP)], 1)
-                for x, r, t in zip(phones, data.recordings, data.times, strict=True)
+                window_features(
+                    context, p, t, table, half=half, step=0.04, heard=HEARD_HALF, recording=r
+                )
+                for p, t, r in zip(data.phones, data.times, data.recordings, strict=True)
             ]
 
         def report(name: str, xs: list[np.ndarray], fit: Fit) -> None:
@@ -205,11 +205,11 @@ def main(argv: list[str] | None = None) -> int:
                 report(f"ridge half {half} strength {strength:g}", xs, ridge_fit(strength))
         if args.heard:
             for strength in args.ridges:
-                report(f"heard ridge half 6 strength {strength:g}", heard(features(6)),
+                report(f"heard ridge half 6 strength {strength:g}", heard(6),
                        ridge_fit(strength))  # fmt: skip
         if args.opening:
             xs = {"phones": features(6)}
-            xs["phones and recording"] = heard(xs["phones"])
+            xs["phones and recording"] = heard(6)
             lines += opening_ceiling(args.corpus, data, frames.clip_ids, xs, args.ridges)
         if args.mlp:
             xs = features(6)

@@ -112,14 +112,10 @@ def cmd_say(args: argparse.Namespace) -> int:
 def check_lipsync_model(args: argparse.Namespace) -> None:
     """``--lipsync-model learned`` (``trained``) needs a model with learned coarticulation (a
     trained face, with the ``--trajectory`` asked for): say so now, in one line."""
+    from miketalk.talk.settings import check_trajectory
+
     trajectory = getattr(args, "trajectory", None)
-    if trajectory is not None and args.lipsync_model != "trained":
-        raise MiketalkError("--trajectory goes with --lipsync-model trained")
-    if trajectory == "heard" and args.audio is None:
-        raise MiketalkError(
-            "--trajectory heard listens to a recording: give --audio, or use window or "
-            "regularized with typed text"
-        )
+    check_trajectory(trajectory, lipsync_model=args.lipsync_model, recorded=args.audio is not None)
     if args.lipsync_model not in ("learned", "trained"):
         return
     from miketalk.talk.say import default_model_dir
@@ -130,16 +126,12 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
 
         read_params(directory)
     else:
-        from miketalk.talk.trained.build import (
-            DIRECTORY,
-            MANIFEST,
-            read_trained,
-            trained_trajectories,
-        )
+        from miketalk.talk.trained.build import read_trained, trained_trajectories
 
-        if not (Path(directory) / DIRECTORY / MANIFEST).is_file():
+        kinds = trained_trajectories(directory)
+        if not kinds:
             read_trained(directory)  # raises the one-line error
-        if trajectory is not None and trajectory not in trained_trajectories(directory):
+        if trajectory is not None and trajectory not in kinds:
             raise MiketalkError(
                 f"the trained face in {directory} has no {trajectory} trajectory (fitted "
                 "before it existed: rebuild the model)"

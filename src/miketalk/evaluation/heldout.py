@@ -56,8 +56,6 @@ from miketalk.speech.acoustic import Recording
 from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
-from miketalk.talk.trained.build import DIRECTORY as TRAINED
-from miketalk.talk.trained.build import MANIFEST as TRAINED_MANIFEST
 from miketalk.talk.trained.build import trained_trajectories
 from miketalk.visemes import SILENCE
 
@@ -233,10 +231,11 @@ def evaluate_clip(
         jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
         if (models[baselines_of].directory / COARTICULATION).exists():
             jobs.append(("learned", baselines_of))
-        if (models[baselines_of].directory / TRAINED / TRAINED_MANIFEST).exists():
+        kinds = trained_trajectories(models[baselines_of].directory)
+        if kinds:
             jobs += [(r, baselines_of) for r in ("trained", "trained_regularized")]
             jobs.append(("trained_previous", baselines_of))
-            if "heard" in trained_trajectories(models[baselines_of].directory):
+            if "heard" in kinds:
                 jobs.append(("trained_heard", baselines_of))
         jobs += [(f"real_late{k}", baselines_of) for k in CALIBRATION_DELAYS]
     summaries, tables, renders = [], [], {}

@@ -235,7 +235,7 @@ def say_recorded(
     from miketalk.talk.background import background_doc
     from miketalk.talk.output import check_output
     from miketalk.talk.say import learned_coarticulation
-    from miketalk.talk.settings import check_settings
+    from miketalk.talk.settings import check_settings, check_trajectory
     from miketalk.talk.trained import read_trained
     from miketalk.talk.utterance import write_utterance
 
@@ -252,8 +252,7 @@ def say_recorded(
     trained = read_trained(model.directory) if lipsync_model == "trained" else None
     if trained is not None:
         trajectory = trained.kind_for(trajectory, recorded=True)
-    elif trajectory is not None:
-        raise MiketalkError("a trajectory model is chosen for lipsync model 'trained' only")
+    check_trajectory(trajectory, lipsync_model=lipsync_model, recorded=True)
     output = check_output(output, overwrite=overwrite)
     aligned = align_recording(audio, text=text, timings=timings)
     timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)

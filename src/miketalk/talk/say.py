@@ -27,7 +27,7 @@ from miketalk.talk.lipsync import Timeline, keyframes
 from miketalk.talk.model import Model
 from miketalk.talk.output import check_output
 from miketalk.talk.sampling import speak_in_sync
-from miketalk.talk.settings import LipsyncModel, Sampling, check_settings
+from miketalk.talk.settings import LipsyncModel, Sampling, check_settings, check_trajectory
 from miketalk.talk.utterance import Spoken, write_utterance
 from miketalk.visemes import VisemeTable, default_table
 
@@ -204,8 +204,7 @@ def speak(
 
             trained = read_trained(model.directory)
             trajectory = trained.kind_for(trajectory, recorded=False)
-        elif trajectory is not None:
-            raise MiketalkError("a trajectory model is chosen for lipsync model 'trained' only")
+        check_trajectory(trajectory, lipsync_model=lipsync_model, recorded=False)
         output = check_output(output, overwrite=overwrite)
         if speech is None:
             speech = (backend or get_backend("festival")).start(str(text))

@@ -87,6 +87,27 @@ def _in_range(value: object, name: str, bounds: tuple[float, float], unit: str) 
     return number
 
 
+def check_trajectory(trajectory: str | None, *, lipsync_model: str, recorded: bool) -> None:
+    """A trajectory model asked for goes with the trained face, and ``heard`` with a recording
+    (``recorded``); which models a face has is :meth:`~miketalk.talk.trained.TrainedFace.kind_for`'s
+    check.
+
+    Raises
+    ------
+    MiketalkError
+        In one line, naming the command-line options.
+    """
+    if trajectory is None:
+        return
+    if lipsync_model != "trained":
+        raise MiketalkError("--trajectory goes with --lipsync-model trained")
+    if trajectory == "heard" and not recorded:
+        raise MiketalkError(
+            "the heard trajectory (--trajectory heard) listens to a recording: give one "
+            "(--audio), or use window or regularized with typed text"
+        )
+
+
 def check_settings(
     *,
     fps: float,

@@ -87,17 +87,15 @@ class TrainedFace:
     def kind_for(self, kind: str | None, *, recorded: bool) -> str:
         """The trajectory model to use: ``kind``, else ``heard`` for an utterance driven by a
         recording (``recorded``) when the face has it, else the face's default."""
+        from miketalk.talk.settings import check_trajectory
+
         if kind is None:
             kind = "heard" if recorded and "heard" in self.trajectories else self.default
+        check_trajectory(kind, lipsync_model="trained", recorded=recorded)
         if kind not in self.trajectories:
             raise MiketalkError(
                 f"this trained face has no trajectory model {kind!r} "
                 f"(it has {', '.join(self.trajectories)})"
-            )
-        if kind == "heard" and not recorded:
-            raise MiketalkError(
-                "the heard trajectory listens to a recording: give one (--audio), or use the "
-                "window or regularized trajectory"
             )
         return kind
 

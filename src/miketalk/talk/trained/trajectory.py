@@ -113,25 +113,6 @@ class WindowRegression:
     heard: int = 0  # the recording's window half-width (heard_step steps); 0: phones only
     heard_step: float = HEARD_STEP
 
-    def features(
-        self,
-        phones: Sequence[Phone],
-        times: np.ndarray,
-        table: VisemeTable,
-        recording: Recording | None = None,
-    ) -> np.ndarray:
-        """``(len(times), (2 half + 1) (P + V))`` one-hot phone and viseme at each offset
-        (then the pauses, then with ``heard`` the recording's window)."""
-        x = window_features(
-            self.context, phones, times, table, half=self.half, step=self.step, pauses=self.pauses
-        )
-        if not self.heard:
-            return x
-        if recording is None:
-            raise MiketalkError("the heard trajectory needs the utterance's recording")
-        heard = heard_features(recording, times, half=self.heard, step=self.heard_step)
-        return np.concatenate([x, heard], axis=1)
-
     def predict(
         self,
         phones: Sequence[Phone],
@@ -140,7 +121,11 @@ class WindowRegression:
         recording: Recording | None = None,
     ) -> np.ndarray:
         """The description ``(len(times), n)`` along the phones (and the recording)."""
-        return self.features(phones, times, table, recording) @ self.weights + self.intercept
+        x = window_features(
+            self.context, phones, times, table, half=self.half, step=self.step,
+            pauses=self.pauses, heard=self.heard, heard_step=self.heard_step, recording=recording,
+        )  # fmt: skip
+        return x @ self.weights + self.intercept
 
 
 def window_features(
@@ -152,9 +137,16 @@ def window_features(
     half: int,
     step: float,
     pauses: bool = True,
+    heard: int = 0,
+    heard_step: float = HEARD_STEP,
+    recording: Recording | None = None,
 ) -> np.ndarray:
     """The one-hot phone context of :class:`WindowRegression` (float64), and with ``pauses``
-    the distances to the speech in a silence (:func:`pause_features`)."""
+    the distances to the speech in a silence (:func:`pause_features`), and with ``heard``
+    the recording's window of that half-width (:func:`~miketalk.speech.acoustic.heard_features`).
+    """
+    if heard and recording is None:
+        raise MiketalkError("the heard trajectory needs the utterance's recording")
     times = np.asarray(times, float)
     n_p, n_v = len(context.phones), len(context.visemes)
     width = n_p + n_v
@@ -168,6 +160,8 @@ def window_features(
         x[rows[ok], j * width + n_p + vid[ok]] = 1.0
     if pauses:
         x[:, (2 * half + 1) * width :] = pause_features(phones, times, table)
+    if heard:
+        x = np.concatenate([x, heard_features(recording, times, half=heard, step=heard_step)], 1)
     return x
 
 
@@ -326,10 +320,11 @@ def fit_window(
     """
     if heard and data.recordings is None:
         raise MiketalkError("the heard trajectory is fitted on the training clips' recordings")
-    shape = WindowRegression(context, half, step, np.zeros(0), np.zeros(0), 0.0, pauses, heard)
+    recordings = data.recordings if heard else (None,) * len(data.phones)
+    settings = {"half": half, "step": step, "pauses": pauses, "heard": heard}
     xs = [
-        shape.features(p, t, table, data.recordings[k] if heard else None)
-        for k, (p, t) in enumerate(zip(data.phones, data.times, strict=True))
+        window_features(context, p, t, table, recording=r, **settings)
+        for p, t, r in zip(data.phones, data.times, recordings, strict=True)
     ]
     errors, held = {}, {}
     for strength in grid:
