@@ -19,14 +19,13 @@ and writes the clips one after the other as one mp4 (``joined.mp4``), with
 
 from __future__ import annotations
 
-import csv
-import io
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from miketalk.corpus.clips import write_table
 from miketalk.media.atomic import write_text_atomic
 
 #: Sound rate of the joined video.
@@ -114,10 +113,8 @@ def join_clips(
     subtitles = out / "subtitles.srt"
     write_text_atomic(subtitles, _srt(cues))
     words_path, clips_path = out / "words.tsv", out / "clips.tsv"
-    write_text_atomic(words_path, _tsv(("clip", "word", "start", "end"), words))
-    write_text_atomic(
-        clips_path, _tsv(("clip", "first_frame", "frames", "start", "duration"), rows)
-    )
+    write_table(words_path, ("clip", "word", "start", "end"), words)
+    write_table(clips_path, ("clip", "first_frame", "frames", "start", "duration"), rows)
     return Joined(video, transcript, subtitles, words_path, clips_path, spans)
 
 
@@ -132,11 +129,3 @@ def _srt(cues: Sequence[tuple[float, float, str]]) -> str:
         for i, (a, b, t) in enumerate(cues, 1)
     ]
     return srt.compose(subtitles)
-
-
-def _tsv(header: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
-    buf = io.StringIO()
-    writer = csv.writer(buf, delimiter="\t", lineterminator="\n")
-    writer.writerow(header)
-    writer.writerows(rows)
-    return buf.getvalue()

@@ -211,22 +211,22 @@ def ingest_clips(
         )
     samples = np.concatenate(audio)
     write_wav(out / AUDIO, samples, RATE)
-    _write_table(
+    write_table(
         out / CLIPS_TABLE,
         ("clip", "first_frame", "frames", "start", "duration", "text"),
         rows_clips,
     )
-    _write_table(
+    write_table(
         out / PHONES_TABLE,
         ("clip", "index", "phone", "start", "end", "clip_start", "clip_end"),
         rows_phones,
     )
-    _write_table(
+    write_table(
         out / STABILIZATION_TABLE,
         ("clip", "clip_frame", "frame", "correlation", "a11", "a12", "b1", "a21", "a22", "b2"),
         rows_stab,
     )
-    _write_table(out / SKIPPED_TABLE, ("clip", "reason"), skipped)
+    write_table(out / SKIPPED_TABLE, ("clip", "reason"), skipped)
     table = ["frame\ttime\tclip\tclip_frame"]
     for clip_id, first, n, *_ in rows_clips:
         table += [f"{first + k}\t{(first + k) / fps:.6f}\t{clip_id}\t{k}" for k in range(n)]
@@ -324,7 +324,8 @@ def _box_mask(size: tuple[int, int], box: tuple[int, int, int, int]) -> np.ndarr
     return mask
 
 
-def _write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> None:
+def write_table(path: Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> None:
+    """A tab-separated table with its header, written atomically."""
     buf = io.StringIO()
     writer = csv.writer(buf, delimiter="\t", lineterminator="\n")
     writer.writerow(header)

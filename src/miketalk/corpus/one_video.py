@@ -26,7 +26,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -65,7 +64,6 @@ def segment_video(
     transcript: str | Path | None = None,
     subtitles: str | Path | None = None,
     heldout_seconds: float = 0.0,
-    progress: Callable[[str], None] | None = None,
     checked: VideoInputs | None = None,
 ) -> dict:
     """Align a video's words and cut it into utterances; write ``segments.json`` (``out``).
@@ -80,8 +78,6 @@ def segment_video(
         Its plain transcript, or its ``.srt`` / ``.vtt`` subtitles (one of them).
     heldout_seconds : float
         The last seconds held out for the test (0: none).
-    progress : callable, optional
-        Called with short notes while the alignment runs.
     checked : VideoInputs, optional
         What :func:`check_video_inputs` gave for these inputs (not read again).
 
@@ -104,7 +100,7 @@ def segment_video(
     )
     media, cues, samples, fps = video.media, video.cues, video.samples, video.fps
     duration, voiced = video.duration, video.voiced_seconds
-    found = align_long(samples, RATE, cues, progress=progress)
+    found = align_long(samples, RATE, cues)
     total = sum(len(c.words) for c in cues)
     if len(found.unaligned) == total:
         raise MiketalkError(
@@ -262,6 +258,7 @@ _COMMON = {
     "Portuguese": "os as um uma não com para que por mais como mas ao dos das",
     "Dutch": "de het een en van niet met op zijn voor ik je dat wat",
 }
+_COMMON_WORDS = {lang: frozenset(common.split()) for lang, common in _COMMON.items()}
 
 
 def _check_english(cues) -> None:
@@ -270,9 +267,7 @@ def _check_english(cues) -> None:
     from miketalk.speech.align.decoder import _LOCK, _shared_aligner
 
     tokens = [w for c in cues for w in c.words]
-    counts = {
-        lang: sum(w in set(common.split()) for w in tokens) for lang, common in _COMMON.items()
-    }
+    counts = {lang: sum(w in common for w in tokens) for lang, common in _COMMON_WORDS.items()}
     likely = max(counts, key=counts.get)
     if likely != "English" and counts[likely] > max(2, 2 * counts["English"]):
         raise MiketalkError(

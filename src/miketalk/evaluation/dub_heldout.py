@@ -41,8 +41,8 @@ def dub_heldout(
     method: str = "feather",
     corpus_eigenlips=None,
     smooth: float = defaults.BACKGROUND_SMOOTH,
-    follow: bool = True,
-    skin: bool = True,
+    follow: bool = defaults.BLEND_FOLLOW,
+    skin: bool = defaults.BLEND_SKIN,
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
 

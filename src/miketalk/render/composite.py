@@ -376,8 +376,9 @@ class Compositor:
             mouth += colour_offset(mouth, here, band, sigma=self._sigma)
         if self.follow:
             here = follow_render(here, mouth, placement.alpha, placement.map_y, self.mouth_box)
-            out[y0:y1, x0:x1] = np.clip(here + 0.5, 0, 255).astype(np.uint8)
         if self.blend == "poisson":
+            if self.follow:  # the frame the mouth is cloned into, its jaw moved
+                out[y0:y1, x0:x1] = np.clip(here + 0.5, 0, 255).astype(np.uint8)
             return _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
         blended = here + a * (mouth - here)
         out[y0:y1, x0:x1] = np.clip(blended + 0.5, 0, 255).astype(np.uint8)

@@ -80,22 +80,17 @@ def follow_render(
         a fifth of a mouth width, and ``s`` is one on the mask and fades out over half a
         mouth width outside it, and from the mouth's centre up to its top.
     """
+    from miketalk.flow.opencv import dis_flow
+    from miketalk.flow.warp import backward_warp
+
     w = float(mouth_box[2])
-    grey = [
-        cv2.cvtColor(np.clip(im + 0.5, 0, 255).astype(np.uint8), cv2.COLOR_RGB2GRAY)
-        for im in (mouth, here)
-    ]
-    dis = cv2.DISOpticalFlow_create(cv2.DISOpticalFlow_PRESET_FAST)
-    flow = _blur_half(dis.calc(grey[0], grey[1], None), 0.2 * w)
+    mouth_u8, here_u8 = (np.clip(im + 0.5, 0, 255).astype(np.uint8) for im in (mouth, here))
+    flow = _blur_half(dis_flow(mouth_u8, here_u8, preset="fast"), 0.2 * w)
     near = _blur_half((alpha > 0.5).astype(np.float32), 0.25 * w)
     weight = np.minimum(1.0, 2.0 * near)
     cy = mouth_box[1] + mouth_box[3] / 2
     weight *= np.clip((ref_y - (cy - 0.3 * w)) / (0.3 * w), 0.0, 1.0)
-    h, wd = alpha.shape
-    qy, qx = np.mgrid[0:h, 0:wd].astype(np.float32)
-    map_x = qx + weight * flow[..., 0]
-    map_y = qy + weight * flow[..., 1]
-    return cv2.remap(here, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return backward_warp(here, weight[..., None] * flow)
 
 
 def _blur_half(image: np.ndarray, sigma: float) -> np.ndarray:

@@ -29,7 +29,7 @@ align the pieces between them. Here:
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,15 +86,10 @@ class LongAlignment:
     chunks: tuple[tuple[float, float, int], ...]
 
 
-Progress = Callable[[str], None]
-
-
 def align_long(
     samples: np.ndarray,
     rate: int,
     cues: Sequence,
-    *,
-    progress: Progress | None = None,
 ) -> LongAlignment:
     """Place the words of ``cues`` (:class:`miketalk.corpus.script.Cue`) in a long recording.
 
@@ -106,15 +101,12 @@ def align_long(
         Its sample rate.
     cues : sequence of Cue
         A plain transcript (one cue without times) or subtitle cues.
-    progress : callable, optional
-        Called with a short note after each piece (for a progress bar).
 
     Returns
     -------
     LongAlignment
     """
     duration = len(samples) / rate
-    note = progress or (lambda _: None)
     words: list[str] = []
     pieces: list[tuple[float, float, list[int]]] = []
     for i, cue in enumerate(cues):
@@ -138,7 +130,6 @@ def align_long(
             unaligned += [Unaligned(i, words[i], "its cue lies outside the audio") for i in indices]
             continue
         first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned)
-        note(f"first pass {hi:.0f}/{duration:.0f} s")
     placed, chunks = [], []
     missing = {u.index for u in unaligned}
     for group in _chunks(first_pass, missing):
@@ -151,7 +142,6 @@ def align_long(
             continue
         placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
         chunks.append((lo, hi, len(group)))
-        note(f"second pass {hi:.0f}/{duration:.0f} s")
     unaligned.sort(key=lambda u: u.index)
     for u in unaligned:
         log.info("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
@@ -178,14 +168,14 @@ def _second_pass(
     """A chunk aligned again in its own audio; a word placed over silence (a word of the
     script that is not said) is dropped, reported, and the rest aligned once more."""
     try:
-        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group], True)
+        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group])
     except _SilentWords as err:
         if len(err.positions) == len(group):
             raise
         why = f"it is not said in {lo:.2f}..{hi:.2f} s (the aligner put it over silence)"
         unaligned += [Unaligned(group[k][0], words[group[k][0]], why) for k in err.positions]
         group = [g for k, g in enumerate(group) if k not in err.positions]
-        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group], True)
+        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group])
 
 
 def _align_span(
@@ -194,7 +184,6 @@ def _align_span(
     lo: float,
     hi: float,
     words: Sequence[str],
-    silence_check: bool = False,
 ) -> list[WordTiming]:
     """``words`` aligned in ``[lo, hi)`` of the audio, in recording time.
 
@@ -202,9 +191,9 @@ def _align_span(
     ------
     MiketalkError
         The aligner cannot place them, they leave much of the span's voiced
-        audio unexplained (:mod:`miketalk.speech.coverage`), or (with
-        ``silence_check``) one lies over silence or is squeezed between the
-        words around it (:data:`SILENT_DB`, :data:`SQUEEZED_PHONE`, :class:`_SilentWords`).
+        audio unexplained (:mod:`miketalk.speech.coverage`), or one lies over
+        silence or is squeezed between the words around it (:data:`SILENT_DB`,
+        :data:`SQUEEZED_PHONE`, :class:`_SilentWords`).
     """
     from miketalk.speech.align import align
     from miketalk.speech.audio_align import HOP, energy_db
@@ -218,19 +207,18 @@ def _align_span(
             f"the words leave {100 * coverage.unexplained_share:.0f} % of the voiced audio "
             "unexplained"
         )
-    if silence_check:
-        level = energy_db(part, rate)  # every 10 ms
-        floor = np.percentile(level, 10)
-        silent = []
-        for k, w in enumerate(result.words):
-            inside = level[int(w.start / HOP) : max(int(w.start / HOP) + 1, int(w.end / HOP))]
-            phones = [p for p in result.phones if w.start - 1e-6 <= p.start < w.end - 1e-6]
-            squeezed = len(phones) >= 4 and w.end - w.start <= SQUEEZED_PHONE * len(phones)
-            if squeezed or (inside.size and np.percentile(inside, 90) < floor + SILENT_DB):
-                silent.append(k)
-        if silent:
-            names = ", ".join(repr(words[k]) for k in silent)
-            raise _SilentWords(f"{names} would lie over silence", silent)
+    level = energy_db(part, rate)  # every 10 ms
+    floor = np.percentile(level, 10)
+    silent = []
+    for k, w in enumerate(result.words):
+        inside = level[int(w.start / HOP) : max(int(w.start / HOP) + 1, int(w.end / HOP))]
+        phones = [p for p in result.phones if w.start - 1e-6 <= p.start < w.end - 1e-6]
+        squeezed = len(phones) >= 4 and w.end - w.start <= SQUEEZED_PHONE * len(phones)
+        if squeezed or (inside.size and np.percentile(inside, 90) < floor + SILENT_DB):
+            silent.append(k)
+    if silent:
+        names = ", ".join(repr(words[k]) for k in silent)
+        raise _SilentWords(f"{names} would lie over silence", silent)
     return [WordTiming(w.word, w.start + lo, w.end + lo) for w in result.words]
 
 
@@ -272,12 +260,11 @@ def _coarse_span(
 ) -> list[WordTiming]:
     """``words`` placed in ``[lo, hi)`` by the coarse aligner (recording time)."""
     from miketalk.speech.align.decoder import _LOCK, _shared_aligner, _to_pcm, coarse_word_spans
-    from miketalk.speech.align.pronounce import _check_word, _pronunciations, _to_arpabet
+    from miketalk.speech.align.pronounce import _check_word, extra_arpabet
 
     clean = [_check_word(w) for w in words]
     with _LOCK:
-        extra = _pronunciations(clean, _shared_aligner(), None)
-    arpabet = {w: _to_arpabet(w, p) for w, p in extra.items()}
+        arpabet = extra_arpabet(clean, _shared_aligner())
     pcm = _to_pcm(samples[round(lo * rate) : round(hi * rate)], rate).tobytes()
     spans, frate = coarse_word_spans(pcm, clean, arpabet)
     if len(spans) != len(clean):

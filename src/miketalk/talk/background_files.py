@@ -67,7 +67,13 @@ def model_stabilizer(model_dir: str | os.PathLike[str]):
     )
 
 
-def model_compositor(model_dir: str | os.PathLike[str], size: tuple[int, int], **settings):
+def model_compositor(
+    model_dir: str | os.PathLike[str],
+    size: tuple[int, int],
+    *,
+    skin: bool = defaults.BLEND_SKIN,
+    **settings,
+):
     """The :class:`~miketalk.render.composite.Compositor` of a model built from clips.
 
     Its blend mask about the model's mouth box, kept off the reference's backdrop and
@@ -79,7 +85,7 @@ def model_compositor(model_dir: str | os.PathLike[str], size: tuple[int, int], *
 
     where = Path(model_dir) / DIRECTORY
     keep = None
-    if settings.pop("skin", defaults.BLEND_SKIN):
+    if skin:
         face = read_image(where / FACE_MASK)[..., 0] > 127
         keep = skin_weight(read_image(where / REFERENCE), face)
     return Compositor(mouth_box_of(model_dir), size, keep=keep, **settings)

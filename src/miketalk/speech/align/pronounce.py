@@ -200,6 +200,16 @@ def _pronunciations(
     return result
 
 
+def extra_arpabet(
+    words: Sequence[str],
+    aligner: _Aligner,
+    pronounce: Callable[[str], Sequence[str]] | None = None,
+) -> dict[str, tuple[str, ...]]:
+    """The ARPAbet pronunciations of the words ``aligner``'s dictionary lacks (from Festival,
+    or ``pronounce``), to add to it. The caller holds the aligner's lock."""
+    return {w: _to_arpabet(w, p) for w, p in _pronunciations(words, aligner, pronounce).items()}
+
+
 def _festival_lookup(words: list[str], executable: str) -> dict[str, tuple[str, ...]]:
     """Festival's pronunciations, from one run for the words not looked up before.
 
