@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
+from miketalk.evaluation.dub_heldout import dub_renderer
 from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import plan
@@ -302,6 +303,12 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     corpus = _synthetic_corpus(tmp_path)
     fit_trained(corpus, tmp_path / "model", components=6)
     assert trained_trajectories(tmp_path / "model") == ("window", "regularized", "heard")
+    # a held-out clip dubbed by a trained face hears the clip's own recording
+    assert dub_renderer("trained", tmp_path / "model") == "trained_heard"
+    assert dub_renderer("paper", tmp_path / "model") == "morph"
+    assert dub_renderer("learned", tmp_path / "model") == "learned"
+    with pytest.raises(MiketalkError, match="unknown lip-sync model"):
+        dub_renderer("mouthy", tmp_path / "model")
     face = read_trained(tmp_path / "model")
     assert face.kind_for(None, recorded=True) == "heard"
     assert face.kind_for(None, recorded=False) == "window"
@@ -325,6 +332,7 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     manifest.write_text(json.dumps(doc))
     old = read_trained(tmp_path / "model")
     assert tuple(old.trajectories) == ("window", "regularized")
+    assert dub_renderer("trained", tmp_path / "model") == "trained"
     assert old.kind_for(None, recorded=True) == "window"
     with pytest.raises(MiketalkError, match="no trajectory model 'heard'"):
         old.kind_for("heard", recorded=True)

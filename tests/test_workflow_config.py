@@ -204,3 +204,25 @@ def test_a_video_face_plans_its_utterances_first(tmp_path: Path) -> None:
     for rule in ("segment_video", "corpus_clips", "heldout", "dub_heldout"):
         assert f"rule {rule}:" in proc.stdout
     assert "results/segments/v.json" in proc.stdout
+
+
+@pytest.mark.parametrize(
+    ("lipsync", "message"),
+    [
+        (
+            {"model": "learned", "trajectory": "window"},
+            "faces.s1: lipsync trajectory goes with lipsync model trained, not 'learned'",
+        ),
+        ({"model": "trained", "trajectory": "heard"}, "'heard' is not one of"),
+    ],
+    ids=["not-trained", "heard-for-typed-text"],
+)
+def test_a_trajectory_goes_with_the_trained_face_and_typed_text(
+    tmp_path: Path, lipsync: dict, message: str
+) -> None:
+    config = dot_test_config()
+    config["faces"]["s1"]["lipsync"] = lipsync
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode != 0
+    assert message in proc.stdout + proc.stderr, proc.stdout[-2000:]
+    assert not (tmp_path / "results").exists()

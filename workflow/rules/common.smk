@@ -214,6 +214,14 @@ for _face in FACES:
             f"faces.{_face}: lipsync model {lipsync_options(_face)['model']!r} needs a face "
             "built from clips (it is fitted to their aligned frames)"
         )
+    if (
+        lipsync_options(_face)["trajectory"] is not None
+        and lipsync_options(_face)["model"] != "trained"
+    ):
+        raise ValueError(
+            f"faces.{_face}: lipsync trajectory goes with lipsync model trained, not "
+            f"{lipsync_options(_face)['model']!r}"
+        )
     if _method not in config["flow"]["methods"]:
         raise ValueError(
             f"faces.{_face}: flow method {_method!r} is not in flow.methods "

@@ -8,7 +8,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.one_video import face_clips
-    from miketalk.evaluation.dub_heldout import dub_heldout
+    from miketalk.evaluation.dub_heldout import dub_heldout, dub_renderer
     from miketalk.figures.dub_strip import strip
 
     corpus = snakemake.params.corpus
@@ -23,7 +23,7 @@ def main() -> None:
         strip_png=snakemake.output.strip,
         draw_strip=strip,
         corpus_eigenlips=read_eigenlips(snakemake.input.eigenlips),
-        renderer="learned" if snakemake.params.lipsync_model == "learned" else "morph",
+        renderer=dub_renderer(snakemake.params.lipsync_model, snakemake.input.model),
         morph=snakemake.params.morph,
     )
 

@@ -19,6 +19,7 @@ def main() -> None:
         sampling=p.lipsync["sampling"],
         max_slowdown=p.lipsync["max_slowdown"],
         lipsync_model=p.lipsync["model"],
+        trajectory=p.lipsync["trajectory"],
         table=VisemeTable(grouping=p.grouping),
         background=resolve_background(p.get("background", "still"), model),
     )

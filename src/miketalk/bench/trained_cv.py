@@ -13,7 +13,10 @@ held-out evaluation's measures: dlib's mouth landmarks
 (:func:`miketalk.evaluation.heldout.compare`). Beside them, in the description's
 own terms: how well the trajectory follows the real frames' first components
 (``traj_r1``..) and how closely the chosen frames follow the trajectory
-(``chosen_r1``..), so that what limits the model shows.
+(``chosen_r1``..), so that what limits the model shows. The variant ``oracle`` aims
+the selection at the real frames' own descriptions instead of a prediction: what the
+person's frames, the joins and the compositing reach with a perfect trajectory (the
+ceiling that the prediction leaves the selection).
 
 Writes ``clips.csv`` (per clip and variant) and ``summary.csv`` (mean, sd, and
 each measure paired against the first variant clip by clip) into ``--out``.
@@ -36,13 +39,18 @@ from miketalk.talk.trained.selection import PREVIOUS_SELECTION
 
 log = logging.getLogger(__name__)
 
+#: The ``kind`` of the ceiling: the selection aims at each real frame's own description.
+ORACLE = "oracle"
+
 #: Named variants: the settings each changes from the defaults (``key=value`` also works;
 #: ``kind`` names the trajectory model, default the face's own; ``heard`` hears each clip's
-#: recording).
+#: recording; ``oracle`` is no trajectory at all but the real frames' own descriptions, what
+#: the selection and the compositing reach with a perfect prediction).
 VARIANTS: dict[str, dict] = {
     "default": {},
     "previous": PREVIOUS_SELECTION,
     "heard": {"kind": "heard"},
+    ORACLE: {"kind": ORACLE},
 }
 
 MEASURES = (
@@ -131,7 +139,7 @@ def cross_validate(
             if key not in fitted:
                 fitted[key] = fitted_face(frames, corpus_dir, selection=selection, table=table)
             face = dataclasses.replace(fitted[key], selection=selection)
-            faces[name] = (face, kind or face.default)
+            faces[name] = (face, kind)
             log.info("fold %d %s: fitted in %.1f s", fold, name, time.perf_counter() - t0)
         for c in held_out[:limit]:
             clip_rows = np.flatnonzero(everything.clip == c)
@@ -146,9 +154,13 @@ def cross_validate(
             marks = ClipLandmarks(landmarks, real)
             truth = frames.project(grey_mouths(real, frames.region))
             for name, (face, kind) in faces.items():
-                heard = {"kind": kind, "recording": data.recordings[c]}
-                target = face.target(timeline, **heard)
-                chosen = face.plan(timeline, target=target, **heard)
+                if kind == ORACLE:
+                    target = truth
+                    chosen = face.plan(timeline, target=target)
+                else:
+                    heard = {"kind": kind or face.default, "recording": data.recordings[c]}
+                    target = face.target(timeline, **heard)
+                    chosen = face.plan(timeline, target=target, **heard)
                 synth = np.stack([compositor.frame(r) for r in chosen])
                 _, lm = landmark_scores(marks.real, marks.of(synth), speech=speech, max_lag=5)
                 scores = compare(real, synth, mouth_box=box, eigenlips=eigenlips, speech=speech)

@@ -23,6 +23,24 @@ from miketalk.errors import MiketalkError
 
 log = logging.getLogger(__name__)
 
+#: What can draw the dubbed mouth (:data:`miketalk.evaluation.renderers.RENDERERS`).
+DUB_RENDERERS = ("morph", "learned", "trained", "trained_heard")
+
+
+def dub_renderer(lipsync_model: str, model_dir: str | Path) -> str:
+    """The renderer a face's lip-sync model dubs with: ``paper`` the morph, ``learned`` the
+    learned coarticulation, ``trained`` the trained face hearing the clip's own recording
+    (``trained_heard``) when it has that trajectory, else from the phones (``trained``)."""
+    from miketalk.talk.trained.build import trained_trajectories
+
+    if lipsync_model == "paper":
+        return "morph"
+    if lipsync_model == "trained":
+        return "trained_heard" if "heard" in trained_trajectories(model_dir) else "trained"
+    if lipsync_model == "learned":
+        return "learned"
+    raise MiketalkError(f"unknown lip-sync model {lipsync_model!r} (paper, learned, trained)")
+
 
 def dub_heldout(
     *,
@@ -63,8 +81,9 @@ def dub_heldout(
         figures come after the evaluation, so the caller hands it in).
     draw_strip : callable, optional
         ``draw_strip(frames, split=2, mouth=(x, y, w, h))`` -> the strip image.
-    renderer : {"learned", "morph"}
-        How the model draws the mouth (:data:`miketalk.evaluation.heldout.RENDERERS`).
+    renderer : str
+        How the model draws the mouth, one of :data:`DUB_RENDERERS` (:func:`dub_renderer`
+        picks a face's); each clip's recording drives ``trained_heard``.
     morph : dict, optional
         The face's morph settings.
     colour : {"clip", "frame"}
@@ -90,11 +109,14 @@ def dub_heldout(
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region
+    from miketalk.speech.acoustic import Recording
     from miketalk.talk.background_files import model_compositor, model_stabilizer
     from miketalk.talk.lipsync import plan
     from miketalk.talk.model import Model
     from miketalk.visemes import SILENCE, default_table
 
+    if renderer not in DUB_RENDERERS:
+        raise MiketalkError(f"cannot dub with {renderer!r} (known: {', '.join(DUB_RENDERERS)})")
     box = mouth_region(corpus_dir)
     if corpus_eigenlips is None:
         corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
@@ -112,7 +134,8 @@ def dub_heldout(
         decoded = decode_clip(clip)
         n = len(decoded.frames)
         timeline = plan(decoded.phones, default_table(), fps=decoded.fps, duration=n / decoded.fps)
-        renders = np.stack(list(RENDERERS[renderer](model, timeline)))
+        recording = Recording(decoded.samples, RATE)
+        renders = np.stack(list(RENDERERS[renderer](model, timeline, recording)))
         started = time.perf_counter()
         dubbed = dub_clip(
             decoded.frames, decoded.fps, renders, stabilizer=stabilizer, compositor=compositor,
@@ -175,7 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", default="config.yaml")
     parser.add_argument("--face", default="s1")
     parser.add_argument("--out", required=True)
-    parser.add_argument("--renderer", default="learned", choices=("learned", "morph"))
+    parser.add_argument("--renderer", default="learned", choices=DUB_RENDERERS)
     parser.add_argument("--colour", default="clip", choices=("clip", "frame"))
     parser.add_argument(
         "--blend",

@@ -80,6 +80,7 @@ def say(
     sampling: Sampling = DEFAULT_SAMPLING,
     max_slowdown: float | None = None,
     lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
+    trajectory: str | None = None,
     backend: SpeechBackend | None = None,
     table: VisemeTable | None = None,
     progress: bool = False,
@@ -93,8 +94,8 @@ def say(
     spoken = speak(
         text, output, model=model, fps=fps, max_px_per_frame=max_px_per_frame,
         sampling=sampling, max_slowdown=max_slowdown, lipsync_model=lipsync_model,
-        backend=backend, table=table, progress=progress, overwrite=overwrite,
-        background=background,
+        trajectory=trajectory, backend=backend, table=table, progress=progress,
+        overwrite=overwrite, background=background,
     )  # fmt: skip
     return spoken.utterance, spoken.timeline
 
