@@ -132,8 +132,10 @@ def align_long(
         first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned)
     placed, chunks = [], []
     missing = {u.index for u in unaligned}
+    at = 0  # the chunks are consecutive runs of the first pass: where this one begins
     for group in _chunks(first_pass, missing):
-        lo, hi = _chunk_span(group, first_pass, duration, missing)
+        lo, hi = _chunk_span(first_pass, at, len(group), duration, missing)
+        at += len(group)
         try:
             group, spans = _second_pass(samples, rate, lo, hi, group, words, unaligned)
         except MiketalkError as err:
@@ -317,25 +319,23 @@ def _chunks(
 
 
 def _chunk_span(
-    group: list[tuple[int, WordTiming]],
     first_pass: list[tuple[int, WordTiming]],
+    at: int,
+    count: int,
     duration: float,
     missing: set[int],
 ) -> tuple[float, float]:
-    """A chunk's audio: its words with up to :data:`CHUNK_MARGIN` each side, never
-    past half the gap to the neighbouring chunk's words, and only
-    :data:`MISSING_MARGIN` towards a word that was not placed (its audio is
+    """The audio of the chunk of ``count`` words from ``first_pass[at]``: its words with up
+    to :data:`CHUNK_MARGIN` each side, never past half the gap to the neighbouring chunk's
+    words, and only :data:`MISSING_MARGIN` towards a word that was not placed (its audio is
     somewhere in that gap)."""
-    starts = [w.start for _, w in first_pass]
-    ends = [w.end for _, w in first_pass]
-    first, last = group[0][1], group[-1][1]
-    k = starts.index(first.start)
-    before = ends[k - 1] if k > 0 else 0.0
-    after = starts[k + len(group)] if k + len(group) < len(starts) else duration
+    (i_first, first), (i_last, last) = first_pass[at], first_pass[at + count - 1]
+    before = first_pass[at - 1][1].end if at > 0 else 0.0
+    after = first_pass[at + count][1].start if at + count < len(first_pass) else duration
     lo = max(0.0, first.start - CHUNK_MARGIN, (before + first.start) / 2)
     hi = min(duration, last.end + CHUNK_MARGIN, (last.end + after) / 2)
-    if group[0][0] - 1 in missing:
+    if i_first - 1 in missing:
         lo = max(lo, first.start - MISSING_MARGIN)
-    if group[-1][0] + 1 in missing:
+    if i_last + 1 in missing:
         hi = min(hi, last.end + MISSING_MARGIN)
     return lo, hi
