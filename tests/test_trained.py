@@ -16,7 +16,8 @@ from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import plan
 from miketalk.talk.trained import fit_trained, read_trained
-from miketalk.talk.trained.build import render_trained, trained_trajectories
+from miketalk.talk.trained.build import trained_trajectories
+from miketalk.talk.trained.draw import render_trained
 from miketalk.talk.trained.mouths import MouthFrames, feather_mask
 from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, select
 from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
@@ -76,6 +77,33 @@ def _frames(coords: np.ndarray, clips: np.ndarray) -> MouthFrames:
         mean=np.zeros(1), components=np.zeros((coords.shape[1], 1)),
         variance=coords.var(axis=0), region=(0, 0, 1, 1), patch=(0, 0, 30, 30), fps=FPS,
     )  # fmt: skip
+
+
+def test_a_join_is_morphed_half_way_where_a_cross_fade_shows_both() -> None:
+    """Two frames about a jump, a nearly closed and an open mouth, blended half and half:
+    the morph opens the dark mouth part of the way; the cross-fade keeps only the closed
+    one dark, inside a pale ghost of the open one."""
+    patches = np.full((2, 60, 60, 3), 200, np.uint8)
+    for k, half_height in enumerate((3, 15)):
+        cv2.ellipse(patches[k], (30, 30), (18, half_height), 0, 0, 360, (20, 20, 20), -1)
+    texture = np.random.default_rng(5).integers(150, 250, (60, 60, 1)).astype(np.uint8)
+    patches = np.minimum(patches, texture)  # texture for the flow to follow
+    frames = _frames(np.zeros((2, 1)), np.array([0, 1]))
+    frames = MouthFrames(**{**frames.__dict__, "patches": patches,
+                            "border": np.full((2, 3), 200.0), "patch": (0, 0, 60, 60)})  # fmt: skip
+    face = np.full((60, 60, 3), 200, np.uint8)
+    row = ((0, 0.5), (1, 0.5))
+    morphed = PatchCompositor(frames, face, joins="morph").patch(row)[..., 0]
+    dissolved = PatchCompositor(frames, face, joins="dissolve").patch(row)[..., 0]
+    closed, opened = 7, 31  # dark rows down the middle column
+    assert (dissolved[:, 30] < 60).sum() == closed
+    assert closed + 4 <= (morphed[:, 30] < 60).sum() <= opened - 4
+    ghost = lambda image: ((image > 60) & (image < 140))[10:50, 20:40].sum()  # noqa: E731
+    assert ghost(morphed) < 0.8 * ghost(dissolved)
+    one = PatchCompositor(frames, face, joins="morph").patch(((1, 1.0),))
+    assert np.array_equal(one, PatchCompositor(frames, face, joins="dissolve").patch(((1, 1.0),)))
+    with pytest.raises(MiketalkError, match="joins must be one of"):
+        PatchCompositor(frames, face, joins="wipe")
 
 
 def test_selection_follows_a_recorded_run_and_prefers_it_to_jumps() -> None:

@@ -73,6 +73,19 @@ def parse_variant(text: str) -> tuple[str, dict]:
     return name, out
 
 
+def json_object(text: str) -> dict:
+    """A command-line JSON object (argparse's ``type``: a bad one is a one-line usage error)."""
+    import argparse
+
+    try:
+        value = json.loads(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"not JSON: {err}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError("not a JSON object")
+    return value
+
+
 def refit_frames(frames, rows: np.ndarray, components: int):
     """``frames`` restricted to ``rows``, its principal components fitted on them alone."""
     from miketalk.talk.trained.mouths import describe
@@ -94,9 +107,16 @@ def refit_frames(frames, rows: np.ndarray, components: int):
 
 
 def cross_validate(
-    corpus_dir: Path, model_dir: Path, variants: list[tuple[str, dict]], *, folds: int, limit=None
+    corpus_dir: Path,
+    model_dir: Path,
+    variants: list[tuple[str, dict]],
+    *,
+    folds: int,
+    limit=None,
+    morph: dict | None = None,
 ) -> pd.DataFrame:
-    """Per clip and variant, the measures (see the module docstring)."""
+    """Per clip and variant, the measures (see the module docstring); ``morph`` is the face's
+    morph settings, used where a variant's joins are morphed."""
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.folder import frame_path
     from miketalk.evaluation.heldout import compare, speech_frames
@@ -126,7 +146,7 @@ def cross_validate(
         frames = refit_frames(
             everything, np.flatnonzero(np.isin(everything.clip, train)), components
         )
-        compositor = PatchCompositor(frames, silence)
+        compositors = {}  # by how the joins are blended
         # only centred and half change the fit: variants differing in the rest share it
         fitted: dict[tuple, TrainedFace] = {}
         faces = {}
@@ -140,6 +160,10 @@ def cross_validate(
                 fitted[key] = fitted_face(frames, corpus_dir, selection=selection, table=table)
             face = dataclasses.replace(fitted[key], selection=selection)
             faces[name] = (face, kind)
+            if selection.joins not in compositors:
+                compositors[selection.joins] = PatchCompositor(
+                    frames, silence, joins=selection.joins, morph_options=morph
+                )
             log.info("fold %d %s: fitted in %.1f s", fold, name, time.perf_counter() - t0)
         for c in held_out[:limit]:
             clip_rows = np.flatnonzero(everything.clip == c)
@@ -161,6 +185,7 @@ def cross_validate(
                     heard = {"kind": kind or face.default, "recording": data.recordings[c]}
                     target = face.target(timeline, **heard)
                     chosen = face.plan(timeline, target=target, **heard)
+                compositor = compositors[face.selection.joins]
                 synth = np.stack([compositor.frame(r) for r in chosen])
                 _, lm = landmark_scores(marks.real, marks.of(synth), speech=speech, max_lag=5)
                 scores = compare(real, synth, mouth_box=box, eigenlips=eigenlips, speech=speech)
@@ -203,12 +228,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--folds", type=int, default=5)
     parser.add_argument("--variants", nargs="+", default=["previous", "default"])
+    parser.add_argument(
+        "--morph",
+        type=json_object,
+        default={},
+        help='the face\'s morph settings as JSON, e.g. \'{"median": false, "splat": "bilinear"}\'',
+    )
 
     def work(args) -> str:
         variants = [parse_variant(v) for v in args.variants]
         clips = cross_validate(
-            args.corpus, args.model, variants, folds=args.folds, limit=args.limit
-        )
+            args.corpus, args.model, variants, folds=args.folds, limit=args.limit,
+            morph=args.morph,
+        )  # fmt: skip
         args.out.mkdir(parents=True, exist_ok=True)
         clips.to_csv(args.out / "clips.csv", index=False, float_format="%.5f")
         summary = summarize(clips)

@@ -73,7 +73,7 @@ def render_trained(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
     """The trained face (:mod:`miketalk.talk.trained`): his frames along its default trajectory."""
-    from miketalk.talk.trained.build import render_trained as render
+    from miketalk.talk.trained.draw import render_trained as render
 
     return render(model, timeline)
 
@@ -82,7 +82,7 @@ def render_trained_regularized(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
     """The trained face with the MMM-style regularized trajectory (the other trajectory model)."""
-    from miketalk.talk.trained.build import render_trained as render
+    from miketalk.talk.trained.draw import render_trained as render
 
     return render(model, timeline, kind="regularized")
 
@@ -93,7 +93,7 @@ def render_trained_previous(
     """The trained face with the selection settings it had before they were chosen by
     cross-validation on the training clips
     (:data:`miketalk.talk.trained.selection.PREVIOUS_SELECTION`), for a paired comparison."""
-    from miketalk.talk.trained.build import render_trained as render
+    from miketalk.talk.trained.draw import render_trained as render
     from miketalk.talk.trained.selection import PREVIOUS_SELECTION
 
     return render(model, timeline, selection=PREVIOUS_SELECTION)
@@ -103,7 +103,7 @@ def render_trained_heard(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
     """The trained face along the ``heard`` trajectory: the phones and the recording."""
-    from miketalk.talk.trained.build import render_trained as render
+    from miketalk.talk.trained.draw import render_trained as render
 
     return render(model, timeline, kind="heard", recording=recording)
 

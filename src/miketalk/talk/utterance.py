@@ -112,7 +112,7 @@ def write_utterance(
     jerk = JerkMeter()
     weights = None
     if trained is not None:
-        from miketalk.talk.trained.build import render_trained
+        from miketalk.talk.trained.draw import render_trained
 
         rendered = render_trained(
             model, timeline, trained=trained, kind=trajectory, recording=recording

@@ -10,16 +10,19 @@ trajectory. This package does both for a face built from clips:
     every training frame measured: the principal components of its grey mouth
     region (its *description*), and its colour mouth patch kept to draw with;
 :mod:`~miketalk.talk.trained.trajectory`
-    two trajectory models from the timed phones to the description, fitted to
-    all training frames: a ridge regression over a window of phone context
-    (``window``) and MMM-style regularized trajectories (``regularized``);
+    three trajectory models to the description, fitted to all training frames:
+    a ridge regression over a window of phone context (``window``), MMM-style
+    regularized trajectories (``regularized``), and the window regression that
+    also hears the recording (``heard``, :mod:`miketalk.speech.acoustic`);
 :mod:`~miketalk.talk.trained.selection`
     a Viterbi search over the training frames along the predicted trajectory
     (target cost: distance to the prediction; join cost: visual distance,
     nothing for frames consecutive in the recording), the chosen patches
-    composited onto the face with a feathered mask, joins cross-faded;
+    composited onto the face with a feathered mask, joins morphed;
 :mod:`~miketalk.talk.trained.build`
-    :func:`fit_trained` (the workflow's model rule) and :func:`read_trained`.
+    :func:`fit_trained` (the workflow's model rule) and :func:`read_trained`;
+:mod:`~miketalk.talk.trained.draw`
+    :func:`~miketalk.talk.trained.draw.render_trained`: a timeline's frames.
 
 The lip-sync model is ``trained`` (``say --lipsync-model trained``).
 """

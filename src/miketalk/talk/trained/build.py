@@ -23,7 +23,7 @@ import json
 import logging
 import os
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,7 +34,7 @@ from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import Recording
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
-from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, drawn, select
+from miketalk.talk.trained.selection import SelectionSettings, drawn, select
 from miketalk.talk.trained.trajectory import (
     HEARD_HALF,
     TRAJECTORIES,
@@ -47,7 +47,7 @@ from miketalk.talk.trained.trajectory import (
     from_arrays,
     to_arrays,
 )
-from miketalk.visemes import SILENCE, VisemeTable
+from miketalk.visemes import VisemeTable
 
 log = logging.getLogger(__name__)
 
@@ -387,8 +387,10 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
             if name in doc["trajectories"]  # a face fitted before ``heard`` has not got it
         }
         # a face fitted before the cross-validated gain has no amplitude_gain_cv: it keeps
-        # the fitted gain it was made with (its other later settings default to the old ways)
-        selection = SelectionSettings(**({"cv_gain": False} | doc["selection"]))
+        # the fitted gain it was made with, and one fitted before morphed joins its
+        # cross-fades (its other later settings default to the old ways)
+        old = {"cv_gain": False, "joins": "dissolve"}
+        selection = SelectionSettings(**(old | doc["selection"]))
         table = VisemeTable(grouping=doc.get("grouping") or None)
         default = str(doc["default"])
     except (OSError, ValueError, KeyError, TypeError) as err:
@@ -407,41 +409,4 @@ def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
         raise MiketalkError(f"cannot read the trained face in {path.parent}: {err!r}") from None
 
 
-def render_trained(
-    model: Any,
-    timeline: Timeline,
-    *,
-    trained: TrainedFace | None = None,
-    kind: str | None = None,
-    selection: Mapping[str, Any] | None = None,
-    recording: Recording | None = None,
-) -> Iterator[np.ndarray]:
-    """The frames of ``timeline`` drawn from the person's own frames.
-
-    Each frame's time (its middle sample; a motion-blurred frame's samples
-    are not used) gets the trajectory's prediction; the selection chooses the
-    training frames and they are composited onto the model's silence image.
-    The ``(model, timeline)`` signature of the held-out evaluation's renderers.
-    ``selection`` overrides some of the face's selection settings (those that
-    need no refitting: not ``centred`` or ``half``). ``recording``, the sound that drives
-    the timeline, lets a face with the ``heard`` trajectory hear it (unless ``kind``
-    names another).
-    """
-    trained = trained or read_trained(model.directory)
-    if selection:
-        fitted = trained.selection.to_dict()
-        if unknown := sorted(set(selection) - set(fitted)):
-            raise MiketalkError(
-                f"unknown selection setting {', '.join(unknown)} (known: {', '.join(fitted)})"
-            )
-        if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
-            raise MiketalkError("centred and half are fitted with the model: refit it instead")
-        settings = dataclasses.replace(trained.selection, **selection)
-        trained = dataclasses.replace(trained, selection=settings)
-    rows = trained.plan(timeline, kind=kind, recording=recording)
-    compositor = PatchCompositor(trained.frames, model.image(SILENCE))
-    for row in rows:
-        yield compositor.frame(row)
-
-
-__all__ = ["DIRECTORY", "FORMAT", "TrainedFace", "fit_trained", "read_trained", "render_trained"]
+__all__ = ["DIRECTORY", "FORMAT", "TrainedFace", "fit_trained", "read_trained"]

@@ -1,0 +1,59 @@
+"""The trained face drawn: a timeline's frames from the person's own, onto the model's face."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.speech.acoustic import Recording
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.trained.build import TrainedFace, read_trained
+from miketalk.talk.trained.selection import PatchCompositor
+from miketalk.visemes import SILENCE
+
+
+def render_trained(
+    model: Any,
+    timeline: Timeline,
+    *,
+    trained: TrainedFace | None = None,
+    kind: str | None = None,
+    selection: Mapping[str, Any] | None = None,
+    recording: Recording | None = None,
+) -> Iterator[np.ndarray]:
+    """The frames of ``timeline`` drawn from the person's own frames.
+
+    Each frame's time (its middle sample; a motion-blurred frame's samples
+    are not used) gets the trajectory's prediction; the selection chooses the
+    training frames and they are composited onto the model's silence image.
+    The ``(model, timeline)`` signature of the held-out evaluation's renderers.
+    ``selection`` overrides some of the face's selection settings (those that
+    need no refitting: not ``centred`` or ``half``). ``recording``, the sound that drives
+    the timeline, lets a face with the ``heard`` trajectory hear it (unless ``kind``
+    names another).
+    """
+    trained = trained or read_trained(model.directory)
+    if selection:
+        fitted = trained.selection.to_dict()
+        if unknown := sorted(set(selection) - set(fitted)):
+            raise MiketalkError(
+                f"unknown selection setting {', '.join(unknown)} (known: {', '.join(fitted)})"
+            )
+        if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
+            raise MiketalkError("centred and half are fitted with the model: refit it instead")
+        settings = dataclasses.replace(trained.selection, **selection)
+        trained = dataclasses.replace(trained, selection=settings)
+    rows = trained.plan(timeline, kind=kind, recording=recording)
+    compositor = PatchCompositor(
+        trained.frames, model.image(SILENCE), joins=trained.selection.joins,
+        morph_options=getattr(model, "morph_options", None),
+    )  # fmt: skip
+    for row in rows:
+        yield compositor.frame(row)
+
+
+__all__ = ["render_trained"]
