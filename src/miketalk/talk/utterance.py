@@ -87,7 +87,7 @@ def write_utterance(
         transitions; the motion is then measured on its weights.
     trained : TrainedFace, optional
         Draw the frames from the person's own with this trained face
-        (:func:`miketalk.talk.trained.build.render_trained`).
+        (:func:`miketalk.talk.trained.draw.render_trained`).
     trajectory : str, optional
         The trained face's trajectory model (default: ``heard`` with a ``recording`` when
         the face has it, else the face's default).

@@ -57,7 +57,7 @@ class SelectionSettings:
     continuation : int
         A frame that follows the previous one by up to this many recording frames joins free.
     fade : float
-        How far the frames about a jump are cross-faded towards each other's continuation.
+        How far the frames about a jump are blended towards each other's continuation.
     weighted : bool
         Weigh each component's target cost by how much of it the phones predict.
     amplitude : float
@@ -207,7 +207,8 @@ def _join(
 
 
 def drawn(frames: MouthFrames, path: np.ndarray, settings: SelectionSettings) -> list:
-    """Each output frame as ``((frame, weight), ...)``: the chosen one, cross-faded at jumps."""
+    """Each output frame as ``((frame, weight), ...)``: the chosen one, and at a jump the
+    continuation it is blended with (:attr:`SelectionSettings.joins`) and their weights."""
     follows = frames.continues()
     n = len(path)
     rows: list[list[tuple[int, float]]] = [[(int(s), 1.0)] for s in path]
