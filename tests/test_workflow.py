@@ -160,6 +160,8 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     # the held-out clips dubbed with their own audio
     dub = pd.read_csv(results / "metrics/dub/s1/clips.csv")
     assert list(dub["clip"]) == ["bbas3a", "srau3s"]
+    # dubbed as its lipsync.recording_model says: the trained face, hearing the recording
+    assert (dub["renderer"] == "trained_heard").all()
     assert (dub["psnr_frame"] > 25).all() and dub["seam_ratio"].between(0.3, 3).all()
     # the dub's mouth landmarks against the real frames, beside the uncomposited render's
     assert (dub["dub_mouth_lmd"] > 0).all() and (dub["render_mouth_lmd"] > 0).all()

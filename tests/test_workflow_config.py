@@ -226,3 +226,13 @@ def test_a_trajectory_goes_with_the_trained_face_and_typed_text(
     assert proc.returncode != 0
     assert message in proc.stdout + proc.stderr, proc.stdout[-2000:]
     assert not (tmp_path / "results").exists()
+
+
+def test_a_recording_model_needs_a_face_from_clips(tmp_path: Path) -> None:
+    config = dot_test_config()
+    config["faces"]["synthetic"]["lipsync"] = {"recording_model": "trained"}
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode != 0
+    message = "faces.synthetic: lipsync recording_model 'trained' needs a face built from clips"
+    assert message in proc.stdout + proc.stderr, proc.stdout[-2000:]
+    assert not (tmp_path / "results").exists()

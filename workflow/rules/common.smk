@@ -187,6 +187,13 @@ def lipsync_options(face):
     return canonical({**config["lipsync"], **own})
 
 
+def recording_model(face):
+    """The lip-sync model of a face's utterances driven by a recording (the held-out dubs):
+    its recording_model, else its model."""
+    options = lipsync_options(face)
+    return options["recording_model"] or options["model"]
+
+
 def face_background(face):
     """What a face's utterances play under the mouth: auto, still or a video (absolute)."""
     choice = FACES[face].get("background", "auto") if face in FACES else "still"
@@ -206,14 +213,15 @@ def model_flow(face):
 for _face in FACES:
     _method, _strategy = model_flow(_face)
     get_strategy(_strategy)
-    if (
-        lipsync_options(_face)["model"] in ("learned", "trained")
-        and _face not in CLIP_FACES
+    for _key, _model in (
+        ("model", lipsync_options(_face)["model"]),
+        ("recording_model", recording_model(_face)),
     ):
-        raise ValueError(
-            f"faces.{_face}: lipsync model {lipsync_options(_face)['model']!r} needs a face "
-            "built from clips (it is fitted to their aligned frames)"
-        )
+        if _model in ("learned", "trained") and _face not in CLIP_FACES:
+            raise ValueError(
+                f"faces.{_face}: lipsync {_key} {_model!r} needs a face built from clips "
+                "(it is fitted to their aligned frames)"
+            )
     if (
         lipsync_options(_face)["trajectory"] is not None
         and lipsync_options(_face)["model"] != "trained"

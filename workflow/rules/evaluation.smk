@@ -89,7 +89,7 @@ rule dub_heldout:
         "../envs/miketalk.yaml"
     params:
         corpus=lambda wildcards: corpus_settings(wildcards.face),
-        lipsync_model=lambda wildcards: lipsync_options(wildcards.face)["model"],
+        lipsync_model=lambda wildcards: recording_model(wildcards.face),
         morph=lambda wildcards: morph_options(wildcards.face),
     script:
         "../scripts/dub_heldout.py"

@@ -148,7 +148,7 @@ def dub_heldout(
         )  # fmt: skip
         # the time goes to the log, not the table: the same config gives the same bytes
         log.info("%s: registered and composited %d frames in %.2f s", clip.id, n, seconds)
-        row = {"clip": clip.id, "frames": n} | frame
+        row = {"clip": clip.id, "renderer": renderer, "frames": n} | frame
         row |= {f"dub_{k}": v for k, v in dub.items() if k != "frames"}
         row |= {f"render_{k}": v for k, v in render.items() if k != "frames"}
         row["blinks"] = len(dubbed.background.blinks)
@@ -179,7 +179,7 @@ def dub_heldout(
     )
     numbers = table.drop(columns=["clip"]).select_dtypes("number")
     summary = pd.concat([numbers.mean().add_suffix("_mean"), numbers.std(ddof=1).add_suffix("_sd")])
-    summary = summary.to_frame().T.assign(clips=len(table))
+    summary = summary.to_frame().T.assign(clips=len(table), renderer=renderer)
     write_text_atomic(
         summary_csv or out / "summary.csv", summary.to_csv(index=False, float_format="%.4f")
     )
