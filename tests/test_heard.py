@@ -7,6 +7,7 @@ import pytest
 
 from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import RATE, Recording, heard_features
+from miketalk.speech.festival.backend import FestivalBackend
 from miketalk.speech.types import Phone
 from miketalk.talk.trained.trajectory import Context, TrainingSet, fit_window
 from miketalk.visemes import VisemeTable
@@ -92,3 +93,55 @@ def test_the_heard_trajectory_predicts_what_the_phones_cannot() -> None:
     silent = TrainingSet(data.phones, data.times, data.coords)
     with pytest.raises(MiketalkError, match="recordings"):
         fit_window(silent, context, table, half=3, heard=4)
+
+
+def test_another_voice_follows_the_persons_phone_timing() -> None:
+    """The voice's phones take the person's durations: one by one where the two match (the
+    same phone or another pronunciation), a moment for a phone only the voice speaks, and
+    the time of one only the person spoke goes to the phone before it."""
+    from miketalk.bench.other_voice import EXTRA_PHONE, retimed_durations
+
+    table = VisemeTable()
+    person = [Phone("pau", 0.0, 0.5), Phone("s", 0.5, 0.6), Phone("hh", 0.6, 0.65),
+              Phone("w", 0.65, 0.75), Phone("ah", 0.75, 0.9), Phone("n", 0.9, 1.0),
+              Phone("pau", 1.0, 1.4)]  # fmt: skip
+    voice = ["pau", "s", "w", "ax", "n", "t", "pau"]
+    durations = retimed_durations(voice, person, table)
+    assert np.allclose(durations, [0.5, 0.15, 0.1, 0.15, 0.1, EXTRA_PHONE, 0.4])
+    same = retimed_durations([p.name for p in person], person, table)
+    assert np.allclose(same, [p.duration for p in person])
+
+
+def test_held_out_features_can_differ_from_the_fitted_ones() -> None:
+    """cross_validated_r2's held_xs: the model fitted on xs meets other features for the
+    held-out clips (another voice): the same features score as before, noise does not."""
+    from miketalk.bench.trajectory_cv import cross_validated_r2, ridge_fit
+
+    rng = np.random.default_rng(3)
+    xs = [rng.normal(size=(30, 4)) for _ in range(10)]
+    w = rng.normal(size=(4, 2))
+    ys = [x @ w + 0.05 * rng.normal(size=(30, 2)) for x in xs]
+    fit = ridge_fit(1e-3)
+    same = cross_validated_r2(xs, ys, fit, held_xs=xs)[0]
+    assert same == cross_validated_r2(xs, ys, fit)[0] and same > 0.95
+    noise = [rng.normal(size=x.shape) for x in xs]
+    assert cross_validated_r2(xs, ys, fit, held_xs=noise)[0] < 0.0
+
+
+@pytest.mark.skipif(not FestivalBackend().is_available(), reason="Festival not installed")
+def test_festival_speaks_a_clip_at_the_persons_timing(tmp_path) -> None:
+    """voiced_recordings: the clip's words in Festival's voice, as long as the person's
+    phones, loud where he speaks and quiet in his lead-in."""
+    import json
+
+    from miketalk.bench.other_voice import voiced_recordings
+
+    person = (Phone("pau", 0.0, 0.6), Phone("b", 0.6, 0.66), Phone("l", 0.66, 0.72),
+              Phone("uw", 0.72, 0.95), Phone("pau", 0.95, 1.3))  # fmt: skip
+    words = [{"word": "blue", "clip": "c1", "start": 0.6, "end": 0.95, "phones": []}]
+    (tmp_path / "words.json").write_text(json.dumps({"words": words}))
+    (sound,) = voiced_recordings(tmp_path, ["c1"], [person], voice="kal", table=VisemeTable())
+    x = sound.at_rate()
+    assert abs(len(x) / RATE - 1.3) < 0.02
+    lead, spoken = x[: int(0.5 * RATE)], x[int(0.62 * RATE) : int(0.93 * RATE)]
+    assert np.abs(spoken).mean() > 10 * np.abs(lead).mean()

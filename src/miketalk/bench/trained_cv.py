@@ -45,7 +45,9 @@ ORACLE = "oracle"
 #: Named variants: the settings each changes from the defaults (``key=value`` also works;
 #: ``kind`` names the trajectory model, default the face's own; ``heard`` hears each clip's
 #: recording; ``oracle`` is no trajectory at all but the real frames' own descriptions, what
-#: the selection and the compositing reach with a perfect prediction).
+#: the selection and the compositing reach with a perfect prediction; ``voice="kal"`` gives
+#: each clip's words spoken by that Festival voice at his timing as its recording
+#: (:mod:`miketalk.bench.other_voice`): another speaker's recording of his sentence).
 VARIANTS: dict[str, dict] = {
     "default": {},
     "previous": PREVIOUS_SELECTION,
@@ -142,6 +144,18 @@ def cross_validate(
     box = mouth_region(corpus_dir)
     landmarks = face_landmarks()
     rows_out = []
+    voices: dict[str, list] = {}
+
+    def voiced(voice: str) -> list:
+        """Every clip's words in Festival's ``voice`` at his timing (made once)."""
+        from miketalk.bench.other_voice import voiced_recordings
+
+        if voice not in voices:
+            voices[voice] = voiced_recordings(
+                corpus_dir, everything.clip_ids, data.phones, voice=voice, table=table
+            )
+        return voices[voice]
+
     for fold, (train, held_out) in enumerate(data.folds(folds)):
         frames = refit_frames(
             everything, np.flatnonzero(np.isin(everything.clip, train)), components
@@ -154,12 +168,13 @@ def cross_validate(
             t0 = time.perf_counter()
             change = dict(change)
             kind = change.pop("kind", None)
+            voice = change.pop("voice", None)
             selection = SelectionSettings(**(SelectionSettings().to_dict() | change))
             key = (selection.centred, selection.half)
             if key not in fitted:
                 fitted[key] = fitted_face(frames, corpus_dir, selection=selection, table=table)
             face = dataclasses.replace(fitted[key], selection=selection)
-            faces[name] = (face, kind)
+            faces[name] = (face, kind, voice)
             if selection.joins not in compositors:
                 compositors[selection.joins] = PatchCompositor(
                     frames, silence, joins=selection.joins, morph_options=morph
@@ -177,12 +192,13 @@ def cross_validate(
             sp = np.arange(len(real))[speech]
             marks = ClipLandmarks(landmarks, real)
             truth = frames.project(grey_mouths(real, frames.region))
-            for name, (face, kind) in faces.items():
+            for name, (face, kind, voice) in faces.items():
                 if kind == ORACLE:
                     target = truth
                     chosen = face.plan(timeline, target=target)
                 else:
-                    heard = {"kind": kind or face.default, "recording": data.recordings[c]}
+                    sound = voiced(voice)[c] if voice else data.recordings[c]
+                    heard = {"kind": kind or face.default, "recording": sound}
                     target = face.target(timeline, **heard)
                     chosen = face.plan(timeline, target=target, **heard)
                 compositor = compositors[face.selection.joins]

@@ -1,6 +1,7 @@
 """How much of the mouth the phones predict: the trajectory's cross-validated R², by model.
 
-``python -m miketalk.bench.trajectory_cv --corpus DIR [--mlp 128 512] [--heard] [--opening]``
+``python -m miketalk.bench.trajectory_cv --corpus DIR [--mlp 128 512] [--heard] [--opening]
+[--voice kal ked]``
 
 The trained face's description of every frame of a corpus folder
 (:func:`miketalk.talk.trained.mouths.measure_frames`) predicted from the phone
@@ -12,6 +13,10 @@ layer of each given size; scikit-learn is not a miketalk dependency: install it
 to try this). Prints, per model, the R² of the first components and the R² of
 the whole description (1 - mean squared error / mean variance). Training clips
 only: the ceiling a phone model meets, judged without the held-out clips.
+
+``--voice kal ked`` asks whether the ``heard`` trajectory holds for another
+speaker: fitted on his recordings as always, it meets each held-out clip spoken
+by that Festival voice at his own phone timing (:mod:`miketalk.bench.other_voice`).
 
 ``--heard`` adds the ``heard`` trajectory's features (the clip's recording,
 :func:`miketalk.speech.acoustic.heard_features`) beside the phones. ``--opening``
@@ -42,16 +47,25 @@ Fit = Callable[[np.ndarray, np.ndarray, Sequence[np.ndarray]], list[np.ndarray]]
 
 
 def cross_validated_r2(
-    xs: Sequence[np.ndarray], ys: Sequence[np.ndarray], fit: Fit, *, folds: int = 5
+    xs: Sequence[np.ndarray],
+    ys: Sequence[np.ndarray],
+    fit: Fit,
+    *,
+    folds: int = 5,
+    held_xs: Sequence[np.ndarray] | None = None,
 ) -> tuple[float, np.ndarray]:
-    """``(whole, per component)`` R² of ``fit`` over clips, every ``folds``-th clip held out."""
+    """``(whole, per component)`` R² of ``fit`` over clips, every ``folds``-th clip held out.
+
+    ``held_xs`` (default ``xs``) are the held-out clips' features as the fitted model
+    meets them: the same clips heard in another voice, say."""
     n = len(xs)
+    held_xs = xs if held_xs is None else held_xs
     err, count = np.zeros(ys[0].shape[1]), 0
     for f in range(min(folds, n)):
         train = [i for i in range(n) if i % folds != f]
         valid = [i for i in range(n) if i % folds == f]
         x, y = np.concatenate([xs[i] for i in train]), np.concatenate([ys[i] for i in train])
-        for i, pred in zip(valid, fit(x, y, [xs[i] for i in valid]), strict=True):
+        for i, pred in zip(valid, fit(x, y, [held_xs[i] for i in valid]), strict=True):
             err += ((pred - ys[i]) ** 2).sum(axis=0)
             count += len(pred)
     var = np.concatenate(ys).var(axis=0)
@@ -142,6 +156,42 @@ def opening_ceiling(
     return lines
 
 
+def other_voices(
+    args, data: TrainingSet, clip_ids: Sequence[str], phones_x: list, own_x: list, context
+) -> list[str]:
+    """``--voice``: R² of the ``heard`` ridge fitted on his own recordings when the held-out
+    clips are heard in each voice, beside his own voice and the phones alone."""
+    from miketalk.bench.other_voice import voiced_recordings
+    from miketalk.talk.trained.trajectory import HEARD_HALF, window_features
+    from miketalk.visemes import VisemeTable
+
+    table = VisemeTable()
+    voiced = {
+        voice: [
+            window_features(context, p, t, table, half=6, step=0.04, heard=HEARD_HALF, recording=r)
+            for p, t, r in zip(
+                data.phones,
+                data.times,
+                voiced_recordings(args.corpus, clip_ids, data.phones, voice=voice, table=table),
+                strict=True,
+            )
+        ]
+        for voice in args.voice
+    }
+    lines = []
+    for strength in args.ridges:
+        fit = ridge_fit(strength)
+        scores = {"phones alone": cross_validated_r2(phones_x, data.coords, fit)}
+        scores["his own voice"] = cross_validated_r2(own_x, data.coords, fit)
+        for voice, xs in voiced.items():
+            scores[f"voice {voice}"] = cross_validated_r2(own_x, data.coords, fit, held_xs=xs)
+        lines.append(
+            f"heard ridge {strength:g}, held-out clips heard in: "
+            + "; ".join(f"{k} R2 {w:.4f} (first {p[0]:.3f})" for k, (w, p) in scores.items())
+        )
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     """Command line (see the module docstring)."""
     parser = bench_parser(__name__, __doc__, limit_help="(unused: every clip is used)")
@@ -153,6 +203,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--heard", action="store_true", help="also hear each clip's recording")
     parser.add_argument(
         "--opening", action="store_true", help="predict dlib's lip opening itself (slow)"
+    )
+    parser.add_argument(
+        "--voice",
+        nargs="+",
+        default=[],
+        choices=("kal", "ked"),
+        help="the heard trajectory fitted on his recordings, meeting each held-out clip "
+        "spoken by this Festival voice at his own phone timing (miketalk.bench.other_voice)",
     )
 
     def check(args) -> str | None:
@@ -207,6 +265,8 @@ def main(argv: list[str] | None = None) -> int:
             for strength in args.ridges:
                 report(f"heard ridge half 6 strength {strength:g}", heard(6),
                        ridge_fit(strength))  # fmt: skip
+        if args.voice:
+            lines += other_voices(args, data, frames.clip_ids, features(6), heard(6), context)
         if args.opening:
             xs = {"phones": features(6)}
             xs["phones and recording"] = heard(6)
