@@ -211,6 +211,18 @@ def test_the_bench_finds_the_faces_own_model_and_sweeps_each_trained_renderer(
     assert sweep_figures(tmp_path / "none") == {}
 
 
+def test_the_bench_keeps_the_dubs_means(tmp_path: Path) -> None:
+    from miketalk.bench.real_face import DUB_FIGURES, dub_figures
+
+    row = {f"{k}_mean": float(i) for i, k in enumerate(DUB_FIGURES)}
+    row |= {f"{k}_sd": 9.0 for k in DUB_FIGURES} | {"clips": 40, "renderer": "trained_heard"}
+    pd.DataFrame([row]).to_csv(tmp_path / "summary.csv", index=False)
+    figures = dub_figures(tmp_path / "summary.csv")
+    assert figures["dub_psnr_frame"] == 0.0 and figures["dub_mouth_lmd"] == 2.0
+    assert figures["dub_jitter_beyond"] == len(DUB_FIGURES) - 1.0
+    assert len(figures) == len(DUB_FIGURES) and dub_figures(tmp_path / "none.csv") == {}
+
+
 def test_mouth_to_nose_jitter_and_eye_openness() -> None:
     from miketalk.evaluation.landmarks import eye_openness, mouth_nose_jitter
 

@@ -143,6 +143,13 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     summary.to_csv(out_dir / "heldout_summary.csv", index=False)
 
     figures |= sweep_figures(workdir / "results" / "metrics" / "heldout" / "s1")
+    figures |= dub_figures(workdir / "results" / "metrics" / "dub" / "s1" / "summary.csv")
+    # the heard trajectory meeting other voices (Festival's, at his timing): R² by voice
+    from miketalk.bench.trajectory_cv import voice_scores
+
+    by_voice = voice_scores(workdir / "results" / "corpus" / "s1", ("kal", "ked"), (300.0,))
+    for voice, (whole, _) in by_voice[300.0].items():
+        figures[f"heard_r2_{voice}"] = whole
 
     model = workdir / "results" / "model" / "s1"
     # a held-out clip's own recording: the trained face hears it (the heard trajectory)
@@ -171,6 +178,21 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
         figures[f"{label}_first_seconds"] = times[0]
         figures[f"{label}_warm_seconds"] = min(times[1:])
     return figures
+
+
+#: The held-out dubs' figures the bench keeps (``summary.csv`` columns, ``_mean`` left off).
+DUB_FIGURES = (
+    "psnr_frame", "seam_ratio", "dub_mouth_lmd", "dub_lip_opening_corr_speech",
+    "dub_lip_opening_amplitude_speech", "jitter_beyond",
+)  # fmt: skip
+
+
+def dub_figures(summary_csv: pathlib.Path) -> dict[str, float]:
+    """The held-out dubs' means (:data:`DUB_FIGURES`), named ``dub_...`` (nothing without)."""
+    if not summary_csv.exists():
+        return {}
+    row = pd.read_csv(summary_csv).iloc[0]
+    return {f"dub_{k.removeprefix('dub_')}": float(row[f"{k}_mean"]) for k in DUB_FIGURES}
 
 
 def sweep_figures(heldout: pathlib.Path) -> dict[str, float]:

@@ -156,40 +156,58 @@ def opening_ceiling(
     return lines
 
 
-def other_voices(
-    args, data: TrainingSet, clip_ids: Sequence[str], phones_x: list, own_x: list, context
-) -> list[str]:
-    """``--voice``: R² of the ``heard`` ridge fitted on his own recordings when the held-out
-    clips are heard in each voice, beside his own voice and the phones alone."""
+def voice_scores(
+    corpus_dir: Path,
+    voices: Sequence[str],
+    strengths: Sequence[float],
+    *,
+    data: TrainingSet | None = None,
+    clip_ids: Sequence[str] | None = None,
+) -> dict[float, dict[str, tuple[float, np.ndarray]]]:
+    """``--voice``: per ridge strength, the cross-validated R² (whole, per component) of the
+    ``heard`` ridge fitted on his own recordings when the held-out clips are heard in his
+    own voice (``own``) and in each Festival voice, beside the phones alone (``phones``).
+
+    ``data`` and ``clip_ids`` are the corpus's training set and clip ids, when the caller
+    has them already."""
     from miketalk.bench.other_voice import voiced_recordings
-    from miketalk.talk.trained.trajectory import HEARD_HALF, window_features
+    from miketalk.talk.trained.trajectory import HEARD_HALF, Context, window_features
     from miketalk.visemes import VisemeTable
 
+    if data is None or clip_ids is None:
+        from miketalk.talk.trained.build import training_set
+        from miketalk.talk.trained.mouths import measure_frames
+
+        frames = measure_frames(corpus_dir)
+        data, clip_ids = training_set(corpus_dir, frames), frames.clip_ids
     table = VisemeTable()
-    voiced = {
-        voice: [
-            window_features(context, p, t, table, half=6, step=0.04, heard=HEARD_HALF, recording=r)
-            for p, t, r in zip(
-                data.phones,
-                data.times,
-                voiced_recordings(args.corpus, clip_ids, data.phones, voice=voice, table=table),
-                strict=True,
-            )
+    seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
+    context = Context(tuple(seen), tuple(table.visemes))
+
+    def features(recordings=None) -> list[np.ndarray]:
+        heard = HEARD_HALF if recordings is not None else 0
+        recordings = recordings if recordings is not None else [None] * len(data.phones)
+        return [
+            window_features(context, p, t, table, half=6, step=0.04, heard=heard, recording=r)
+            for p, t, r in zip(data.phones, data.times, recordings, strict=True)
         ]
-        for voice in args.voice
-    }
-    lines = []
-    for strength in args.ridges:
-        fit = ridge_fit(strength)
-        scores = {"phones alone": cross_validated_r2(phones_x, data.coords, fit)}
-        scores["his own voice"] = cross_validated_r2(own_x, data.coords, fit)
-        for voice, xs in voiced.items():
-            scores[f"voice {voice}"] = cross_validated_r2(own_x, data.coords, fit, held_xs=xs)
-        lines.append(
-            f"heard ridge {strength:g}, held-out clips heard in: "
-            + "; ".join(f"{k} R2 {w:.4f} (first {p[0]:.3f})" for k, (w, p) in scores.items())
+
+    phones_x, own_x = features(), features(data.recordings)
+    voiced = {
+        voice: features(
+            voiced_recordings(corpus_dir, clip_ids, data.phones, voice=voice, table=table)
         )
-    return lines
+        for voice in voices
+    }
+    out = {}
+    for strength in strengths:
+        fit = ridge_fit(strength)
+        scores = {"phones": cross_validated_r2(phones_x, data.coords, fit)}
+        scores["own"] = cross_validated_r2(own_x, data.coords, fit)
+        for voice, xs in voiced.items():
+            scores[voice] = cross_validated_r2(own_x, data.coords, fit, held_xs=xs)
+        out[float(strength)] = scores
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -266,7 +284,14 @@ def main(argv: list[str] | None = None) -> int:
                 report(f"heard ridge half 6 strength {strength:g}", heard(6),
                        ridge_fit(strength))  # fmt: skip
         if args.voice:
-            lines += other_voices(args, data, frames.clip_ids, features(6), heard(6), context)
+            scores = voice_scores(
+                args.corpus, args.voice, args.ridges, data=data, clip_ids=frames.clip_ids
+            )
+            for strength, by in scores.items():
+                lines.append(
+                    f"heard ridge {strength:g}, held-out clips heard in: "
+                    + "; ".join(f"{k} R2 {w:.4f} (first {p[0]:.3f})" for k, (w, p) in by.items())
+                )
         if args.opening:
             xs = {"phones": features(6)}
             xs["phones and recording"] = heard(6)
