@@ -236,3 +236,17 @@ def test_a_recording_model_needs_a_face_from_clips(tmp_path: Path) -> None:
     message = "faces.synthetic: lipsync recording_model 'trained' needs a face built from clips"
     assert message in proc.stdout + proc.stderr, proc.stdout[-2000:]
     assert not (tmp_path / "results").exists()
+
+
+def test_the_sampling_strip_of_a_face_that_does_not_morph_like_the_paper_is_the_papers(
+    tmp_path: Path,
+) -> None:
+    """Without a synthetic face the figures are drawn from s1, whose model is learned: the
+    sampling strip's utterances are sweep utterances of the paper's model in every mode, not
+    its own utterance at the configured point (which the strip refuses)."""
+    config = dot_test_config()
+    del config["faces"]["synthetic"]
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for sampling in config["sweeps"]["sampling"]:
+        assert f"results/utterances/s1/sweep/{sampling}/px2.5_fps30.json" in proc.stdout

@@ -541,12 +541,26 @@ def sync_sweep_points():
 
 
 def configured_point(face, sampling, px, fps):
-    """Whether a sweep point is the face's configured sampling, max_px_per_frame and fps."""
+    """Whether a sweep point is the face's configured sampling, max_px_per_frame and fps,
+    with the paper's model (the one the sweeps study)."""
     lipsync = lipsync_options(face)
-    return (sampling, px, fps) == (
+    return lipsync["model"] == "paper" and (sampling, px, fps) == (
         lipsync["sampling"],
         lipsync["max_px_per_frame"],
         lipsync["fps"],
+    )
+
+
+def sweep_lipsync(face, sampling):
+    """The lip-sync settings of a sweep utterance: the face's in ``sampling``, with the
+    paper's model, whatever the face's own (the sweeps study the paper's sampling, §7)."""
+    return canonical(
+        {
+            **lipsync_options(face),
+            "sampling": sampling,
+            "model": "paper",
+            "trajectory": None,
+        }
     )
 
 

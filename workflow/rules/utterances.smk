@@ -55,9 +55,7 @@ rule sweep_utterance:
         text=config["sentences"][config["sweeps"]["sentence"]],
         fps=lambda wildcards: float(wildcards.fps),
         max_px=lambda wildcards: float(wildcards.px),
-        lipsync=lambda wildcards: canonical(
-            {**lipsync_options(wildcards.face), "sampling": wildcards.sampling}
-        ),
+        lipsync=lambda wildcards: sweep_lipsync(wildcards.face, wildcards.sampling),
         morph=lambda wildcards: morph_options(wildcards.face),
         grouping=canonical(config["visemes"]["grouping"]),
     script:
