@@ -86,7 +86,17 @@ def test_say_and_dub_take_the_built_model(
         "--model", str(built), "-o", str(tmp_path / "c.mp4"),
     )  # fmt: skip
     assert code == 0, err
-    assert all((tmp_path / f"{n}.mp4").stat().st_size > 0 for n in "abc")
+    # the built model's trained face hears a recording, and says so
+    for trajectory, said in ((None, "heard"), ("window", "window")):
+        code, out, err = _run(
+            capsys, "say", "--audio", str(DATA / "video" / "bbas3a.mpg"), "--text",
+            "bin blue at s three again", "--model", str(built), "--lipsync-model", "trained",
+            "-o", str(tmp_path / f"d_{said}.mp4"),
+            *(("--trajectory", trajectory) if trajectory else ()),
+        )  # fmt: skip
+        assert code == 0, err
+        assert f"(blur, trained lip-sync, {said} trajectory)" in out
+    assert all((tmp_path / f"{n}.mp4").stat().st_size > 0 for n in ("a", "b", "c", "d_heard"))
 
 
 @pytest.mark.slow

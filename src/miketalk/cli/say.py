@@ -185,15 +185,23 @@ def _say_recorded(
             "sampling": sampling,
             "max_px_per_frame": max_px,
             "lipsync_model": args.lipsync_model,
+            "trajectory": said.trajectory,
             "motion": motion.to_dict(),
         }
         print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
     else:
+        drawn = f", {said.trajectory} trajectory" if said.trajectory else ""
         print(
             f"{args.output}: {motion.frames} frames at {args.fps:g} fps, "
             f"{said.audio_seconds:.2f} s of recorded audio, {motion.morphs} morphs, largest "
-            f"step {said.largest_step_px:.2f} px ({sampling}, {args.lipsync_model} lip-sync)",
+            f"step {said.largest_step_px:.2f} px ({sampling}, {args.lipsync_model} lip-sync"
+            f"{drawn})",
             file=args.out,
         )
+        if said.trajectory == "heard":
+            log.info(
+                "the mouth heard the recording (the heard trajectory): for a voice other than "
+                "the person's own, --trajectory window draws it better"
+            )
     log.info("say took %.2f s", seconds_since(started))
     return 0

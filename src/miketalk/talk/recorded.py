@@ -56,6 +56,7 @@ class RecordedSpeech:
     largest_step_px: float
     audio_seconds: float
     motion: Motion
+    trajectory: str | None = None  # the trained face's trajectory model (None: another model)
 
 
 @dataclass(frozen=True)
@@ -285,4 +286,7 @@ def say_recorded(
         overwrite=overwrite,
         background=background,
     )
-    return RecordedSpeech(aligned.words, timeline, motion.largest_step_px, aligned.duration, motion)
+    return RecordedSpeech(
+        aligned.words, timeline, motion.largest_step_px, aligned.duration, motion,
+        trajectory if trained is not None else None,
+    )  # fmt: skip
