@@ -553,7 +553,7 @@ def configured_point(face, sampling, px, fps):
 
 def sweep_lipsync(face, sampling):
     """The lip-sync settings of a sweep utterance: the face's in ``sampling``, with the
-    paper's model, whatever the face's own (the sweeps study the paper's sampling, §7)."""
+    paper's model whatever the face's own (the sweeps study the paper's sampling)."""
     return canonical(
         {
             **lipsync_options(face),
