@@ -499,6 +499,9 @@ def test_report_renders_in_headless_chromium(run: Path) -> None:
     html = report.read_text(errors="replace")
     for caption in ("Every corpus target", "Morph fidelity", "paper's Figure 8"):
         assert caption in html
+    # the description names the config's faces, and no caption breaks docutils
+    assert re.search(r"Faces: <tt[^>]*>synthetic, s1\b", html.replace("\\", ""))
+    assert "(WARNING/" not in proc.stderr and "(ERROR/" not in proc.stderr
     shot = run / "report.png"
     subprocess.run(
         [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
