@@ -181,8 +181,7 @@ def voice_scores(
         frames = measure_frames(corpus_dir)
         data, clip_ids = training_set(corpus_dir, frames), frames.clip_ids
     table = VisemeTable()
-    seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
-    context = Context(tuple(seen), tuple(table.visemes))
+    context = Context.of(data.phones, table)
 
     def features(recordings=None) -> list[np.ndarray]:
         heard = HEARD_HALF if recordings is not None else 0
@@ -249,8 +248,7 @@ def main(argv: list[str] | None = None) -> int:
         frames = measure_frames(args.corpus)
         data = training_set(args.corpus, frames)
         table = VisemeTable()
-        seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
-        context = Context(tuple(seen), tuple(table.visemes))
+        context = Context.of(data.phones, table)
         lines = [f"{len(data.phones)} clips, {len(frames.coords)} frames"]
 
         def features(half: int) -> list[np.ndarray]:
@@ -280,9 +278,9 @@ def main(argv: list[str] | None = None) -> int:
             for strength in args.ridges:
                 report(f"ridge half {half} strength {strength:g}", xs, ridge_fit(strength))
         if args.heard:
+            xs = heard(6)
             for strength in args.ridges:
-                report(f"heard ridge half 6 strength {strength:g}", heard(6),
-                       ridge_fit(strength))  # fmt: skip
+                report(f"heard ridge half 6 strength {strength:g}", xs, ridge_fit(strength))
         if args.voice:
             scores = voice_scores(
                 args.corpus, args.voice, args.ridges, data=data, clip_ids=frames.clip_ids

@@ -84,7 +84,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
                 progress=progress, overwrite=args.force,
                 background=background,
             )  # fmt: skip
-        motion, seconds, heard = said.motion, said.audio_seconds, said.trajectory
+        motion, seconds, trajectory = said.motion, said.audio_seconds, said.trajectory
     else:
         from miketalk.talk.say import speak
 
@@ -97,7 +97,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
                 trajectory=args.trajectory,
                 progress=progress, overwrite=args.force, background=background,
             )  # fmt: skip
-        motion, seconds, heard = spoken.motion, spoken.motion.duration, None
+        motion, seconds, trajectory = spoken.motion, spoken.motion.duration, None
     timeline = output.with_suffix(".json")
     if args.json:
         doc = {
@@ -111,11 +111,11 @@ def cmd_dub(args: argparse.Namespace) -> int:
             "frames": motion.frames,
             "audio_seconds": seconds,
             "lipsync_model": args.lipsync_model,
-        } | ({"trajectory": heard} if heard else {})
+        } | ({"trajectory": trajectory} if trajectory else {})
         print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
     else:
         loops = "looped" if motion.frames > len(background) else "cut to the speech"
-        drawn = f", the {heard} trajectory" if heard else ""
+        drawn = f", the {trajectory} trajectory" if trajectory else ""
         print(
             f"{output}: {motion.frames} frames at {fps:g} fps, {background.size[1]}x"
             f"{background.size[0]}, {seconds:.2f} s of speech over {len(background)} frames of "

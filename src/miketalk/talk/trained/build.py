@@ -299,8 +299,7 @@ def fitted_face(
         data = dataclasses.replace(
             data, coords=tuple(c - offsets[k] for k, c in enumerate(data.coords))
         )
-    seen = sorted({p.name for clip in data.phones for p in clip} | {"pau"})
-    context = Context(tuple(seen), tuple(table.visemes))
+    context = Context.of(data.phones, table)
     held: dict[str, dict] = {name: {} for name in TRAJECTORIES}
     fitted = {
         "window": fit_window(data, context, table, half=selection.half, predictions=held["window"]),

@@ -86,6 +86,12 @@ class Context:
     phones: tuple[str, ...]
     visemes: tuple[str, ...]
 
+    @classmethod
+    def of(cls, clips: Sequence[Sequence[Phone]], table: VisemeTable) -> Context:
+        """The phones the clips speak (and ``pau``) and ``table``'s visemes."""
+        seen = sorted({p.name for clip in clips for p in clip} | {"pau"})
+        return cls(tuple(seen), tuple(table.visemes))
+
     def labels(
         self, phones: Sequence[Phone], times: np.ndarray, table: VisemeTable
     ) -> tuple[np.ndarray, np.ndarray]:
