@@ -65,7 +65,7 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
 def test_say_and_dub_take_the_built_model(
     built: Path, joined, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, _, err = _run(
+    code, out, err = _run(
         capsys,
         "say",
         "Bin blue at F two now.",
@@ -75,22 +75,25 @@ def test_say_and_dub_take_the_built_model(
         str(tmp_path / "a.mp4"),
     )
     assert code == 0, err
+    assert "(blur, learned lip-sync)" in out  # typed text: the model's own coarticulation
     code, _, err = _run(
         capsys, "say", "--audio", str(DATA / "video" / "bbas3a.mpg"), "--text",
         "bin blue at s three again", "--model", str(built), "--lipsync-model", "learned",
         "-o", str(tmp_path / "b.mp4"),
     )  # fmt: skip
     assert code == 0, err
-    code, _, err = _run(
+    code, out, err = _run(
         capsys, "dub", str(DATA / "video" / "srau3s.mpg"), "--text", "Hello world.",
         "--model", str(built), "-o", str(tmp_path / "c.mp4"),
     )  # fmt: skip
     assert code == 0, err
-    # the built model's trained face hears a recording, and says so
+    assert "learned lip-sync)" in out
+    # a recording with no lip-sync model asked for takes the built model's trained face,
+    # which hears it, and says so; a trajectory asked for alone implies the trained face
     for trajectory, said in ((None, "heard"), ("window", "window")):
         code, out, err = _run(
             capsys, "say", "--audio", str(DATA / "video" / "bbas3a.mpg"), "--text",
-            "bin blue at s three again", "--model", str(built), "--lipsync-model", "trained",
+            "bin blue at s three again", "--model", str(built),
             "-o", str(tmp_path / f"d_{said}.mp4"),
             *(("--trajectory", trajectory) if trajectory else ()),
         )  # fmt: skip

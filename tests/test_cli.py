@@ -150,6 +150,7 @@ def test_say_keeps_the_speech_at_its_own_speed_with_small_steps(
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)
     motion = doc["motion"]
+    assert doc["lipsync_model"] == "paper"  # the only one a synthetic face's model has
     assert doc["sampling"] == "blur" and abs(motion["duration_ratio"] - 1.0) <= 0.1
     assert motion["largest_step_px"] <= 2.5
     assert motion["largest_frame_motion_px"] > 2.5  # the speech moves fast: blur had work
@@ -194,11 +195,14 @@ def test_learned_lipsync_draws_the_models_coarticulation(
     shutil.copytree(model, learned_model)
     write_params(CoarticulationParams.prior(VisemeTable().visemes, lead=0.02), learned_model)
     outputs = {}
-    for name, option in (("l1", "learned"), ("l2", "learned"), ("p", "paper")):
+    # l2 asks for no model: typed text takes the model's learned coarticulation
+    for name, option in (("l1", "learned"), ("l2", None), ("p", "paper")):
+        chosen = ("--lipsync-model", option) if option else ()
         proc = run("say", "Hello world.", "-o", f"{name}.mp4", "--model", learned_model, "--json",
-                   "--lipsync-model", option, cwd=work, scratch=scratch)  # fmt: skip
+                   *chosen, cwd=work, scratch=scratch)  # fmt: skip
         assert proc.returncode == 0, proc.stderr
         outputs[name] = json.loads(proc.stdout)
+        option = option or "learned"
         assert outputs[name]["lipsync_model"] == option
         timeline = json.loads((work / f"{name}.json").read_text())
         assert timeline["lipsync_model"] == option
@@ -232,9 +236,13 @@ def test_learned_lipsync_needs_a_model_that_learned_it(
     heard = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--lipsync-model", "trained",
                 "--trajectory", "heard", cwd=work, scratch=scratch)  # fmt: skip
     assert_user_error(heard, "--trajectory heard", "--audio")
-    paper = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--trajectory", "window",
-                cwd=work, scratch=scratch)  # fmt: skip
+    paper = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--lipsync-model", "paper",
+                "--trajectory", "window", cwd=work, scratch=scratch)  # fmt: skip
     assert_user_error(paper, "--trajectory goes with --lipsync-model trained")
+    # a trajectory with no lip-sync model asks for the trained face, which this model lacks
+    implied = run("say", "Hi.", "-o", "v.mp4", "--model", model, "--trajectory", "window",
+                  cwd=work, scratch=scratch)  # fmt: skip
+    assert_user_error(implied, "no trained face")
     assert list(work.iterdir()) == [] and list(scratch.iterdir()) == []
 
 

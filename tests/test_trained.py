@@ -15,8 +15,8 @@ from miketalk.evaluation.dub_heldout import dub_renderer
 from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import plan
+from miketalk.talk.model_parts import trained_trajectories
 from miketalk.talk.trained import fit_trained, read_trained
-from miketalk.talk.trained.build import trained_trajectories
 from miketalk.talk.trained.draw import render_trained
 from miketalk.talk.trained.mouths import MouthFrames, feather_mask
 from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, select

@@ -31,6 +31,18 @@ MAX_PX_PER_FRAME = 2.5
 #: person's own frames along a trajectory trained on all of them, :mod:`miketalk.talk.trained`).
 LIPSYNC_MODEL = "paper"
 
+#: ``miketalk say`` and ``dub`` without ``--lipsync-model``: the first of these the model
+#: has (:func:`miketalk.talk.model_parts.default_lipsync_model`), for typed text and for a
+#: recording. On s1's 40 held-out bench clips (the README's table of the trained face), typed text
+#: through ``learned`` follows his lip opening better (r 0.641) than through ``trained`` from
+#: the phones alone (0.622) or ``paper`` (0.602); his recording through ``trained``, which
+#: hears it, best of all (0.698, and the least mouth LMD). A synthetic face's model has
+#: only ``paper``.
+PREFERRED_LIPSYNC_MODELS = {
+    "text": ("learned", "trained", "paper"),
+    "recording": ("trained", "learned", "paper"),
+}
+
 #: The face whose model ``miketalk say`` uses when none is given.
 FACE = "synthetic"
 

@@ -159,7 +159,7 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
 
     words = read_transcripts(ROOT / corpus["transcripts"])
     runs = (
-        ("s1_say_10_words", [SENTENCE]),
+        ("s1_say_10_words", [SENTENCE, "--lipsync-model", "paper"]),
         ("s1_say_10_words_trained", [SENTENCE, "--lipsync-model", "trained"]),
         ("s1_say_audio_trained_heard",
          ["--audio", str(recording), "--text", words[clip], "--lipsync-model", "trained"]),

@@ -38,8 +38,9 @@ def cmd_dub(args: argparse.Namespace) -> int:
     from miketalk.cli.say import check_lipsync_model
     from miketalk.talk.background import background_from_video, check_video
     from miketalk.talk.background_files import has_background, model_stabilizer
+    from miketalk.talk.model_parts import default_model_dir
     from miketalk.talk.output import check_output
-    from miketalk.talk.say import default_model_dir, open_model
+    from miketalk.talk.say import open_model
     from miketalk.talk.settings import check_fps
 
     started = time.perf_counter()
@@ -115,11 +116,12 @@ def cmd_dub(args: argparse.Namespace) -> int:
         print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
     else:
         loops = "looped" if motion.frames > len(background) else "cut to the speech"
-        drawn = f", the {trajectory} trajectory" if trajectory else ""
+        drawn = f", {trajectory} trajectory" if trajectory else ""
         print(
             f"{output}: {motion.frames} frames at {fps:g} fps, {background.size[1]}x"
             f"{background.size[0]}, {seconds:.2f} s of speech over {len(background)} frames of "
-            f"{args.video} ({loops}{drawn}); timeline in {timeline}",
+            f"{args.video} ({loops}, {args.lipsync_model} lip-sync{drawn}); timeline in "
+            f"{timeline}",
             file=args.out,
         )
     import logging
@@ -162,8 +164,9 @@ def add_dub_parser(sub) -> None:
     dub.add_argument(
         "--lipsync-model",
         choices=LIPSYNC_MODELS,
-        default=defaults.LIPSYNC_MODEL,
-        help=f"how the mouth moves, as in `miketalk say` (default {defaults.LIPSYNC_MODEL})",
+        default=None,
+        help="how the mouth moves, as in `miketalk say` (default: the model's own, trained "
+        "for --audio and learned for --text)",
     )
     trajectory_option(dub)
     voice_option(dub)

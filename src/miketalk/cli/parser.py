@@ -119,11 +119,12 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument(
         "--lipsync-model",
         choices=LIPSYNC_MODELS,
-        default=defaults.LIPSYNC_MODEL,
-        help="how the mouth moves: paper (each transition from one viseme to the next; "
-        f"default {defaults.LIPSYNC_MODEL}), learned (the coarticulation a model built from "
-        "recorded clips has learned) or trained (his own frames along a trajectory trained on "
-        "all of them)",
+        default=None,
+        help="how the mouth moves: paper (each transition from one viseme to the next), "
+        "learned (the coarticulation a model built from recorded clips has learned) or trained "
+        "(his own frames along a trajectory trained on all of them); default: the model's own, "
+        "for a model built from clips learned for typed text and trained for --audio "
+        "(trained with --trajectory), else paper",
     )
     trajectory_option(say)
     voice_option(say)

@@ -110,23 +110,34 @@ def cmd_say(args: argparse.Namespace) -> int:
 
 
 def check_lipsync_model(args: argparse.Namespace) -> None:
-    """``--lipsync-model learned`` (``trained``) needs a model with learned coarticulation (a
-    trained face, with the ``--trajectory`` asked for): say so now, in one line."""
+    """Settle ``args.lipsync_model`` and check it against the model, in one line if it fails.
+
+    Not given, it is ``trained`` when a ``--trajectory`` is asked for, else the model's own
+    (:func:`~miketalk.talk.model_parts.default_lipsync_model`: for a model built from clips,
+    ``learned`` for typed text and ``trained`` for a recording). ``learned`` needs a model
+    with learned coarticulation, ``trained`` a trained face with the ``--trajectory`` asked for.
+    """
+    from miketalk.talk.model_parts import default_lipsync_model, default_model_dir
     from miketalk.talk.settings import check_trajectory
 
     trajectory = getattr(args, "trajectory", None)
-    check_trajectory(trajectory, lipsync_model=args.lipsync_model, recorded=args.audio is not None)
-    if args.lipsync_model not in ("learned", "trained"):
-        return
-    from miketalk.talk.say import default_model_dir
-
+    recorded = args.audio is not None
     directory = args.model if args.model is not None else default_model_dir()
+    if args.lipsync_model is None:
+        args.lipsync_model = (
+            "trained" if trajectory is not None
+            else default_lipsync_model(directory, recorded=recorded)
+        )  # fmt: skip
+        log.info("lip-sync model %s (the model's own for %s)", args.lipsync_model,
+                 "a recording" if recorded else "typed text")  # fmt: skip
+    check_trajectory(trajectory, lipsync_model=args.lipsync_model, recorded=recorded)
     if args.lipsync_model == "learned":
         from miketalk.talk.coarticulation import read_params
 
         read_params(directory)
-    else:
-        from miketalk.talk.trained.build import read_trained, trained_trajectories
+    elif args.lipsync_model == "trained":
+        from miketalk.talk.model_parts import trained_trajectories
+        from miketalk.talk.trained.build import read_trained
 
         kinds = trained_trajectories(directory)
         if not kinds:

@@ -31,7 +31,7 @@ def dub_renderer(lipsync_model: str, model_dir: str | Path) -> str:
     """The renderer a face's lip-sync model dubs with: ``paper`` the morph, ``learned`` the
     learned coarticulation, ``trained`` the trained face hearing the clip's own recording
     (``trained_heard``) when it has that trajectory, else from the phones (``trained``)."""
-    from miketalk.talk.trained.build import trained_trajectories
+    from miketalk.talk.model_parts import trained_trajectories
 
     if lipsync_model == "paper":
         return "morph"

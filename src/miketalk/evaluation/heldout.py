@@ -56,7 +56,7 @@ from miketalk.speech.acoustic import Recording
 from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
-from miketalk.talk.trained.build import trained_trajectories
+from miketalk.talk.model_parts import trained_trajectories
 from miketalk.visemes import SILENCE
 
 #: Largest lag (frames) searched by the cross-correlation.

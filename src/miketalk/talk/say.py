@@ -25,6 +25,7 @@ from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.lipsync import Timeline, keyframes
 from miketalk.talk.model import Model
+from miketalk.talk.model_parts import default_model_dir
 from miketalk.talk.output import check_output
 from miketalk.talk.sampling import speak_in_sync
 from miketalk.talk.settings import LipsyncModel, Sampling, check_settings, check_trajectory
@@ -39,22 +40,8 @@ if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
 log = logging.getLogger(__name__)
 
 
-DEFAULT_MODEL = defaults.model_dir()
-
-
 #: The default sampling of transitions too fast for ``max_px_per_frame``.
 DEFAULT_SAMPLING: Sampling = "blur"
-
-
-def default_model_dir() -> Path:
-    """``$MIKETALK_MODEL``, else :data:`DEFAULT_MODEL` here or in the source checkout."""
-    if env := os.environ.get("MIKETALK_MODEL"):
-        return Path(env)
-    here = DEFAULT_MODEL
-    if here.exists():
-        return here
-    checkout = Path(__file__).resolve().parents[2] / DEFAULT_MODEL
-    return checkout if checkout.exists() else here
 
 
 def open_model(directory: str | os.PathLike[str] | None, **options: object) -> Model:

@@ -11,9 +11,10 @@ from pathlib import Path
 from typing import Any
 
 from miketalk.errors import MiketalkError
+from miketalk.talk.model_parts import COARTICULATION
 
 #: The file the fitted parameters are written to, in the model directory.
-FILENAME = "coarticulation.json"
+FILENAME = COARTICULATION
 
 
 #: Format tag of :data:`FILENAME`.

@@ -33,6 +33,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import Recording
 from miketalk.talk.lipsync import Timeline
+from miketalk.talk.model_parts import TRAINED_DIRECTORY, TRAINED_MANIFEST
 from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
 from miketalk.talk.trained.selection import SelectionSettings, drawn, select
 from miketalk.talk.trained.trajectory import (
@@ -52,7 +53,7 @@ from miketalk.visemes import VisemeTable
 log = logging.getLogger(__name__)
 
 #: The trained face's folder in a model directory, and its description file.
-DIRECTORY, MANIFEST = "trained", "trained.json"
+DIRECTORY, MANIFEST = TRAINED_DIRECTORY, TRAINED_MANIFEST
 
 #: Format tag of :data:`MANIFEST`.
 FORMAT = "miketalk-trained/1"
@@ -395,17 +396,6 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise MiketalkError(f"cannot read the trained face in {d}: {err!r}") from None
     return TrainedFace(load_frames(d), trajectories, default, selection, table, doc)
-
-
-def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
-    """The trajectory models of the trained face in ``model_dir`` (none: no trained face)."""
-    path = Path(model_dir) / DIRECTORY / MANIFEST
-    if not path.is_file():
-        return ()
-    try:
-        return tuple(json.loads(path.read_text(encoding="utf-8")).get("trajectories", {}))
-    except (OSError, ValueError, AttributeError) as err:
-        raise MiketalkError(f"cannot read the trained face in {path.parent}: {err!r}") from None
 
 
 __all__ = ["DIRECTORY", "FORMAT", "TrainedFace", "fit_trained", "read_trained"]

@@ -1,0 +1,88 @@
+"""Model directories before they are opened: which one ``miketalk say`` uses by default,
+what it holds beyond the paper's viseme images and flows, and so which lip-sync models it
+can speak with (standard library only: ``miketalk say`` asks before Festival starts, and
+Festival starts before numpy loads).
+
+A model built from recorded clips also holds its learned coarticulation
+(:data:`COARTICULATION`, :mod:`miketalk.talk.coarticulation`) and its trained face
+(:data:`TRAINED_DIRECTORY`, :mod:`miketalk.talk.trained`); a synthetic face's model
+holds neither and speaks with the paper's model only.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from miketalk import defaults
+from miketalk.errors import MiketalkError
+
+#: The model ``miketalk say`` uses when none is given (relative to the working directory).
+DEFAULT_MODEL = defaults.model_dir()
+
+#: The learned coarticulation's file in a model directory.
+COARTICULATION = "coarticulation.json"
+
+#: The trained face's folder in a model directory, and its manifest in that folder.
+TRAINED_DIRECTORY, TRAINED_MANIFEST = "trained", "trained.json"
+
+
+def default_model_dir() -> Path:
+    """``$MIKETALK_MODEL``, else :data:`DEFAULT_MODEL` under the working directory, else
+    under the source checkout this package runs from."""
+    if env := os.environ.get("MIKETALK_MODEL"):
+        return Path(env)
+    if DEFAULT_MODEL.exists():
+        return DEFAULT_MODEL
+    checkout = Path(__file__).resolve().parents[3] / DEFAULT_MODEL  # src/miketalk/talk/
+    return checkout if checkout.exists() else DEFAULT_MODEL
+
+
+def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
+    """The trajectory models of the trained face in ``model_dir`` (none: no trained face).
+
+    Raises
+    ------
+    MiketalkError
+        In one line, for a trained face's manifest that cannot be read.
+    """
+    path = Path(model_dir) / TRAINED_DIRECTORY / TRAINED_MANIFEST
+    if not path.is_file():
+        return ()
+    try:
+        return tuple(json.loads(path.read_text(encoding="utf-8")).get("trajectories", {}))
+    except (OSError, ValueError, AttributeError) as err:
+        raise MiketalkError(f"cannot read the trained face in {path.parent}: {err!r}") from None
+
+
+def lipsync_models_in(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
+    """The lip-sync models the model in ``model_dir`` has: ``paper`` always, ``learned``
+    with its coarticulation, ``trained`` with its trained face."""
+    has = {
+        "paper": True,
+        "learned": (Path(model_dir) / COARTICULATION).is_file(),
+        "trained": bool(trained_trajectories(model_dir)),
+    }
+    return tuple(name for name, present in has.items() if present)
+
+
+def default_lipsync_model(model_dir: str | os.PathLike[str], *, recorded: bool) -> str:
+    """The lip-sync model for an utterance when none is asked for: the first of
+    :data:`miketalk.defaults.PREFERRED_LIPSYNC_MODELS` (for a recording with ``recorded``,
+    else for typed text) that the model in ``model_dir`` has."""
+    present = lipsync_models_in(model_dir)
+    choices = defaults.PREFERRED_LIPSYNC_MODELS["recording" if recorded else "text"]
+    return next(name for name in choices if name in present)
+
+
+__all__ = [
+    "COARTICULATION",
+    "DEFAULT_MODEL",
+    "TRAINED_DIRECTORY",
+    "TRAINED_MANIFEST",
+    "default_lipsync_model",
+    "default_model_dir",
+    "lipsync_models_in",
+    "trained_trajectories",
+]
