@@ -119,6 +119,29 @@ def test_selection_follows_a_recorded_run_and_prefers_it_to_jumps() -> None:
     assert np.mean((steps >= 0) & (steps <= 2)) > 0.8
 
 
+def test_the_viseme_cost_prefers_a_frame_of_the_output_frames_viseme() -> None:
+    # two recordings of the same shapes; the second one's frames were another viseme
+    rng = np.random.default_rng(5)
+    shapes = rng.normal(size=(30, 4))
+    coords = np.concatenate([shapes, shapes + 0.01])
+    frames = _frames(coords, np.repeat([0, 1], 30))
+    recorded = np.repeat([3, 7], 30)
+    target = shapes[5:25] + 0.005  # as near one as the other
+    shown = np.full(20, 7)
+    cost = SelectionSettings(viseme=5.0)
+    assert (select(frames, target, cost, visemes=(shown, recorded)) >= 30).all()
+    assert (select(frames, target, cost, visemes=(shown - 4, recorded)) < 30).all()
+    # no cost (a face fitted before it): the shapes alone choose, whatever the visemes say
+    none = SelectionSettings(viseme=0.0)
+    plain = select(frames, target, none)
+    assert np.array_equal(select(frames, target, none, visemes=(shown, recorded)), plain)
+    # a shape far from the target is not taken for its viseme
+    far = coords.copy()
+    far[30:] += 3.0
+    frames = _frames(far, np.repeat([0, 1], 30))
+    assert (select(frames, target, cost, visemes=(shown, recorded)) < 30).all()
+
+
 def test_feathered_composite_has_no_seam() -> None:
     mask = feather_mask(40, 50)
     assert mask[20, 25] > 0.98 and mask[0].max() < 2e-3 and mask[:, 0].max() < 2e-3
@@ -242,6 +265,47 @@ def test_a_trained_face_fitted_before_the_cross_validated_gain_still_draws(
     as_then = type(now)(**(now.__dict__ | {"selection": old.selection}))
     assert np.array_equal(old.target(timeline), as_then.target(timeline))
     assert not np.array_equal(old.target(timeline), now.target(timeline))
+    assert old.plan(timeline)
+
+
+def test_a_trained_face_keeps_its_frames_visemes_and_one_fitted_before_draws_without(
+    tmp_path: Path,
+) -> None:
+    """The frames' visemes are written with the face and steer the selection; a face
+    written before them (no ``frames.viseme``, no ``viseme`` setting) draws as then."""
+    import json
+
+    corpus = _synthetic_corpus(tmp_path)
+    fit_trained(corpus, tmp_path / "model", components=6)
+    now = read_trained(tmp_path / "model")
+    table = default_table()
+    assert now.frame_visemes.shape == (len(now.frames.coords),)
+    assert set(now.frame_visemes.tolist()) <= set(range(len(table.visemes)))
+    assert len(set(now.frame_visemes.tolist())) > 3  # the synthetic speaker's phones
+    phones = _sentence(np.random.default_rng(7))
+    timeline = plan(phones, table, fps=30.0, duration=phones[-1].end)
+    assert now.selection.viseme == 0.0  # off by default: it did not hold on held-out clips
+    now = type(now)(**(now.__dict__ | {"selection": SelectionSettings(viseme=5.0)}))
+    without = type(now)(**(now.__dict__ | {"frame_visemes": None}))
+    # the chosen frames show the output frames' visemes more often with the cost than without
+    times = np.array([f.time for f in timeline.frames])
+    shown = now.trajectories["window"].context.labels(phones, times, table)[1]
+
+    def agree(face) -> float:
+        chosen = np.array([r[0][0] for r in face.plan(timeline)])
+        return float(np.mean(now.frame_visemes[chosen] == shown))
+
+    assert agree(now) > agree(without)
+    # the face as it was written before the visemes were kept
+    model = tmp_path / "model" / "trained"
+    with np.load(model / "trajectory.npz") as z:
+        arrays = {k: z[k] for k in z.files if k != "frames.viseme"}
+    np.savez(model / "trajectory.npz", **arrays)
+    doc = json.loads((model / "trained.json").read_text())
+    doc["selection"].pop("viseme")
+    (model / "trained.json").write_text(json.dumps(doc))
+    old = read_trained(tmp_path / "model")
+    assert old.frame_visemes is None and old.selection.viseme == 0.0
     assert old.plan(timeline)
 
 

@@ -76,6 +76,9 @@ class TrainedFace:
         The phone-to-viseme table it was fitted with.
     report : dict
         How it was fitted (``trained.json``).
+    frame_visemes : (N,) int array or None
+        The viseme each training frame shows (from its clip's aligned phones, an index
+        into ``table.visemes``; -1 none); None for a face fitted before they were kept.
     """
 
     frames: MouthFrames
@@ -84,6 +87,7 @@ class TrainedFace:
     selection: SelectionSettings
     table: VisemeTable
     report: dict
+    frame_visemes: np.ndarray | None = None
 
     def kind_for(self, kind: str | None, *, recorded: bool) -> str:
         """The trajectory model to use: ``kind``, else ``heard`` for an utterance driven by a
@@ -156,9 +160,15 @@ class TrainedFace:
         weights = self.report["fit"][kind].get("cv_r2") if self.selection.weighted else None
         if target is None:
             target = self.target(timeline, kind=kind, recording=recording)
+        visemes = None
+        if self.frame_visemes is not None:
+            times = np.array([f.time for f in timeline.frames], float) + self.selection.lead
+            shown = self.trajectories[kind].context.labels(timeline.phones, times, self.table)
+            visemes = (shown[1], self.frame_visemes)
         path = select(
-            self.frames, target, self.selection, weights=weights, described=self.described()
-        )
+            self.frames, target, self.selection, weights=weights, described=self.described(),
+            visemes=visemes,
+        )  # fmt: skip
         return drawn(self.frames, path, self.selection)
 
 
@@ -215,6 +225,7 @@ def fit_trained(
         a, s = to_arrays(model)
         arrays |= {f"{name}.{k}": v for k, v in a.items()}
         settings[name] = s
+    arrays["frames.viseme"] = face.frame_visemes
     with atomic_path(out / "trajectory.npz") as tmp, open(tmp, "wb") as f:
         np.savez(f, **arrays)
     doc = {
@@ -314,7 +325,10 @@ def fitted_face(
         report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
     report = {"fit": {name: report for name, (_, report) in fitted.items()}}
     models = {name: model for name, (model, _) in fitted.items()}
-    return TrainedFace(frames, models, default, selection, table, report)
+    shown = np.full(len(frames.coords), -1, np.int64)
+    for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):
+        shown[frames.clip == c] = context.labels(phones, times, table)[1]
+    return TrainedFace(frames, models, default, selection, table, report, shown)
 
 
 def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) -> list[float]:
@@ -395,7 +409,8 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
         default = str(doc["default"])
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise MiketalkError(f"cannot read the trained face in {d}: {err!r}") from None
-    return TrainedFace(load_frames(d), trajectories, default, selection, table, doc)
+    visemes = arrays.get("frames.viseme")  # none in a face fitted before they were kept
+    return TrainedFace(load_frames(d), trajectories, default, selection, table, doc, visemes)
 
 
 __all__ = ["DIRECTORY", "FORMAT", "TrainedFace", "fit_trained", "read_trained"]
