@@ -68,7 +68,8 @@ def trajectory_option(parser: argparse.ArgumentParser) -> None:
         "--trajectory",
         choices=TRAJECTORIES,
         default=None,
-        help="with --lipsync-model trained: its trajectory model, window (the phone context), "
+        help="the trained face's trajectory model (it implies --lipsync-model trained): "
+        "window (the phone context), "
         "regularized (MMM's) or heard (the phones and the recording: --audio only, and "
         "for the person's own voice: another speaker's recording is drawn better along "
         "window). Default: heard with --audio when the face has it, else the face's own",
