@@ -117,7 +117,11 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
     ``learned`` for typed text and ``trained`` for a recording). ``learned`` needs a model
     with learned coarticulation, ``trained`` a trained face with the ``--trajectory`` asked for.
     """
-    from miketalk.talk.model_parts import default_lipsync_model, default_model_dir
+    from miketalk.talk.model_parts import (
+        default_lipsync_model,
+        default_model_dir,
+        trained_trajectories,
+    )
     from miketalk.talk.settings import check_trajectory
 
     trajectory = getattr(args, "trajectory", None)
@@ -136,7 +140,6 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
 
         read_params(directory)
     elif args.lipsync_model == "trained":
-        from miketalk.talk.model_parts import trained_trajectories
         from miketalk.talk.trained.build import read_trained
 
         kinds = trained_trajectories(directory)

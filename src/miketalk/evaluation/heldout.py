@@ -53,10 +53,9 @@ from miketalk.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
 from miketalk.speech.acoustic import Recording
-from miketalk.talk.coarticulation import FILENAME as COARTICULATION
 from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model import Model
-from miketalk.talk.model_parts import trained_trajectories
+from miketalk.talk.model_parts import COARTICULATION, trained_trajectories
 from miketalk.visemes import SILENCE
 
 #: Largest lag (frames) searched by the cross-correlation.

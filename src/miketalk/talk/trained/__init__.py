@@ -27,6 +27,6 @@ trajectory. This package does both for a face built from clips:
 The lip-sync model is ``trained`` (``say --lipsync-model trained``).
 """
 
-from miketalk.talk.trained.build import DIRECTORY, TrainedFace, fit_trained, read_trained
+from miketalk.talk.trained.build import TrainedFace, fit_trained, read_trained
 
-__all__ = ["DIRECTORY", "TrainedFace", "fit_trained", "read_trained"]
+__all__ = ["TrainedFace", "fit_trained", "read_trained"]

@@ -52,10 +52,8 @@ from miketalk.visemes import VisemeTable
 
 log = logging.getLogger(__name__)
 
-#: The trained face's folder in a model directory, and its description file.
-DIRECTORY, MANIFEST = TRAINED_DIRECTORY, TRAINED_MANIFEST
-
-#: Format tag of :data:`MANIFEST`.
+#: Format tag of the trained face's manifest
+#: (:data:`~miketalk.talk.model_parts.TRAINED_MANIFEST`).
 FORMAT = "miketalk-trained/1"
 
 
@@ -110,8 +108,12 @@ class TrainedFace:
         """The predicted description at each frame's time (plus the selection's ``lead``),
         ``(n_frames, n)``."""
         kind = self.kind_for(kind, recorded=recording is not None)
-        times = np.array([f.time for f in timeline.frames], float) + self.selection.lead
+        times = self.read_at(timeline)
         return self.trajectories[kind].predict(timeline.phones, times, self.table, recording)
+
+    def read_at(self, timeline: Timeline) -> np.ndarray:
+        """The times the trajectory is read at: each frame's, plus the selection's ``lead``."""
+        return np.array([f.time for f in timeline.frames], float) + self.selection.lead
 
     def described(self) -> np.ndarray:
         """The training frames' descriptions as the trajectories predict them: with
@@ -161,10 +163,10 @@ class TrainedFace:
         if target is None:
             target = self.target(timeline, kind=kind, recording=recording)
         visemes = None
-        if self.frame_visemes is not None:
-            times = np.array([f.time for f in timeline.frames], float) + self.selection.lead
-            shown = self.trajectories[kind].context.labels(timeline.phones, times, self.table)
-            visemes = (shown[1], self.frame_visemes)
+        if self.frame_visemes is not None and self.selection.viseme > 0:
+            context = self.trajectories[kind].context
+            shown = context.labels(timeline.phones, self.read_at(timeline), self.table)[1]
+            visemes = (shown, self.frame_visemes)
         path = select(
             self.frames, target, self.selection, weights=weights, described=self.described(),
             visemes=visemes,
@@ -217,7 +219,7 @@ def fit_trained(
         face.report["fit"]["window"],
         face.report["fit"]["regularized"],
     )
-    out = Path(model_dir) / DIRECTORY
+    out = Path(model_dir) / TRAINED_DIRECTORY
     frames.save(out)
     arrays: dict[str, np.ndarray] = {}
     settings: dict[str, Any] = {}
@@ -242,7 +244,7 @@ def fit_trained(
         }
         | face.report["fit"],
     }
-    write_text_atomic(out / MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
+    write_text_atomic(out / TRAINED_MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
     log.info(
         "trained face: %d frames (measured in %.1f s), window ridge %g (cv %.3f), "
         "regularized %g (cv %.3f), %.1f s",
@@ -375,17 +377,19 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
         In one line, when the model has none (a synthetic face, or a model
         built before it was fitted), or it is malformed.
     """
-    d = Path(model_dir) / DIRECTORY
-    if not (d / MANIFEST).is_file():
+    d = Path(model_dir) / TRAINED_DIRECTORY
+    manifest = d / TRAINED_MANIFEST
+    if not manifest.is_file():
         raise MiketalkError(
-            f"the model at {model_dir} has no trained face ({DIRECTORY}/{MANIFEST}): the "
+            f"the model at {model_dir} has no trained face "
+            f"({TRAINED_DIRECTORY}/{TRAINED_MANIFEST}): the "
             "workflow fits one into a model built from recorded clips (e.g. results/model/s1); "
             "or use lipsync model 'paper'"
         )
     try:
-        doc = json.loads((d / MANIFEST).read_text(encoding="utf-8"))
+        doc = json.loads(manifest.read_text(encoding="utf-8"))
         if doc.get("format") != FORMAT:
-            raise MiketalkError(f"{d / MANIFEST} is not {FORMAT} (format {doc.get('format')!r})")
+            raise MiketalkError(f"{manifest} is not {FORMAT} (format {doc.get('format')!r})")
         with np.load(d / "trajectory.npz", allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
         trajectories = {
@@ -413,4 +417,4 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
     return TrainedFace(load_frames(d), trajectories, default, selection, table, doc, visemes)
 
 
-__all__ = ["DIRECTORY", "FORMAT", "TrainedFace", "fit_trained", "read_trained"]
+__all__ = ["FORMAT", "TrainedFace", "fit_trained", "read_trained"]
