@@ -161,7 +161,7 @@ def test_paired_differences_against_the_morph() -> None:
 
 
 def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
-    from miketalk.bench.real_face import LANDMARK_FIGURES, landmark_figures
+    from miketalk.bench.real_face import RENDERER_FIGURES, landmark_figures
 
     rows = []
     for clip, lag in (("a", 0), ("b", 2)):
@@ -173,7 +173,7 @@ def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
         ):
             rows.append(
                 {"clip": clip, "renderer": renderer, "model": model, "lip_opening_lag": lag}
-                | dict.fromkeys(LANDMARK_FIGURES, lmd + (clip == "b"))
+                | dict.fromkeys(RENDERER_FIGURES, lmd + (clip == "b"))
             )
     figures = landmark_figures(pd.DataFrame(rows), "own")
     assert figures["morph_mouth_lmd_mean"] == pytest.approx(2.5)
@@ -188,11 +188,11 @@ def test_the_bench_finds_the_faces_own_model_and_sweeps_each_trained_renderer(
 ) -> None:
     """The own model is the one the baselines draw (not a name written in the bench), and the
     sweep reports the morph and both trained renderers of that model only."""
-    from miketalk.bench.real_face import LANDMARK_FIGURES, own_model, sweep_figures
+    from miketalk.bench.real_face import RENDERER_FIGURES, own_model, sweep_figures
 
     rows = [
         {"training_clips": n, "renderer": renderer, "model": model}
-        | {f"{m}_mean": float(n) for m in LANDMARK_FIGURES}
+        | {f"{m}_mean": float(n) for m in RENDERER_FIGURES}
         for n in (5, 40)
         for renderer, model in (
             ("still", "dis/direct"), ("morph", "dis/direct"), ("morph", "bergen/bridge"),
@@ -206,7 +206,7 @@ def test_the_bench_finds_the_faces_own_model_and_sweeps_each_trained_renderer(
     table.to_csv(tmp_path / "training_clips.csv", index=False)
     figures = sweep_figures(tmp_path)
     renderers = {"morph", "trained", "trained_heard"}
-    assert len(figures) == 2 * len(renderers) * len(LANDMARK_FIGURES)
+    assert len(figures) == 2 * len(renderers) * len(RENDERER_FIGURES)
     assert figures["sweep_n40_trained_heard_mouth_lmd_mean"] == 40.0
     assert sweep_figures(tmp_path / "none") == {}
 

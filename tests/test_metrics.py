@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 from skimage.metrics import structural_similarity
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import lag_frames, psnr, ssim
+from miketalk.evaluation.measures import lag_frames, psnr, sharpness, ssim
 from miketalk.mouth import mouth_opening
 
 
@@ -37,6 +38,30 @@ def test_measure_errors():
         ssim(a, a, np.zeros((8, 8), bool))
     assert psnr(a, a) == float("inf")
     assert psnr(a, a + 255) == pytest.approx(0.0)
+
+
+def test_sharpness_falls_with_blur_and_reads_the_mask_only():
+    rng = np.random.default_rng(3)
+    image = cv2.resize(rng.integers(0, 256, (24, 32, 3), dtype=np.uint8), (128, 96))
+    flat = np.full_like(image, 90)
+    assert sharpness(flat) == 0.0
+    # a 1-px step of 10 grey levels: the 3x3 Laplacian is +-10 on the two columns beside it
+    step = np.zeros((20, 20), np.uint8)
+    step[:, 10:] = 10
+    assert sharpness(step) == pytest.approx(2 * 100 / 20)
+    sharp = sharpness(image)
+    soft = [sharpness(cv2.GaussianBlur(image, (0, 0), s)) for s in (0.5, 1.0, 2.0)]
+    assert sharp > soft[0] > soft[1] > soft[2] > 0
+    assert soft[0] < 0.8 * sharp  # half a pixel of blur is plain in the measure
+    # colour is measured as its grey level; outside the mask nothing counts
+    grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
+    assert sharpness(image) == pytest.approx(sharpness(grey), rel=0.02)  # grey rounded
+    mask = np.zeros(image.shape[:2], bool)
+    mask[:, :40] = True
+    noisy = image.copy()
+    noisy[:, 60:] = rng.integers(0, 256, noisy[:, 60:].shape, dtype=np.uint8)
+    assert sharpness(noisy, mask) == sharpness(image, mask)
+    assert sharpness(noisy) > sharpness(image)
 
 
 def test_lag_and_opening():

@@ -24,6 +24,7 @@ MEASURES = (
     "lip_opening_amplitude_speech",
     "eigenlip1_corr_speech",
     "psnr_mouth",
+    "sharpness_ratio",
 )
 
 

@@ -39,12 +39,17 @@ def _seconds(benchmark: pathlib.Path) -> float:
         return float(next(csv.DictReader(f, delimiter="\t"))["s"])
 
 
-#: The landmark measures the bench reports (mean and spread over clips, and paired with the morph).
-LANDMARK_FIGURES = (
+#: The held-out measures the bench reports per renderer (mean and spread over clips, and
+#: paired with the morph): the landmarks', the first eigenlip's, and the mouth's pixels (PSNR
+#: beside the sharpness that PSNR rewards the want of).
+RENDERER_FIGURES = (
     "mouth_lmd",
     "lip_opening_corr_speech",
     "lip_opening_amplitude_speech",
     "mouth_width_corr_speech",
+    "eigenlip1_corr_speech",
+    "psnr_mouth",
+    "sharpness_ratio",
 )
 
 #: Renderers whose landmark figures the bench leaves out (the image baselines).
@@ -60,11 +65,11 @@ def own_model(table: pd.DataFrame) -> str:
 
 
 def landmark_figures(clips: pd.DataFrame, own: str) -> dict[str, float]:
-    """The held-out landmark measures of each lip-sync renderer of the face's own model.
+    """The held-out measures of each lip-sync renderer of the face's own model.
 
     Per renderer (the baselines left out; the calibration rows ``real_late1``,
     ``real_late2`` kept): the mean and spread over clips of each of
-    :data:`LANDMARK_FIGURES`, its clip-by-clip difference from the paper's
+    :data:`RENDERER_FIGURES`, its clip-by-clip difference from the paper's
     morph, and the fraction of clips whose opening lag is within one frame.
     """
     rows = clips[(clips["model"] == own) & ~clips["renderer"].isin(BASELINES)]
@@ -72,7 +77,7 @@ def landmark_figures(clips: pd.DataFrame, own: str) -> dict[str, float]:
     figures: dict[str, float] = {}
     for renderer, part in rows.groupby("renderer", sort=False):
         part = part.set_index("clip")
-        for measure in LANDMARK_FIGURES:
+        for measure in RENDERER_FIGURES:
             figures[f"{renderer}_{measure}_mean"] = float(part[measure].mean())
             figures[f"{renderer}_{measure}_sd"] = float(part[measure].std(ddof=1))
             if renderer != "morph":
@@ -207,7 +212,7 @@ def sweep_figures(heldout: pathlib.Path) -> dict[str, float]:
     own = own_model(table)
     shown = table["renderer"].isin(("morph", "trained", "trained_heard")) & (table["model"] == own)
     for row in table[shown].itertuples(index=False):
-        for measure in LANDMARK_FIGURES:
+        for measure in RENDERER_FIGURES:
             key = f"sweep_n{row.training_clips}_{row.renderer}_{measure}_mean"
             figures[key] = float(getattr(row, f"{measure}_mean"))
     return figures

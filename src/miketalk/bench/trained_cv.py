@@ -58,6 +58,7 @@ VARIANTS: dict[str, dict] = {
 MEASURES = (
     "mouth_lmd", "lip_opening_corr_speech", "lip_opening_amplitude_speech",
     "mouth_width_corr_speech", "lip_opening_lag", "eigenlip1_corr_speech", "psnr_mouth",
+    "sharpness_ratio",
 )  # fmt: skip
 
 
@@ -208,7 +209,10 @@ def cross_validate(
                 picked = np.array([sum(w * frames.coords[s] for s, w in r) for r in chosen])
                 row = {"variant": name, "fold": fold, "clip": everything.clip_ids[c]}
                 row |= {k: lm[k] for k in MEASURES if k in lm}
-                row |= {k: scores.summary[k] for k in ("eigenlip1_corr_speech", "psnr_mouth")}
+                row |= {
+                    k: scores.summary[k]
+                    for k in ("eigenlip1_corr_speech", "psnr_mouth", "sharpness_ratio")
+                }
                 for d in range(3):
                     row[f"traj_r{d + 1}"] = correlation(target[sp, d], truth[sp, d])
                     row[f"chosen_r{d + 1}"] = correlation(picked[sp, d], target[sp, d])

@@ -6,6 +6,10 @@ same moment, ``k / fps``. Every measure compares the two on the mouth region:
 
 ``psnr_mouth``, ``ssim_mouth``
     pixels (:func:`miketalk.evaluation.measures.psnr`, ``ssim``);
+``sharpness_ratio``
+    the synthesized mouth's fine detail over the real one's
+    (:func:`miketalk.evaluation.measures.sharpness`, means over the frames): under 1
+    a softer picture than the video, which PSNR rewards;
 ``eigenlip_<i>``
     mouth shape without a learned landmark model: the mouth region projected
     on the first principal components of the *training* frames' mouth regions
@@ -48,7 +52,7 @@ from miketalk.errors import MiketalkError
 from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
 from miketalk.evaluation.landmarks import delayed
 from miketalk.evaluation.measures import correlation as _corr
-from miketalk.evaluation.measures import lag_frames, psnr, ssim
+from miketalk.evaluation.measures import lag_frames, psnr, sharpness, ssim
 from miketalk.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
@@ -109,6 +113,8 @@ def compare(
         "frame": np.arange(n),
         "psnr_mouth": [psnr(s, r, mask) for s, r in zip(synthesized, real, strict=True)],
         "ssim_mouth": [ssim(s, r, mask) for s, r in zip(synthesized, real, strict=True)],
+        "sharpness_real": [sharpness(r, mask) for r in real],
+        "sharpness_synth": [sharpness(s, mask) for s in synthesized],
     }
     coef_real = eigenlips.project(grey_mouths(real, mouth_box))
     coef_synth = eigenlips.project(grey_mouths(synthesized, mouth_box))
@@ -117,6 +123,8 @@ def compare(
         "frames": n,
         "psnr_mouth": _psnr_of_mean_mse(np.asarray(rows["psnr_mouth"])),
         "ssim_mouth": float(np.mean(rows["ssim_mouth"])),
+        "sharpness_ratio": float(np.mean(rows["sharpness_synth"]))
+        / max(float(np.mean(rows["sharpness_real"])), 1e-12),
         "opening_corr": _corr(open_synth, open_real),
         "opening_lag": lag_frames(open_synth, open_real, max_lag=max_lag),
     }

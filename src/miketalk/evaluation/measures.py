@@ -1,4 +1,4 @@
-"""Image and sync measures: PSNR, SSIM, correlation, motion lag."""
+"""Image and sync measures: PSNR, SSIM, sharpness, correlation, motion lag."""
 
 from __future__ import annotations
 
@@ -62,6 +62,21 @@ def ssim(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = Non
 
 
 _SSIM_WIN = 7
+
+
+def sharpness(image: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """The fine detail of a uint8 image over the bounding box of ``mask``: the mean square
+    of its grey level's Laplacian (3x3), in grey levels squared.
+
+    PSNR favours a soft picture (an average of the likely images is nearer every one of
+    them than any sharp one): the ratio of a synthesized mouth's sharpness to the real
+    one's tells a blurred mouth (under 1) from one as crisp as the video (about 1).
+    """
+    rows, cols = _crop(mask)
+    crop = np.asarray(image)[rows, cols].astype(np.float32)
+    grey = cv2.cvtColor(crop, cv2.COLOR_RGB2GRAY) if crop.ndim == 3 else crop
+    laplacian = cv2.Laplacian(grey, cv2.CV_32F, ksize=1, borderType=cv2.BORDER_REFLECT)
+    return float(np.mean(laplacian.astype(np.float64) ** 2))
 
 
 def correlation(a: np.ndarray, b: np.ndarray) -> float:
