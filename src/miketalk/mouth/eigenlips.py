@@ -30,18 +30,43 @@ class Eigenlips:
     """
 
     def __init__(self, mouths: np.ndarray, *, n: int = N_EIGENLIPS) -> None:
-        data = normalized(mouths)
-        if len(data) <= n:
-            raise MiketalkError(f"eigenlips need more than {n} training frames, got {len(data)}")
-        self.mean = data.mean(axis=0)
-        data -= self.mean  # in place: a long corpus's frames are held once
-        # the right singular vectors of the centred data are the principal axes
-        _, s, vt = np.linalg.svd(data, full_matrices=False)
-        self.components = vt[:n]
-        self.variance = (s[:n] ** 2) / (len(data) - 1)
-        self.explained = self.variance / float((s**2).sum() / (len(data) - 1))
-        # sign convention: each axis points the way the mouth darkens (opens)
-        darker = -np.sign(self.components.sum(axis=1))
+        from scipy.linalg import eigh
+
+        count = len(mouths)
+        if count <= n:
+            raise MiketalkError(f"eigenlips need more than {n} training frames, got {count}")
+        box = tuple(np.shape(mouths)[1:])
+        self.mean = sum(normalized(block).sum(axis=0) for block in _blocks(mouths)) / count
+        pixels = len(self.mean)
+        top = min(n, pixels, count - 1)
+        if count < pixels:
+            # few frames: the principal axes from the (frames x frames) Gram matrix
+            centred = normalized(mouths)
+            centred -= self.mean
+            gram = centred @ centred.T
+            values, vectors = eigh(gram, subset_by_index=[count - top, count - 1])
+            total = float(np.trace(gram))
+            axes = (centred.T @ vectors).T / np.sqrt(np.clip(values, 1e-300, None))[:, None]
+        else:
+            # many frames: the (pixels x pixels) scatter matrix, a block of frames at a time,
+            # so that a long corpus's mouths are held once, as given (an SVD of the whole
+            # float64 matrix would hold it three times over)
+            scatter = np.zeros((pixels, pixels))
+            for block in _blocks(mouths):
+                centred = normalized(block)
+                centred -= self.mean
+                scatter += centred.T @ centred
+            values, vectors = eigh(scatter, subset_by_index=[pixels - top, pixels - 1])
+            total = float(np.trace(scatter))
+            axes = vectors.T
+        order = np.argsort(values)[::-1]
+        self.components = np.ascontiguousarray(axes[order])
+        self.variance = np.clip(values[order], 0.0, None) / (count - 1)
+        self.explained = self.variance / (total / (count - 1))
+        # sign convention: each axis points the way the box's centre darkens against its
+        # edges (the mouth opens); every normalized box sums to zero, so the sum of an
+        # axis's pixels cannot tell
+        darker = np.sign(self.components @ centre_darkening(box if len(box) == 2 else (1, pixels)))
         self.components *= np.where(darker == 0, 1.0, darker)[:, None]
 
     @classmethod
@@ -54,9 +79,31 @@ class Eigenlips:
 
     def project(self, mouths: np.ndarray) -> np.ndarray:
         """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
-        flat = normalized(mouths)
-        flat -= self.mean
-        return flat @ self.components.T
+        out = np.empty((len(mouths), len(self.components)))
+        for start, block in zip(range(0, len(mouths), BLOCK), _blocks(mouths), strict=True):
+            flat = normalized(block)
+            flat -= self.mean
+            out[start : start + len(block)] = flat @ self.components.T
+        return out
+
+
+def centre_darkening(box: tuple[int, int]) -> np.ndarray:
+    """``(h * w,)``: the change of a box ``(h, w)`` whose centre darkens against its edges
+    (a Gaussian bump at the centre, negated, less its mean); an axis that points this way
+    has a positive dot product with it."""
+    h, w = box
+    y, x = np.linspace(-1.0, 1.0, h)[:, None], np.linspace(-1.0, 1.0, w)[None, :]
+    bump = np.exp(-(x**2 + y**2) / (2 * 0.35**2))
+    return -(bump - bump.mean()).ravel()
+
+
+#: Mouth boxes normalized at a time (the fit and the projection hold this many as float64).
+BLOCK = 512
+
+
+def _blocks(mouths: np.ndarray):
+    """``mouths`` in blocks of :data:`BLOCK` boxes (views, not copies)."""
+    return (mouths[start : start + BLOCK] for start in range(0, len(mouths), BLOCK))
 
 
 def normalized(mouths: np.ndarray) -> np.ndarray:
