@@ -208,11 +208,7 @@ def cross_validate(
                 scores = compare(real, synth, mouth_box=box, eigenlips=eigenlips, speech=speech)
                 picked = np.array([sum(w * frames.coords[s] for s, w in r) for r in chosen])
                 row = {"variant": name, "fold": fold, "clip": everything.clip_ids[c]}
-                row |= {k: lm[k] for k in MEASURES if k in lm}
-                row |= {
-                    k: scores.summary[k]
-                    for k in ("eigenlip1_corr_speech", "psnr_mouth", "sharpness_ratio")
-                }
+                row |= {k: lm[k] if k in lm else scores.summary[k] for k in MEASURES}
                 for d in range(3):
                     row[f"traj_r{d + 1}"] = correlation(target[sp, d], truth[sp, d])
                     row[f"chosen_r{d + 1}"] = correlation(picked[sp, d], target[sp, d])

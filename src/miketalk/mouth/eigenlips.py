@@ -79,12 +79,9 @@ class Eigenlips:
 
     def project(self, mouths: np.ndarray) -> np.ndarray:
         """Coefficients ``(N, n)`` of grey mouth boxes ``(N, h, w)``."""
-        out = np.empty((len(mouths), len(self.components)))
-        for start, block in zip(range(0, len(mouths), BLOCK), _blocks(mouths), strict=True):
-            flat = normalized(block)
-            flat -= self.mean
-            out[start : start + len(block)] = flat @ self.components.T
-        return out
+        # a block at a time: each block's float64 copy is let go before the next is made
+        out = [(normalized(block) - self.mean) @ self.components.T for block in _blocks(mouths)]
+        return np.concatenate(out) if out else np.empty((0, len(self.components)))
 
 
 def centre_darkening(box: tuple[int, int]) -> np.ndarray:
