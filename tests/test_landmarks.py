@@ -220,6 +220,7 @@ def test_the_bench_keeps_the_dubs_means(tmp_path: Path) -> None:
     figures = dub_figures(tmp_path / "summary.csv")
     assert figures["dub_psnr_frame"] == 0.0 and figures["dub_mouth_lmd"] == 2.0
     assert figures["dub_jitter_beyond"] == len(DUB_FIGURES) - 1.0
+    assert "dub_sharpness_ratio" in figures and "dub_roundtrip_sharpness_ratio" in figures
     assert len(figures) == len(DUB_FIGURES) and dub_figures(tmp_path / "none.csv") == {}
 
 

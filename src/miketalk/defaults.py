@@ -104,6 +104,17 @@ BLEND_FEATHER = 0.1
 #: (:func:`miketalk.render.follow.follow_render`), so its jaw line does not show twice.
 BLEND_FOLLOW = True
 
+#: How a render is sampled into a frame of the person (the compositor): ``"cubic"``
+#: (bicubic) or ``"linear"`` (bilinear). A dubbed mouth is resampled twice before anyone sees
+#: it (the corpus's stabilization made the render, the frame's transform places it), and
+#: bilinear sampling at a fraction of a pixel averages neighbours. The bench's 40 held-out
+#: clips dubbed with their own audio (``trained_heard``), cubic against linear, paired by clip:
+#: the mouth's sharpness ratio 0.646 against 0.526 (+0.120, sd 0.012), the seam's gradient
+#: ratio 0.972 against 0.955, inner-lip opening r +0.004 (sd 0.029), amplitude +0.031, mouth
+#: LMD +0.001 px, mouth PSNR -0.12 dB (what a crisper picture costs in PSNR). A perfect mouth
+#: (the clips' own frames dubbed back) keeps 0.77 of its sharpness through cubic, 0.63 linear.
+BLEND_INTERPOLATION = "cubic"
+
 #: Keep the blend off the reference's backdrop and clothes
 #: (:func:`miketalk.render.follow.skin_weight`): the render's collar beside the jaw.
 BLEND_SKIN = True

@@ -188,7 +188,8 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
 #: The held-out dubs' figures the bench keeps (``summary.csv`` columns, ``_mean`` left off).
 DUB_FIGURES = (
     "psnr_frame", "seam_ratio", "dub_mouth_lmd", "dub_lip_opening_corr_speech",
-    "dub_lip_opening_amplitude_speech", "jitter_beyond",
+    "dub_lip_opening_amplitude_speech", "dub_sharpness_ratio", "roundtrip_sharpness_ratio",
+    "jitter_beyond",
 )  # fmt: skip
 
 

@@ -61,6 +61,7 @@ def dub_heldout(
     smooth: float = defaults.BACKGROUND_SMOOTH,
     follow: bool = defaults.BLEND_FOLLOW,
     skin: bool = defaults.BLEND_SKIN,
+    interpolation: str = defaults.BLEND_INTERPOLATION,
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
 
@@ -100,10 +101,12 @@ def dub_heldout(
     follow, skin : bool
         The frame's jaw warped to follow the render's, and the blend kept off the
         reference's backdrop and clothes (:class:`miketalk.render.composite.Compositor`).
+    interpolation : {"cubic", "linear"}
+        How the render is sampled into the frames (:class:`~miketalk.render.composite.Compositor`).
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
-    from miketalk.evaluation.dubbing import dub_clip, dub_measures
+    from miketalk.evaluation.dubbing import dub_clip, dub_measures, roundtrip_measures
     from miketalk.evaluation.heldout import RENDERERS, speech_frames
     from miketalk.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
@@ -124,8 +127,9 @@ def dub_heldout(
     stabilizer = model_stabilizer(model_dir)
     model = Model(model_dir, morph_options=morph)
     compositor = model_compositor(
-        model_dir, model.size, blend=method, follow=follow, skin=skin, **(blend or {})
-    )
+        model_dir, model.size, blend=method, follow=follow, skin=skin,
+        interpolation=interpolation, **(blend or {}),
+    )  # fmt: skip
     landmarks = face_landmarks()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -151,6 +155,9 @@ def dub_heldout(
         row = {"clip": clip.id, "renderer": renderer, "frames": n} | frame
         row |= {f"dub_{k}": v for k, v in dub.items() if k != "frames"}
         row |= {f"render_{k}": v for k, v in render.items() if k != "frames"}
+        row |= roundtrip_measures(
+            dubbed, stabilizer=stabilizer, compositor=compositor, mouth_box=box
+        )
         row["blinks"] = len(dubbed.background.blinks)
         rows.append(row)
         write_mp4(
@@ -216,6 +223,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--no-follow", action="store_true", help="do not warp the jaw")
     parser.add_argument("--no-skin", action="store_true", help="blend over backdrop and clothes")
+    parser.add_argument(
+        "--interpolation", default=defaults.BLEND_INTERPOLATION, choices=("cubic", "linear"),
+        help="how the render is sampled into the frames (default %(default)s)",
+    )  # fmt: skip
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
@@ -233,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
         blend=dict(zip(names, args.blend, strict=True)) if args.blend else None,
         method=args.method, smooth=args.smooth, follow=not args.no_follow,
-        skin=not args.no_skin,
+        skin=not args.no_skin, interpolation=args.interpolation,
     )  # fmt: skip
     return 0
 

@@ -26,7 +26,13 @@ the mouth was blended in. Measures (:func:`dub_measures`):
     real (``jitter_beyond``: the issue's target, at most 0.3 px RMS);
 the held-out mouth measures (:func:`miketalk.evaluation.heldout.compare`) on
 the dubbed frames brought back onto the reference (``dub``) beside the same
-render uncomposited (``render``).
+render uncomposited (``render``);
+``roundtrip_sharpness_ratio``, ``roundtrip_psnr_mouth``
+    the calibration (:func:`roundtrip_measures`): the clip's own frames,
+    stabilized onto the reference, dubbed back in as a perfect render and
+    measured as the dub is. What compositing and the measure's own resampling
+    cost a mouth that is right: the ceiling of ``dub_sharpness_ratio`` and
+    ``dub_psnr_mouth``.
 """
 
 from __future__ import annotations
@@ -47,6 +53,7 @@ __all__ = [
     "jitter_measures",
     "nose_jitter",
     "psnr_frames",
+    "roundtrip_measures",
     "seam_ratio",
 ]
 
@@ -193,6 +200,44 @@ def dub_measures(
     _, dub_marks = landmark_scores(marks.real, dub_points, speech=spoken, max_lag=MAX_LAG)
     _, render_marks = landmark_scores(marks.real, render_points, speech=spoken, max_lag=MAX_LAG)
     return frame, dub.summary | dub_marks, render.summary | render_marks
+
+
+def roundtrip_measures(dubbed: DubbedClip, *, stabilizer, compositor, mouth_box) -> dict:
+    """The dub's ceiling: the real frames, stabilized, composited back and measured as the dub.
+
+    Each real frame brought onto the reference is the render of its own frame (no colour
+    match: it has its own light), and the result is brought onto the reference again, as
+    :func:`dub_measures` does with the dub. A dub whose mouth were exactly the real one would
+    score these.
+
+    Returns
+    -------
+    dict
+        ``roundtrip_sharpness_ratio`` (its mouth's sharpness over the real one's) and
+        ``roundtrip_psnr_mouth`` (dB, over the mouth box; ``inf`` for identical pixels).
+    """
+    from miketalk.evaluation.measures import psnr, sharpness
+
+    bg = dubbed.background
+    real_steady = stabilizer.apply(dubbed.real, bg.transforms, field=bg.field)
+    zero = np.zeros((*real_steady.shape[1:3], 3), np.float32)
+    back = np.stack(
+        [
+            compositor(frame, steady, t, field=bg.field, offset=zero)
+            for frame, steady, t in zip(dubbed.real, real_steady, bg.transforms, strict=True)
+        ]
+    )
+    back_steady = stabilizer.apply(back, bg.transforms, field=bg.field)
+    x, y, w, h = mouth_box
+    mask = np.zeros(real_steady.shape[1:3], bool)
+    mask[y : y + h, x : x + w] = True
+    real_sharp = np.mean([sharpness(f, mask) for f in real_steady])
+    back_sharp = np.mean([sharpness(f, mask) for f in back_steady])
+    box = (slice(None), slice(y, y + h), slice(x, x + w))
+    return {
+        "roundtrip_sharpness_ratio": float(back_sharp / real_sharp) if real_sharp > 0 else 0.0,
+        "roundtrip_psnr_mouth": float(psnr(back_steady[box], real_steady[box])),
+    }
 
 
 def jitter_measures(real: np.ndarray, dub: np.ndarray, render: np.ndarray) -> dict:
