@@ -428,3 +428,23 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     assert old.kind_for(None, recorded=True) == "window"
     with pytest.raises(MiketalkError, match="no trajectory model 'heard'"):
         old.kind_for("heard", recorded=True)
+
+
+def test_a_trained_utterance_reports_the_persons_frames_not_the_visemes_morphs() -> None:
+    from miketalk.cli.say import drawn_words
+    from miketalk.talk.motion import measure
+    from miketalk.talk.sampling import motion_blur
+
+    phones = (Phone("pau", 0.0, 0.2), Phone("aa", 0.2, 0.3), Phone("m", 0.3, 0.4),
+              Phone("pau", 0.4, 0.6))  # fmt: skip
+    timeline = plan(phones, default_table(), fps=FPS, duration=0.6)
+    # a fast transition: blur renders more morphs than frames for the paper's morph
+    blurred = motion_blur(timeline, displacement=lambda a, b: 12.0, max_px_per_frame=2.0)
+    morphed = measure(blurred, lambda a, b: 12.0, natural_duration=0.6)
+    assert morphed.morphs > morphed.frames and morphed.largest_step_px <= 2.0 + 1e-9
+    assert drawn_words(morphed).endswith(f"largest step {morphed.largest_step_px:.2f} px")
+    own = measure(blurred, lambda a, b: 12.0, natural_duration=0.6, own_frames=True)
+    assert own.morphs == own.frames == len(blurred.frames)
+    assert own.largest_step_px is None and own.largest_frame_motion_px is None
+    assert drawn_words(own) == f"{own.frames} of the person's own frames"
+    json.dumps(own.to_dict(), allow_nan=False)

@@ -101,12 +101,20 @@ def cmd_say(args: argparse.Namespace) -> int:
         print(
             f"{spoken.video}: {motion.frames} frames at {args.fps:g} fps, "
             f"{motion.duration:.2f} s of audio ({motion.duration_ratio:.2f} x its own duration), "
-            f"{motion.morphs} morphs, largest step {motion.largest_step_px:.2f} px "
-            f"({sampling}, {args.lipsync_model} lip-sync); timeline in {spoken.timeline_json}",
+            f"{drawn_words(motion)} ({sampling}, {args.lipsync_model} lip-sync); "
+            f"timeline in {spoken.timeline_json}",
             file=args.out,
         )
     log.info("say took %.2f s", seconds_since(started))
     return 0
+
+
+def drawn_words(motion) -> str:
+    """What the summary line says was drawn: the morphs and their largest step, or, when each
+    frame is one of the person's own images (the trained face), how many."""
+    if motion.largest_step_px is None:
+        return f"{motion.frames} of the person's own frames"
+    return f"{motion.morphs} morphs, largest step {motion.largest_step_px:.2f} px"
 
 
 def check_lipsync_model(args: argparse.Namespace) -> None:
@@ -207,9 +215,8 @@ def _say_recorded(
         drawn = f", {said.trajectory} trajectory" if said.trajectory else ""
         print(
             f"{args.output}: {motion.frames} frames at {args.fps:g} fps, "
-            f"{said.audio_seconds:.2f} s of recorded audio, {motion.morphs} morphs, largest "
-            f"step {said.largest_step_px:.2f} px ({sampling}, {args.lipsync_model} lip-sync"
-            f"{drawn})",
+            f"{said.audio_seconds:.2f} s of recorded audio, {drawn_words(motion)} "
+            f"({sampling}, {args.lipsync_model} lip-sync{drawn})",
             file=args.out,
         )
         if said.trajectory == "heard":

@@ -84,11 +84,13 @@ class Motion:
     duration_ratio : float
         ``duration / natural_duration``.
     frames, morphs : int
-        Frames written, and morphs rendered into them.
-    largest_step_px : float
-        Largest distance between consecutive morphs, pixels.
-    largest_frame_motion_px : float
-        Largest motion from one frame's middle to the next's, pixels.
+        Frames written, and morphs rendered into them (one a frame when each frame is one of
+        the person's own images, as the trained face draws them).
+    largest_step_px : float or None
+        Largest distance between consecutive morphs, pixels (None: the frames are the
+        person's own images, no morphs between visemes whose flows would measure it).
+    largest_frame_motion_px : float or None
+        Largest motion from one frame's middle to the next's, pixels (None as above).
     largest_jerk, mean_jerk : float or None
         Jerk of the frames written, grey levels (None when not measured).
     """
@@ -98,8 +100,8 @@ class Motion:
     duration_ratio: float
     frames: int
     morphs: int
-    largest_step_px: float
-    largest_frame_motion_px: float
+    largest_step_px: float | None
+    largest_frame_motion_px: float | None
     largest_jerk: float | None = None
     mean_jerk: float | None = None
 
@@ -169,6 +171,7 @@ def measure(
     natural_duration: float,
     jerk: JerkMeter | None = None,
     weights: Sequence[Weights] | None = None,
+    own_frames: bool = False,
 ) -> Motion:
     """The :class:`Motion` of ``timeline`` (and of its frames, measured by ``jerk``).
 
@@ -185,8 +188,14 @@ def measure(
         The frames' viseme weights when the learned model drew them: the steps
         are then :func:`weights_step` between consecutive frames (one morph a
         frame), not along the timeline's transitions.
+    own_frames : bool
+        Each frame was one of the person's own images (the trained face,
+        :mod:`miketalk.talk.trained`), not a morph along the timeline: one a frame, and the
+        step measures, which the visemes' flows give, are None.
     """
-    if weights is None:
+    if own_frames:
+        morphs, step, frame_motion = len(timeline.frames), None, None
+    elif weights is None:
         morphs = timeline.morph_count
         step = largest_step(timeline, displacement)
         frame_motion = largest_frame_motion(timeline, displacement)

@@ -53,7 +53,7 @@ class RecordedSpeech:
 
     words: tuple[str, ...]
     timeline: Timeline
-    largest_step_px: float
+    largest_step_px: float | None  # None: the trained face drew the person's own frames
     audio_seconds: float
     motion: Motion
     trajectory: str | None = None  # the trained face's trajectory model (None: another model)

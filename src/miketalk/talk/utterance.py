@@ -142,7 +142,7 @@ def write_utterance(
         )  # fmt: skip
         motion = measure(
             timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,
-            weights=weights,
+            weights=weights, own_frames=trained is not None,
         )  # fmt: skip
         doc = (
             {"format": TIMELINE_FORMAT}
