@@ -106,7 +106,7 @@ def dub_heldout(
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
-    from miketalk.evaluation.dubbing import dub_clip, dub_measures, roundtrip_measures
+    from miketalk.evaluation.dubbing import dub_clip, dub_measures
     from miketalk.evaluation.heldout import RENDERERS, speech_frames
     from miketalk.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
@@ -148,16 +148,13 @@ def dub_heldout(
         seconds = time.perf_counter() - started
         frame, dub, render = dub_measures(
             dubbed, stabilizer=stabilizer, mouth_box=box, eigenlips=eigenlips,
-            speech=speech_frames(timeline), landmarks=landmarks,
+            speech=speech_frames(timeline), landmarks=landmarks, compositor=compositor,
         )  # fmt: skip
         # the time goes to the log, not the table: the same config gives the same bytes
         log.info("%s: registered and composited %d frames in %.2f s", clip.id, n, seconds)
         row = {"clip": clip.id, "renderer": renderer, "frames": n} | frame
         row |= {f"dub_{k}": v for k, v in dub.items() if k != "frames"}
         row |= {f"render_{k}": v for k, v in render.items() if k != "frames"}
-        row |= roundtrip_measures(
-            dubbed, stabilizer=stabilizer, compositor=compositor, mouth_box=box
-        )
         row["blinks"] = len(dubbed.background.blinks)
         rows.append(row)
         write_mp4(

@@ -156,7 +156,14 @@ def nose_jitter(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) ->
 
 
 def dub_measures(
-    dubbed: DubbedClip, *, stabilizer, mouth_box, eigenlips, speech=None, landmarks=None
+    dubbed: DubbedClip,
+    *,
+    stabilizer,
+    mouth_box,
+    eigenlips,
+    speech=None,
+    landmarks=None,
+    compositor=None,
 ) -> tuple[dict, dict, dict]:
     """Whole-frame and seam measures, and the mouth measures of the dub and of the render.
 
@@ -167,11 +174,14 @@ def dub_measures(
         :func:`miketalk.evaluation.landmark_scores.landmark_scores`), the dub and the render
         each against the real frames, all stabilized onto the reference and marked from the
         real frames' one face box.
+    compositor : miketalk.render.composite.Compositor, optional
+        The one that made the dub: with it, the frame measures also hold the dub's ceiling
+        (:func:`roundtrip_measures`).
 
     Returns
     -------
     (frame_measures, dub_mouth, render_mouth)
-        ``psnr_frame``, ``seam_ratio``, ``nose_jitter``; then the summaries of
+        ``psnr_frame``, ``seam_ratio``, ``nose_jitter`` (and ``roundtrip_*``); then the summaries of
         :func:`miketalk.evaluation.heldout.compare` for the dubbed frames
         stabilized onto the reference and for the uncomposited render.
     """
@@ -186,6 +196,10 @@ def dub_measures(
         "seam_ratio": seam_ratio(dubbed.dubbed, dubbed.real, dubbed.alphas),
         "nose_jitter": nose_jitter(real_steady, stabilizer.mouth_box),
     }
+    if compositor is not None:
+        frame |= roundtrip_measures(
+            dubbed, real_steady, stabilizer=stabilizer, compositor=compositor, mouth_box=mouth_box
+        )
     dub = compare(real_steady, dub_steady, mouth_box=mouth_box, eigenlips=eigenlips, speech=speech)
     render = compare(
         real_steady, dubbed.renders, mouth_box=mouth_box, eigenlips=eigenlips, speech=speech
@@ -202,13 +216,15 @@ def dub_measures(
     return frame, dub.summary | dub_marks, render.summary | render_marks
 
 
-def roundtrip_measures(dubbed: DubbedClip, *, stabilizer, compositor, mouth_box) -> dict:
+def roundtrip_measures(
+    dubbed: DubbedClip, real_steady: np.ndarray, *, stabilizer, compositor, mouth_box
+) -> dict:
     """The dub's ceiling: the real frames, stabilized, composited back and measured as the dub.
 
-    Each real frame brought onto the reference is the render of its own frame (no colour
-    match: it has its own light), and the result is brought onto the reference again, as
-    :func:`dub_measures` does with the dub. A dub whose mouth were exactly the real one would
-    score these.
+    Each real frame brought onto the reference (``real_steady``, as :func:`dub_measures`
+    stabilizes them) is the render of its own frame (no colour match: it has its own light),
+    and the result is brought onto the reference again, as :func:`dub_measures` does with the
+    dub. A dub whose mouth were exactly the real one would score these.
 
     Returns
     -------
@@ -219,7 +235,6 @@ def roundtrip_measures(dubbed: DubbedClip, *, stabilizer, compositor, mouth_box)
     from miketalk.evaluation.measures import psnr, sharpness
 
     bg = dubbed.background
-    real_steady = stabilizer.apply(dubbed.real, bg.transforms, field=bg.field)
     zero = np.zeros((*real_steady.shape[1:3], 3), np.float32)
     back = np.stack(
         [
@@ -233,10 +248,9 @@ def roundtrip_measures(dubbed: DubbedClip, *, stabilizer, compositor, mouth_box)
     mask[y : y + h, x : x + w] = True
     real_sharp = np.mean([sharpness(f, mask) for f in real_steady])
     back_sharp = np.mean([sharpness(f, mask) for f in back_steady])
-    box = (slice(None), slice(y, y + h), slice(x, x + w))
     return {
         "roundtrip_sharpness_ratio": float(back_sharp / real_sharp) if real_sharp > 0 else 0.0,
-        "roundtrip_psnr_mouth": float(psnr(back_steady[box], real_steady[box])),
+        "roundtrip_psnr_mouth": float(psnr(back_steady[:, mask], real_steady[:, mask])),
     }
 
 
