@@ -14,7 +14,7 @@ from test_cli import shifted_model
 
 from miketalk.media.audio import write_wav
 from miketalk.media.decode import read_media_audio
-from miketalk.speech.coverage import UNEXPLAINED_LIMIT, speech_coverage
+from miketalk.speech.coverage import UNEXPLAINED_LIMIT, frame_levels, speech_coverage
 from miketalk.speech.types import Phone
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -44,6 +44,25 @@ def bursts(n: int = 6) -> tuple[np.ndarray, list[tuple[float, float]]]:
         i = int(at * RATE)
         x[i : i + RATE // 100] += 20000
     return x.astype(np.int16), spans
+
+
+def test_frame_levels_are_each_window_s_level_whatever_the_block() -> None:
+    """The levels are computed a block of windows at a time (a long recording's overlapping
+    windows are never all held at once): each is its window's mean-removed power, and the
+    block size changes no value."""
+    rng = np.random.default_rng(1)
+    x = (rng.normal(0, 1, 5003) * np.linspace(1, 1000, 5003) + 500).astype(np.int16)
+    frame, hop = 640, 160
+    direct = [
+        10 * np.log10(np.mean((w - w.mean()) ** 2) + 1e-12)
+        for w in (x[k : k + frame].astype(np.float64) for k in range(0, len(x) - frame + 1, hop))
+    ]
+    levels = frame_levels(x, frame, hop)
+    assert len(levels) == 1 + (len(x) - frame) // hop == len(direct)
+    np.testing.assert_allclose(levels, direct, rtol=1e-12)
+    for block in (1, 3, 7, len(levels)):
+        np.testing.assert_array_equal(frame_levels(x, frame, hop, block=block), levels)
+    assert levels[-1] > levels[0] + 15  # the louder end reads louder
 
 
 def test_one_word_of_six_leaves_five_sixths_unexplained() -> None:

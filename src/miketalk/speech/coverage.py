@@ -91,13 +91,11 @@ def voiced_frames(samples: np.ndarray, rate: int) -> np.ndarray:
     rate : int
         Sample rate in Hz.
     """
-    x = np.asarray(samples, np.float64).reshape(-1)
+    x = np.asarray(samples).reshape(-1)
     frame, hop = round(FRAME_SECONDS * rate), round(HOP_SECONDS * rate)
     if len(x) < frame:
         return np.zeros(0, bool)
-    windows = np.lib.stride_tricks.sliding_window_view(x, frame)[::hop]
-    centred = windows - windows.mean(axis=1, keepdims=True)  # no DC offset
-    level = 10 * np.log10(np.mean(centred**2, axis=1) + 1e-12)
+    level = frame_levels(x, frame, hop)
     floor, peak = np.percentile(level, 10), level.max()
     loud = (level > floor + ABOVE_FLOOR_DB) & (level > peak - BELOW_PEAK_DB)
     # keep the runs of loud frames that last long enough
@@ -107,6 +105,23 @@ def voiced_frames(samples: np.ndarray, rate: int) -> np.ndarray:
         if (end - start) * HOP_SECONDS >= MIN_RUN_SECONDS - 1e-9:
             voiced[start:end] = True
     return voiced
+
+
+def frame_levels(x: np.ndarray, frame: int, hop: int, *, block: int = 2048) -> np.ndarray:
+    """Level (dB) of each ``frame``-sample window of ``x`` every ``hop`` samples, its mean removed.
+
+    ``block`` windows at a time, in float64: the windows overlap (``frame / hop``
+    times), so all of them at once would hold that many copies of a long recording
+    (4 at 40 ms every 10 ms: 300 MB for 10 minutes at 16 kHz, twice over).
+    """
+    windows = np.lib.stride_tricks.sliding_window_view(x, frame)[::hop]
+    level = np.empty(len(windows))
+    for lo in range(0, len(windows), block):
+        part = windows[lo : lo + block].astype(np.float64)
+        part -= part.mean(axis=1, keepdims=True)  # no DC offset
+        np.square(part, out=part)
+        level[lo : lo + block] = 10 * np.log10(part.mean(axis=1) + 1e-12)
+    return level
 
 
 def speech_coverage(samples: np.ndarray, rate: int, phones: Sequence[Phone]) -> SpeechCoverage:
