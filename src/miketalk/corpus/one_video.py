@@ -220,19 +220,19 @@ def video_clips(segments: str | Path, split: str, *, media: str | Path | None = 
     ``media`` (default: the file named in ``segments.json``) is where they are cut from.
     """
     doc = json.loads(Path(segments).read_text(encoding="utf-8"))
-    media = Path(media or doc["media"])
-    return [
-        Clip(
-            u["id"],
-            media,
-            u["text"],
-            span=(u["first_frame"], u["frames"]),
-            fps=float(doc["fps"]),
-            given_words=tuple(WordTiming(w, a, b) for w, a, b in u["words"]),
-        )
-        for u in doc["utterances"]
-        if u["split"] == split
-    ]
+    return [_utterance_clip(doc, u, media) for u in doc["utterances"] if u["split"] == split]
+
+
+def _utterance_clip(doc: dict, utterance: dict, media: str | Path | None) -> Clip:
+    """An utterance of ``segments.json`` as a clip of ``media`` (default: the file it names)."""
+    return Clip(
+        utterance["id"],
+        Path(media or doc["media"]),
+        utterance["text"],
+        span=(utterance["first_frame"], utterance["frames"]),
+        fps=float(doc["fps"]),
+        given_words=tuple(WordTiming(w, a, b) for w, a, b in utterance["words"]),
+    )
 
 
 def _check_face(media: Path, duration: float) -> None:
@@ -321,11 +321,13 @@ def face_clips(corpus: dict, split: str, *, segments: str | Path | None = None) 
 
 
 def read_utterance(segments: str | Path, clip: str, *, media: str | Path | None = None):
-    """The frames and frame rate of utterance ``clip`` of ``segments.json``."""
+    """The frames and frame rate of utterance ``clip`` of ``segments.json``, cut as the
+    corpus cuts it (:func:`miketalk.corpus.clip_sources.decode_clip`)."""
     from miketalk.media.decode import read_video
 
     doc = json.loads(Path(segments).read_text(encoding="utf-8"))
     for u in doc["utterances"]:
         if u["id"] == clip:
-            return read_video(media or doc["media"], start=u["start"], frames=u["frames"])
+            found = _utterance_clip(doc, u, media)
+            return read_video(found.media, start=found.start, frames=found.span[1])
     raise MiketalkError(f"{segments}: no utterance {clip}")
