@@ -8,7 +8,14 @@ import pytest
 from skimage.metrics import structural_similarity
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import lag_frames, psnr, sharpness, ssim
+from miketalk.evaluation.measures import (
+    box_mask,
+    lag_frames,
+    psnr,
+    sharpness,
+    sharpness_ratio,
+    ssim,
+)
 from miketalk.mouth import mouth_opening
 
 
@@ -62,6 +69,15 @@ def test_sharpness_falls_with_blur_and_reads_the_mask_only():
     noisy[:, 60:] = rng.integers(0, 256, noisy[:, 60:].shape, dtype=np.uint8)
     assert sharpness(noisy, mask) == sharpness(image, mask)
     assert sharpness(noisy) > sharpness(image)
+    # the ratio of a clip's means, over a box given as (x, y, w, h)
+    box = box_mask(image.shape, (0, 0, 40, 96))
+    assert box.shape == (96, 128) and box.sum() == 40 * 96 and np.array_equal(box, mask)
+    blurred = [cv2.GaussianBlur(image, (0, 0), 1.0), image]
+    assert sharpness_ratio(blurred, [image, image], box) == pytest.approx(
+        (sharpness(blurred[0], box) + sharpness(image, box)) / (2 * sharpness(image, box))
+    )
+    assert sharpness_ratio([image], [image], box) == 1.0
+    assert sharpness_ratio([flat], [flat]) == 0.0  # no detail in either: no division by 0
 
 
 def test_lag_and_opening():

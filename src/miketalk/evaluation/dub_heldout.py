@@ -195,6 +195,7 @@ def main(argv: list[str] | None = None) -> int:
     import yaml
 
     from miketalk.corpus.clip_sources import clip_sources
+    from miketalk.render.composite import INTERPOLATIONS
 
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--model", required=True)
@@ -221,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-follow", action="store_true", help="do not warp the jaw")
     parser.add_argument("--no-skin", action="store_true", help="blend over backdrop and clothes")
     parser.add_argument(
-        "--interpolation", default=defaults.BLEND_INTERPOLATION, choices=("cubic", "linear"),
+        "--interpolation", default=defaults.BLEND_INTERPOLATION, choices=tuple(INTERPOLATIONS),
         help="how the render is sampled into the frames (default %(default)s)",
     )  # fmt: skip
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")

@@ -232,7 +232,7 @@ def roundtrip_measures(
         ``roundtrip_sharpness_ratio`` (its mouth's sharpness over the real one's) and
         ``roundtrip_psnr_mouth`` (dB, over the mouth box; ``inf`` for identical pixels).
     """
-    from miketalk.evaluation.measures import psnr, sharpness
+    from miketalk.evaluation.measures import box_mask, psnr, sharpness_ratio
 
     bg = dubbed.background
     zero = np.zeros((*real_steady.shape[1:3], 3), np.float32)
@@ -243,13 +243,9 @@ def roundtrip_measures(
         ]
     )
     back_steady = stabilizer.apply(back, bg.transforms, field=bg.field)
-    x, y, w, h = mouth_box
-    mask = np.zeros(real_steady.shape[1:3], bool)
-    mask[y : y + h, x : x + w] = True
-    real_sharp = np.mean([sharpness(f, mask) for f in real_steady])
-    back_sharp = np.mean([sharpness(f, mask) for f in back_steady])
+    mask = box_mask(real_steady.shape[1:], mouth_box)
     return {
-        "roundtrip_sharpness_ratio": float(back_sharp / real_sharp) if real_sharp > 0 else 0.0,
+        "roundtrip_sharpness_ratio": sharpness_ratio(back_steady, real_steady, mask),
         "roundtrip_psnr_mouth": float(psnr(back_steady[:, mask], real_steady[:, mask])),
     }
 

@@ -51,8 +51,8 @@ import pandas as pd
 from miketalk.errors import MiketalkError
 from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
 from miketalk.evaluation.landmarks import delayed
+from miketalk.evaluation.measures import box_mask, lag_frames, psnr, sharpness, ssim
 from miketalk.evaluation.measures import correlation as _corr
-from miketalk.evaluation.measures import lag_frames, psnr, sharpness, ssim
 from miketalk.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
@@ -105,9 +105,7 @@ def compare(
     """
     if real.shape != synthesized.shape:
         raise MiketalkError(f"real {real.shape} and synthesized {synthesized.shape} frames differ")
-    x, y, w, h = mouth_box
-    mask = np.zeros(real.shape[1:3], bool)
-    mask[y : y + h, x : x + w] = True
+    mask = box_mask(real.shape[1:], mouth_box)
     n = len(real)
     rows = {
         "frame": np.arange(n),

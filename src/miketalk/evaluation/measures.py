@@ -79,6 +79,20 @@ def sharpness(image: np.ndarray, mask: np.ndarray | None = None) -> float:
     return float(np.mean(laplacian.astype(np.float64) ** 2))
 
 
+def box_mask(shape: tuple[int, ...], box: tuple[int, int, int, int]) -> np.ndarray:
+    """``(H, W)`` bool mask of ``box`` ``(x, y, w, h)`` in images of ``shape`` ``(H, W, ...)``."""
+    x, y, w, h = box
+    mask = np.zeros(shape[:2], bool)
+    mask[y : y + h, x : x + w] = True
+    return mask
+
+
+def sharpness_ratio(synthesized, real, mask: np.ndarray | None = None) -> float:
+    """Mean :func:`sharpness` of the ``synthesized`` frames over that of the ``real`` ones."""
+    synth = np.mean([sharpness(f, mask) for f in synthesized])
+    return float(synth) / max(float(np.mean([sharpness(f, mask) for f in real])), 1e-12)
+
+
 def correlation(a: np.ndarray, b: np.ndarray) -> float:
     """Pearson correlation; 0 when either signal is constant (a still face correlates with none)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
