@@ -9,7 +9,8 @@ from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import RATE, Recording, heard_features
 from miketalk.speech.festival.backend import FestivalBackend
 from miketalk.speech.types import Phone
-from miketalk.talk.trained.trajectory import Context, TrainingSet, fit_window
+from miketalk.talk.trained.training import TrainingSet
+from miketalk.talk.trained.trajectory import Context, fit_window
 from miketalk.visemes import VisemeTable
 
 FPS = 25.0

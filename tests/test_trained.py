@@ -268,6 +268,32 @@ def test_a_trained_face_fitted_before_the_cross_validated_gain_still_draws(
     assert old.plan(timeline)
 
 
+def test_a_trained_face_keeps_its_fit_settings_apart_and_reads_one_that_mixed_them(
+    tmp_path: Path,
+) -> None:
+    """The settings a face was fitted with are written apart from the selection's; a
+    ``trained.json`` from before, which kept them among the selection's, reads the same."""
+    import json
+
+    from miketalk.talk.trained.training import FitSettings
+
+    corpus = _synthetic_corpus(tmp_path)
+    doc = fit_trained(corpus, tmp_path / "model", components=6)
+    assert doc["fitting"] == FitSettings().to_dict()
+    assert not set(doc["fitting"]) & set(doc["selection"])
+    now = read_trained(tmp_path / "model")
+    assert now.fitting == FitSettings()
+    manifest = tmp_path / "model" / "trained" / "trained.json"
+    before = json.loads(manifest.read_text())
+    before["selection"] |= {"centred": True, "half": 4}
+    del before["fitting"]
+    manifest.write_text(json.dumps(before))
+    old = read_trained(tmp_path / "model")
+    assert old.fitting == FitSettings(centred=True, half=4)
+    assert old.selection == now.selection
+    assert np.allclose(old.described().mean(axis=0), 0.0, atol=1e-9)  # centred
+
+
 def test_a_trained_face_keeps_its_frames_visemes_and_one_fitted_before_draws_without(
     tmp_path: Path,
 ) -> None:
@@ -321,9 +347,10 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     """The previous selection settings render from the same model (paired comparison); the
     full gain makes the target move at least as far; centred fits are zero-mean per clip;
     settings fitted with the model cannot be overridden at render time."""
-    from miketalk.talk.trained.build import clip_offsets, fitted_face
+    from miketalk.talk.trained.build import fitted_face
     from miketalk.talk.trained.mouths import measure_frames
     from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+    from miketalk.talk.trained.training import FitSettings, clip_offsets
     from miketalk.visemes import VisemeTable
 
     corpus = _synthetic_corpus(tmp_path)
@@ -340,9 +367,10 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     b = np.stack(list(render_trained(face, timeline, trained=trained, selection=old.to_dict()
                                      | {"centred": False})))  # fmt: skip
     assert a.shape == b.shape
-    with pytest.raises(MiketalkError, match="refit") as err:
-        list(render_trained(face, timeline, trained=trained, selection={"centred": True}))
-    assert "\n" not in str(err.value)
+    for fitted_with in ({"centred": True}, {"half": 3, "join": 2.0}):
+        with pytest.raises(MiketalkError, match="fitted with the model; refit") as err:
+            list(render_trained(face, timeline, trained=trained, selection=fitted_with))
+        assert "\n" not in str(err.value)
     with pytest.raises(MiketalkError, match="unknown selection setting jion") as err:
         list(render_trained(face, timeline, trained=trained, selection={"jion": 1.0}))
     assert "\n" not in str(err.value)
@@ -351,8 +379,9 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     assert "\n" not in str(err.value)
     frames = measure_frames(corpus, components=6)
     centred = fitted_face(
-        frames, corpus, selection=SelectionSettings(centred=True), table=VisemeTable()
-    )
+        frames, corpus, selection=SelectionSettings(), fitting=FitSettings(centred=True),
+        table=VisemeTable(),
+    )  # fmt: skip
     described = centred.described()
     assert np.allclose(clip_offsets(frames)[frames.clip] + described, frames.coords)
     for c in range(len(frames.clip_ids)):

@@ -69,10 +69,21 @@ def parse_variant(text: str) -> tuple[str, dict]:
         if name not in VARIANTS:
             raise MiketalkError(f"unknown variant {name!r} (known: {', '.join(VARIANTS)})")
         return name, dict(VARIANTS[name])
+    from miketalk.talk.trained.selection import SelectionSettings
+    from miketalk.talk.trained.training import FitSettings
+
+    known = {"kind", "voice"} | {
+        f.name for c in (SelectionSettings, FitSettings) for f in dataclasses.fields(c)
+    }
     out = {}
     for item in rest.split(","):
-        key, _, value = item.partition("=")
-        out[key.strip()] = json.loads(value)
+        key, _, value = (part.strip() for part in item.partition("="))
+        if key not in known:
+            raise MiketalkError(f"variant {name}: unknown setting {key!r}")
+        try:
+            out[key] = json.loads(value)
+        except ValueError:
+            raise MiketalkError(f"variant {name}: {key}={value} is not a JSON value") from None
     return name, out
 
 
@@ -131,9 +142,10 @@ def cross_validate(
     from miketalk.mouth.region import grey_mouths
     from miketalk.talk.lipsync import plan
     from miketalk.talk.model import Model
-    from miketalk.talk.trained.build import TrainedFace, fitted_face, training_set
+    from miketalk.talk.trained.build import TrainedFace, fitted_face
     from miketalk.talk.trained.mouths import measure_frames
     from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings
+    from miketalk.talk.trained.training import FitSettings, training_set
     from miketalk.visemes import SILENCE, VisemeTable
 
     table = VisemeTable()
@@ -162,19 +174,23 @@ def cross_validate(
             everything, np.flatnonzero(np.isin(everything.clip, train)), components
         )
         compositors = {}  # by how the joins are blended
-        # only centred and half change the fit: variants differing in the rest share it
-        fitted: dict[tuple, TrainedFace] = {}
+        # only the fit settings change the fit: variants differing in the rest share it
+        fitted: dict[FitSettings, TrainedFace] = {}
         faces = {}
         for name, change in variants:
             t0 = time.perf_counter()
             change = dict(change)
             kind = change.pop("kind", None)
             voice = change.pop("voice", None)
-            selection = SelectionSettings(**(SelectionSettings().to_dict() | change))
-            key = (selection.centred, selection.half)
-            if key not in fitted:
-                fitted[key] = fitted_face(frames, corpus_dir, selection=selection, table=table)
-            face = dataclasses.replace(fitted[key], selection=selection)
+            fit_keys = {f.name for f in dataclasses.fields(FitSettings)}
+            fitting = FitSettings(**{k: v for k, v in change.items() if k in fit_keys})
+            drawing = {k: v for k, v in change.items() if k not in fit_keys}
+            selection = SelectionSettings(**(SelectionSettings().to_dict() | drawing))
+            if fitting not in fitted:
+                fitted[fitting] = fitted_face(
+                    frames, corpus_dir, selection=selection, fitting=fitting, table=table
+                )
+            face = dataclasses.replace(fitted[fitting], selection=selection)
             faces[name] = (face, kind, voice)
             if selection.joins not in compositors:
                 compositors[selection.joins] = PatchCompositor(

@@ -41,7 +41,7 @@ from miketalk.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 
 if TYPE_CHECKING:
-    from miketalk.talk.trained.trajectory import TrainingSet
+    from miketalk.talk.trained.training import TrainingSet
 
 Fit = Callable[[np.ndarray, np.ndarray, Sequence[np.ndarray]], list[np.ndarray]]
 
@@ -175,8 +175,8 @@ def voice_scores(
     from miketalk.visemes import VisemeTable
 
     if data is None or clip_ids is None:
-        from miketalk.talk.trained.build import training_set
         from miketalk.talk.trained.mouths import measure_frames
+        from miketalk.talk.trained.training import training_set
 
         frames = measure_frames(corpus_dir)
         data, clip_ids = training_set(corpus_dir, frames), frames.clip_ids
@@ -236,8 +236,8 @@ def main(argv: list[str] | None = None) -> int:
         return None
 
     def work(args) -> str:
-        from miketalk.talk.trained.build import training_set
         from miketalk.talk.trained.mouths import measure_frames
+        from miketalk.talk.trained.training import training_set
         from miketalk.talk.trained.trajectory import (
             HEARD_HALF,
             Context,

@@ -9,6 +9,9 @@ trajectory. This package does both for a face built from clips:
 :mod:`~miketalk.talk.trained.mouths`
     every training frame measured: the principal components of its grey mouth
     region (its *description*), and its colour mouth patch kept to draw with;
+:mod:`~miketalk.talk.trained.training`
+    the training clips as the trajectory models see them (phones, frame times,
+    descriptions, recordings) and the settings they are fitted with;
 :mod:`~miketalk.talk.trained.trajectory`
     three trajectory models to the description, fitted to all training frames:
     a ridge regression over a window of phone context (``window``), MMM-style

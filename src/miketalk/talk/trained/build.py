@@ -9,7 +9,7 @@
     ``heard.``;
 ``trained.json``
     ``format``, the default trajectory model, each model's settings and its
-    cross-validation report, the selection settings.
+    cross-validation report, the settings it was fitted with and the selection's.
 
 :func:`fit_trained` writes it (``trained.json`` last: without it the face has
 no trained model); :func:`read_trained` reads it back, refusing in one line a
@@ -24,7 +24,7 @@ import logging
 import os
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -36,12 +36,17 @@ from miketalk.talk.lipsync import Timeline
 from miketalk.talk.model_parts import TRAINED_DIRECTORY, TRAINED_MANIFEST
 from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
 from miketalk.talk.trained.selection import SelectionSettings, drawn, select
+from miketalk.talk.trained.training import (
+    FitSettings,
+    TrainingSet,
+    clip_offsets,
+    training_set,
+)
 from miketalk.talk.trained.trajectory import (
     HEARD_HALF,
     TRAJECTORIES,
     Context,
     RegularizedTrajectory,
-    TrainingSet,
     WindowRegression,
     fit_regularized,
     fit_window,
@@ -77,6 +82,8 @@ class TrainedFace:
     frame_visemes : (N,) int array or None
         The viseme each training frame shows (from its clip's aligned phones, an index
         into ``table.visemes``; -1 none); None for a face fitted before they were kept.
+    fitting : FitSettings
+        What the trajectories were fitted with.
     """
 
     frames: MouthFrames
@@ -86,6 +93,7 @@ class TrainedFace:
     table: VisemeTable
     report: dict
     frame_visemes: np.ndarray | None = None
+    fitting: FitSettings = field(default_factory=FitSettings)
 
     def kind_for(self, kind: str | None, *, recorded: bool) -> str:
         """The trajectory model to use: ``kind``, else ``heard`` for an utterance driven by a
@@ -118,7 +126,7 @@ class TrainedFace:
     def described(self) -> np.ndarray:
         """The training frames' descriptions as the trajectories predict them: with
         ``centred``, each less its clip's mean (:func:`clip_offsets`)."""
-        if not self.selection.centred:
+        if not self.fitting.centred:
             return self.frames.coords
         return self.frames.coords - clip_offsets(self.frames)[self.frames.clip]
 
@@ -182,6 +190,7 @@ def fit_trained(
     default: str = TRAJECTORIES[0],
     components: int = 16,
     selection: SelectionSettings | None = None,
+    fitting: FitSettings | None = None,
 ) -> dict:
     """Measure every training frame, fit both trajectory models, write ``<model>/trained/``.
 
@@ -198,6 +207,7 @@ def fit_trained(
     components : int
         Principal components of the description.
     selection : SelectionSettings, optional
+    fitting : FitSettings, optional
 
     Returns
     -------
@@ -210,10 +220,12 @@ def fit_trained(
         raise MiketalkError(f"trajectory model must be one of {', '.join(TRAJECTORIES)}")
     started = time.perf_counter()
     table = VisemeTable(grouping=grouping)
-    selection = selection or SelectionSettings()
+    selection, fitting = selection or SelectionSettings(), fitting or FitSettings()
     frames = measure_frames(corpus_dir, components=components)
     measured = time.perf_counter() - started
-    face = fitted_face(frames, corpus_dir, selection=selection, table=table, default=default)
+    face = fitted_face(
+        frames, corpus_dir, selection=selection, fitting=fitting, table=table, default=default
+    )
     window, regularized = face.trajectories["window"], face.trajectories["regularized"]
     window_report, regularized_report = (
         face.report["fit"]["window"],
@@ -234,6 +246,7 @@ def fit_trained(
         "format": FORMAT,
         "default": default,
         "trajectories": settings,
+        "fitting": fitting.to_dict(),
         "selection": selection.to_dict(),
         "grouping": dict(grouping or {}),
         "fit": {
@@ -255,60 +268,21 @@ def fit_trained(
     return doc
 
 
-def training_set(corpus_dir: str | os.PathLike[str], frames: MouthFrames) -> TrainingSet:
-    """Each training clip's aligned phones (``phones.tsv``), frame times, descriptions and
-    sound (``audio.wav`` from the clip's start in ``clips.tsv``)."""
-    import pandas as pd
-
-    from miketalk.media.audio import read_wav
-    from miketalk.speech.types import Phone
-
-    phones_table = pd.read_csv(Path(corpus_dir) / "phones.tsv", sep="\t", dtype={"clip": str})
-    clips = pd.read_csv(Path(corpus_dir) / "clips.tsv", sep="\t", dtype={"clip": str})
-    starts = dict(zip(clips["clip"], clips["start"], strict=True))
-    samples, rate = read_wav(Path(corpus_dir) / "audio.wav")
-    phones, times, coords, recordings = [], [], [], []
-    for c, clip_id in enumerate(frames.clip_ids):
-        own = phones_table[phones_table["clip"] == clip_id].sort_values("index")
-        phones.append(
-            tuple(
-                Phone(str(p.phone), float(p.clip_start), float(p.clip_end))
-                for p in own.itertuples()
-            )
-        )
-        rows = np.flatnonzero(frames.clip == c)
-        times.append(frames.clip_frame[rows] / frames.fps)
-        coords.append(frames.coords[rows])
-        first = round(float(starts[clip_id]) * rate)
-        last = first + round(len(rows) / frames.fps * rate)
-        recordings.append(Recording(samples[first:last], rate))
-    return TrainingSet(tuple(phones), tuple(times), tuple(coords), tuple(recordings))
-
-
-def clip_offsets(frames: MouthFrames) -> np.ndarray:
-    """``(clips, n)``: each clip's mean description (its session's light and pose, which
-    the phones cannot predict)."""
-    count = np.bincount(frames.clip, minlength=len(frames.clip_ids)).astype(float)
-    sums = np.stack(
-        [np.bincount(frames.clip, frames.coords[:, d], len(frames.clip_ids))
-         for d in range(frames.coords.shape[1])], axis=1,
-    )  # fmt: skip
-    return sums / np.maximum(count, 1.0)[:, None]
-
-
 def fitted_face(
     frames: MouthFrames,
     corpus_dir: str | os.PathLike[str],
     *,
     selection: SelectionSettings,
+    fitting: FitSettings | None = None,
     table: VisemeTable,
     default: str = TRAJECTORIES[0],
 ) -> TrainedFace:
-    """Both trajectory models fitted to ``frames`` (in memory): the face :func:`fit_trained`
-    writes. With ``selection.centred`` they predict each frame's description less its
-    clip's mean."""
+    """The trajectory models fitted to ``frames`` (in memory) with ``fitting``: the face
+    :func:`fit_trained` writes, drawing with ``selection`` (``fitting`` default
+    :class:`FitSettings`)."""
+    fitting = fitting or FitSettings()
     data = training_set(corpus_dir, frames)
-    if selection.centred:
+    if fitting.centred:
         offsets = clip_offsets(frames)
         data = dataclasses.replace(
             data, coords=tuple(c - offsets[k] for k, c in enumerate(data.coords))
@@ -316,10 +290,10 @@ def fitted_face(
     context = Context.of(data.phones, table)
     held: dict[str, dict] = {name: {} for name in TRAJECTORIES}
     fitted = {
-        "window": fit_window(data, context, table, half=selection.half, predictions=held["window"]),
+        "window": fit_window(data, context, table, half=fitting.half, predictions=held["window"]),
         "regularized": fit_regularized(data, context, table, predictions=held["regularized"]),
         "heard": fit_window(
-            data, context, table, half=selection.half, heard=HEARD_HALF, predictions=held["heard"]
+            data, context, table, half=fitting.half, heard=HEARD_HALF, predictions=held["heard"]
         ),
     }
     for name, (model, report) in fitted.items():
@@ -330,7 +304,7 @@ def fitted_face(
     shown = np.full(len(frames.coords), -1, np.int64)
     for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):
         shown[frames.clip == c] = context.labels(phones, times, table)[1]
-    return TrainedFace(frames, models, default, selection, table, report, shown)
+    return TrainedFace(frames, models, default, selection, table, report, shown, fitting)
 
 
 def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) -> list[float]:
@@ -408,13 +382,19 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
         # the fitted gain it was made with, and one fitted before morphed joins its
         # cross-fades (its other later settings default to the old ways)
         old = {"cv_gain": False, "joins": "dissolve"}
-        selection = SelectionSettings(**(old | doc["selection"]))
+        drawing = dict(doc["selection"])
+        # a face fitted before the fit settings had a place of their own kept them there
+        fit_keys = [f.name for f in dataclasses.fields(FitSettings) if f.name in drawing]
+        fitting = FitSettings(**({k: drawing.pop(k) for k in fit_keys} | doc.get("fitting", {})))
+        selection = SelectionSettings(**(old | drawing))
         table = VisemeTable(grouping=doc.get("grouping") or None)
         default = str(doc["default"])
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise MiketalkError(f"cannot read the trained face in {d}: {err!r}") from None
     visemes = arrays.get("frames.viseme")  # none in a face fitted before they were kept
-    return TrainedFace(load_frames(d), trajectories, default, selection, table, doc, visemes)
+    return TrainedFace(
+        load_frames(d), trajectories, default, selection, table, doc, visemes, fitting
+    )
 
 
-__all__ = ["FORMAT", "TrainedFace", "fit_trained", "read_trained"]
+__all__ = ["FORMAT", "FitSettings", "TrainedFace", "fit_trained", "read_trained"]

@@ -31,20 +31,21 @@ def render_trained(
     are not used) gets the trajectory's prediction; the selection chooses the
     training frames and they are composited onto the model's silence image.
     The ``(model, timeline)`` signature of the held-out evaluation's renderers.
-    ``selection`` overrides some of the face's selection settings (those that
-    need no refitting: not ``centred`` or ``half``). ``recording``, the sound that drives
-    the timeline, lets a face with the ``heard`` trajectory hear it (unless ``kind``
-    names another).
+    ``selection`` overrides some of the face's selection settings (not those it was
+    fitted with, :class:`~miketalk.talk.trained.training.FitSettings`). ``recording``,
+    the sound that drives the timeline, lets a face with the ``heard`` trajectory hear
+    it (unless ``kind`` names another).
     """
     trained = trained or read_trained(model.directory)
     if selection:
-        fitted = trained.selection.to_dict()
-        if unknown := sorted(set(selection) - set(fitted)):
+        known, fitted = trained.selection.to_dict(), trained.fitting.to_dict()
+        if refit := sorted(k for k in set(selection) & set(fitted) if selection[k] != fitted[k]):
+            raise MiketalkError(f"{', '.join(refit)}: fitted with the model; refit it instead")
+        if unknown := sorted(set(selection) - set(known) - set(fitted)):
             raise MiketalkError(
-                f"unknown selection setting {', '.join(unknown)} (known: {', '.join(fitted)})"
+                f"unknown selection setting {', '.join(unknown)} (known: {', '.join(known)})"
             )
-        if any(selection[k] != fitted[k] for k in ("centred", "half") if k in selection):
-            raise MiketalkError("centred and half are fitted with the model: refit it instead")
+        selection = {k: v for k, v in selection.items() if k in known}
         settings = dataclasses.replace(trained.selection, **selection)
         trained = dataclasses.replace(trained, selection=settings)
     rows = trained.plan(timeline, kind=kind, recording=recording)

@@ -91,14 +91,8 @@ class SelectionSettings:
     cv_gain : bool
         The gain from the cross-validated predictions (``amplitude_gain_cv``: each clip
         predicted without it, as a new sentence is) rather than from the fitted ones.
-    centred : bool
-        The trajectories predict, and the target cost compares, each frame's description
-        less its clip's mean (what differs between recording sessions is left out); the
-        join cost still compares the frames as they are.
     lead : float
         Seconds ahead of each frame's time the trajectory is read (the mouth leads the sound).
-    half : int
-        The window regression's context, frames each side.
     viseme : float
         Added to the target cost of a training frame whose viseme (from its clip's aligned
         phones) is not the output frame's; 0 (the default): none. In the cross-validation
@@ -129,9 +123,7 @@ class SelectionSettings:
     amplitude: float = 1.0
     gain_r2: float = 0.05
     cv_gain: bool = True
-    centred: bool = False
     lead: float = 0.0
-    half: int = 6
     joins: str = "morph"
     viseme: float = 0.0
 

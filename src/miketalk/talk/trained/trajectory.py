@@ -40,6 +40,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import Recording, heard_features
 from miketalk.speech.types import Phone
+from miketalk.talk.trained.training import TrainingSet
 from miketalk.visemes import SILENCE, VisemeTable
 
 #: The trajectory models, the default first; ``heard`` needs the utterance's recording.
@@ -285,24 +286,6 @@ def _stats(
         mean[k] = (m * mk + prior * g_mean) / (m + prior)
         var[k] = np.maximum((m * vk + prior * g_var) / (m + prior), floor)
     return mean, var
-
-
-@dataclass(frozen=True)
-class TrainingSet:
-    """The training frames as the models see them: per clip, phones, frame times, descriptions."""
-
-    phones: tuple[tuple[Phone, ...], ...]
-    times: tuple[np.ndarray, ...]
-    coords: tuple[np.ndarray, ...]
-    recordings: tuple[Recording, ...] | None = None  # each clip's sound, for ``heard``
-
-    def folds(self, k: int) -> list[tuple[list[int], list[int]]]:
-        """``k`` (train, validation) splits of the clips, every ``k``-th clip held out."""
-        n = len(self.phones)
-        return [
-            ([i for i in range(n) if i % k != f], [i for i in range(n) if i % k == f])
-            for f in range(min(k, n))
-        ]
 
 
 def fit_window(
