@@ -412,6 +412,38 @@ def test_rest_frames_and_nearest_rest():
         rest_frames(frames, 40)
 
 
+def test_rest_frames_and_motion_region_are_the_same_measured_in_blocks():
+    """A long recording is measured a block of frames (and of pixels) at a time, held as
+    grey uint8: the rest frames and the motion region are those of the whole at once."""
+    import cv2
+
+    from miketalk.corpus.rest import grey_stack, motion_region, rest_frames
+
+    rng = np.random.default_rng(3)
+    rest_image = rng.integers(0, 256, (40, 52, 3), dtype=np.uint8)
+    frames = []
+    for k in range(37):
+        shift = (0, 1, 3, 2, 0, 0)[k % 6]
+        frame = rest_image.astype(np.int64) + rng.integers(-3, 4, rest_image.shape)
+        frame[12:28, 16:36] = np.roll(rest_image, shift, axis=0)[12:28, 16:36]  # a mouth
+        frames.append(np.clip(frame, 0, 255).astype(np.uint8))
+    whole = rest_frames(frames, 0, block=len(frames))
+    assert 0 in whole and 5 < len(whole) < 30
+    for block in (1, 4, 9):
+        assert np.array_equal(rest_frames(frames, 0, block=block), whole)
+    grey = grey_stack((cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in frames), len(frames))
+    assert grey.dtype == np.uint8 and grey.shape == (37, 40, 52)
+    as_float = grey.astype(np.float32)
+    spread = cv2.GaussianBlur(as_float.std(axis=0), (0, 0), 2.0)
+    direct = spread > 0.3 * spread.max()
+    assert 0 < direct.sum() < direct.size
+    for block in (1, 7, 100_000):
+        assert np.array_equal(motion_region(grey, block=block), direct)
+        assert np.array_equal(motion_region(as_float, block=block), direct)
+    with pytest.raises(MiketalkError, match="no frames"):
+        grey_stack(iter(()), 3)
+
+
 def test_bridge_strategy_joins_far_visemes_through_rest(tmp_path):
     import pandas as pd
 

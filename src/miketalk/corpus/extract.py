@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from miketalk.corpus.folder import TRUTH, CorpusVideo, open_corpus
-from miketalk.corpus.rest import motion_region
+from miketalk.corpus.rest import grey_stack, motion_region
 from miketalk.errors import MiketalkError
 from miketalk.media.audio import read_wav
 from miketalk.speech.audio_align import locate_words, map_times
@@ -40,8 +40,13 @@ from miketalk.visemes import VisemeTable
 _FRACTIONS = {0: 0.5, 1: 0.25, 2: 0.75}
 
 
-def motion_energy(video: CorpusVideo, *, scale: int = 2) -> tuple[np.ndarray, np.ndarray]:
+def motion_energy(
+    video: CorpusVideo, *, scale: int = 2, block: int = 1024
+) -> tuple[np.ndarray, np.ndarray]:
     """Per-frame mouth motion energy and the region it was measured in.
+
+    The frames are read as grey uint8 at ``1 / scale`` of their size and measured
+    ``block`` frames at a time, so that a long recording is held once.
 
     Returns
     -------
@@ -50,17 +55,28 @@ def motion_energy(video: CorpusVideo, *, scale: int = 2) -> tuple[np.ndarray, np
     region : (H // scale, W // scale) bool
         The pixels that vary most over the recording (the mouth and jaw).
     """
-    grey = []
-    for path in video.frame_paths:
+    paths = list(video.frame_paths)
+    if len(paths) < 3:
+        raise MiketalkError(f"{video.directory} has {len(paths)} frames; a recording needs more")
+
+    def read(path) -> np.ndarray:
         g = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
         if g is None:
             raise MiketalkError(f"cannot read frame {path}")
-        grey.append(cv2.resize(g, None, fx=1 / scale, fy=1 / scale, interpolation=cv2.INTER_AREA))
-    if len(grey) < 3:
-        raise MiketalkError(f"{video.directory} has {len(grey)} frames; a recording needs more")
-    stack = np.stack(grey).astype(np.float32)
+        return cv2.resize(g, None, fx=1 / scale, fy=1 / scale, interpolation=cv2.INTER_AREA)
+
+    stack = grey_stack(map(read, paths), len(paths))  # uint8: a long recording held once
     region = motion_region(stack)
-    diff = np.abs(stack[2:] - stack[:-2])[:, region].mean(axis=1)
+    diff = np.concatenate(
+        [
+            np.abs(
+                stack[k + 2 : end + 2, region].astype(np.float32)
+                - stack[k:end, region].astype(np.float32)
+            ).mean(axis=1)
+            for k in range(0, len(stack) - 2, block)
+            for end in [min(k + block, len(stack) - 2)]
+        ]
+    )
     energy = np.concatenate([[diff[0]], diff, [diff[-1]]]).astype(np.float64)
     return energy, region
 
