@@ -442,6 +442,10 @@ def test_rest_frames_and_motion_region_are_the_same_measured_in_blocks():
         assert np.array_equal(motion_region(as_float, block=block), direct)
     with pytest.raises(MiketalkError, match="no frames"):
         grey_stack(iter(()), 3)
+    with pytest.raises(MiketalkError, match="2 frames where 3"):
+        grey_stack(iter(grey[:2]), 3)
+    with pytest.raises(MiketalkError, match="more than the 3"):
+        grey_stack(iter(grey[:4]), 3)
 
 
 def test_bridge_strategy_joins_far_visemes_through_rest(tmp_path):

@@ -176,13 +176,13 @@ def cross_validate(
         compositors = {}  # by how the joins are blended
         # only the fit settings change the fit: variants differing in the rest share it
         fitted: dict[FitSettings, TrainedFace] = {}
+        fit_keys = {f.name for f in dataclasses.fields(FitSettings)}
         faces = {}
         for name, change in variants:
             t0 = time.perf_counter()
             change = dict(change)
             kind = change.pop("kind", None)
             voice = change.pop("voice", None)
-            fit_keys = {f.name for f in dataclasses.fields(FitSettings)}
             fitting = FitSettings(**{k: v for k, v in change.items() if k in fit_keys})
             drawing = {k: v for k, v in change.items() if k not in fit_keys}
             selection = SelectionSettings(**(SelectionSettings().to_dict() | drawing))

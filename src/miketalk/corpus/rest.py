@@ -104,13 +104,18 @@ def nearest_rest(frame: int, rest: np.ndarray) -> int:
 def grey_stack(images: Iterable[np.ndarray], count: int) -> np.ndarray:
     """``(count, H, W)``: ``count`` grey images of one size and dtype, stacked as they come
     (a list of them and ``np.stack`` of it would hold them twice)."""
-    out = None
-    for k, image in enumerate(images):
+    out, filled = None, 0
+    for image in images:
         if out is None:
             out = np.empty((count, *image.shape), image.dtype)
-        out[k] = image
+        if filled == count:
+            raise MiketalkError(f"more than the {count} frames expected")
+        out[filled] = image
+        filled += 1
     if out is None:
         raise MiketalkError("no frames to stack")
+    if filled < count:
+        raise MiketalkError(f"{filled} frames where {count} were expected")
     return out
 
 
