@@ -51,7 +51,14 @@ import pandas as pd
 from miketalk.errors import MiketalkError
 from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
 from miketalk.evaluation.landmarks import delayed
-from miketalk.evaluation.measures import box_mask, lag_frames, psnr, sharpness, ssim
+from miketalk.evaluation.measures import (
+    box_mask,
+    lag_frames,
+    psnr,
+    ratio_of_means,
+    sharpness,
+    ssim,
+)
 from miketalk.evaluation.measures import correlation as _corr
 from miketalk.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
@@ -121,8 +128,7 @@ def compare(
         "frames": n,
         "psnr_mouth": _psnr_of_mean_mse(np.asarray(rows["psnr_mouth"])),
         "ssim_mouth": float(np.mean(rows["ssim_mouth"])),
-        "sharpness_ratio": float(np.mean(rows["sharpness_synth"]))
-        / max(float(np.mean(rows["sharpness_real"])), 1e-12),
+        "sharpness_ratio": ratio_of_means(rows["sharpness_synth"], rows["sharpness_real"]),
         "opening_corr": _corr(open_synth, open_real),
         "opening_lag": lag_frames(open_synth, open_real, max_lag=max_lag),
     }

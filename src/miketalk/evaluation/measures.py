@@ -89,8 +89,14 @@ def box_mask(shape: tuple[int, ...], box: tuple[int, int, int, int]) -> np.ndarr
 
 def sharpness_ratio(synthesized, real, mask: np.ndarray | None = None) -> float:
     """Mean :func:`sharpness` of the ``synthesized`` frames over that of the ``real`` ones."""
-    synth = np.mean([sharpness(f, mask) for f in synthesized])
-    return float(synth) / max(float(np.mean([sharpness(f, mask) for f in real])), 1e-12)
+    return ratio_of_means(
+        [sharpness(f, mask) for f in synthesized], [sharpness(f, mask) for f in real]
+    )
+
+
+def ratio_of_means(values, reference) -> float:
+    """``mean(values) / mean(reference)``, the divisor kept off zero (a flat reference)."""
+    return float(np.mean(values)) / max(float(np.mean(reference)), 1e-12)
 
 
 def correlation(a: np.ndarray, b: np.ndarray) -> float:
