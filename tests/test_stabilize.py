@@ -1,4 +1,4 @@
-"""Tests of miketalk.media.decode (decoding) and miketalk.stabilize.
+"""Tests of miketalk.media.decode (decoding), miketalk.stabilize and miketalk.corpus.steady.
 
 Everything is built here: a seeded synthetic head (a textured ellipse on a
 plain background, a neck and shoulders, a dark mouth blob that opens and
@@ -10,14 +10,20 @@ from __future__ import annotations
 
 import subprocess
 from fractions import Fraction
+from pathlib import Path
 
 import cv2
 import imageio_ffmpeg
 import numpy as np
 import pytest
 
+from miketalk.corpus.clip_sources import RATE, Clip, ClipError, DecodedClip
+from miketalk.corpus.clips import ingest_clips
+from miketalk.corpus.steady import kept_frames, speech_frames, stabilize_clip
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_video
+from miketalk.speech.types import Phone
+from miketalk.speech.word_timings import WordTiming
 from miketalk.stabilize import (
     Stabilizer,
     choose_reference,
@@ -236,3 +242,97 @@ def test_residual_motion_measures_a_shift():
                              borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
     motion = residual_motion(np.stack([frame, shifted]), frame, mask)
     assert motion[0] < 0.01 and abs(motion[1] - 1.5) < 0.2
+
+
+# --- frames around the speech that do not register (miketalk.corpus.steady) ----------------
+
+FPS = 10.0
+
+
+def _decoded(frames: np.ndarray, clip_id: str = "grey", **clip) -> DecodedClip:
+    """``frames`` at 10 fps saying "ba" from 0.3 s to 0.9 s, with pauses either side."""
+    n = len(frames)
+    phones = (
+        Phone("pau", 0.0, 0.3), Phone("b", 0.3, 0.5), Phone("aa", 0.5, 0.9),
+        Phone("pau", 0.9, n / FPS),
+    )  # fmt: skip
+    samples = (np.arange(round(n / FPS * RATE)) % 251).astype(np.int16)
+    return DecodedClip(
+        Clip(clip_id, Path(f"{clip_id}.mp4"), "ba", **clip),
+        frames, FPS, samples, phones, (WordTiming("ba", 0.3, 0.9),),
+    )  # fmt: skip
+
+
+def _greyed(frames: np.ndarray, which) -> np.ndarray:
+    """``frames`` with the frames ``which`` plain grey, as an MPEG stream opens between key
+    frames (GRID s1's bbizzn)."""
+    out = frames.copy()
+    out[list(which)] = 128
+    return out
+
+
+def test_speech_frames_and_kept_frames():
+    phones = _decoded(np.zeros((12, 2, 2, 3), np.uint8)).phones
+    assert speech_frames(phones, FPS, 12) == (3, 9)
+    assert speech_frames([Phone("pau", 0.0, 1.2)], FPS, 12) == (0, 12)
+    assert kept_frames(np.array([0, 1, 10]), (3, 9), 12) == (2, 10)
+    assert kept_frames(np.array([2, 11]), (3, 9), 12) == (3, 11)
+    assert kept_frames(np.array([], int), (3, 9), 12) == (0, 12)
+
+
+def test_cut_moves_the_sound_phones_and_words_with_the_first_frame_kept():
+    decoded = _decoded(np.arange(12)[:, None, None, None].repeat(2, 1).astype(np.uint8))
+    part = decoded.cut(2, 10)
+    assert part.frames[:, 0, 0, 0].tolist() == list(range(2, 10))
+    assert np.array_equal(part.samples, decoded.samples[round(0.2 * RATE) : round(1.0 * RATE)])
+    assert [(p.name, round(p.start, 6), round(p.end, 6)) for p in part.phones] == [
+        ("pau", 0.0, 0.1), ("b", 0.1, 0.3), ("aa", 0.3, 0.7), ("pau", 0.7, 0.8),
+    ]  # fmt: skip
+    assert [(w.word, round(w.start, 6), round(w.end, 6)) for w in part.words] == [("ba", 0.1, 0.7)]
+    assert part.clip.span == (2, 8) and part.clip.start == pytest.approx(0.2)
+    # a pause left without time goes; a part of a part knows where it is in the media
+    again = part.cut(1, 8)
+    assert again.phones[0].name == "b" and again.clip.span == (3, 7)
+    spanned = _decoded(decoded.frames, span=(40, 12), fps=FPS,
+                       given_words=(WordTiming("ba", 0.3, 0.9),)).cut(3, 9)  # fmt: skip
+    assert spanned.clip.span == (43, 6)
+    assert [(round(w.start, 6), round(w.end, 6)) for w in spanned.clip.given_words] == [(0.0, 0.6)]
+    with pytest.raises(ValueError, match="cannot cut"):
+        decoded.cut(5, 5)
+
+
+def test_stabilize_clip_leaves_out_grey_frames_around_the_speech():
+    frames, _ = _clip(12)
+    stab = Stabilizer.from_reference(frames[0], mouth_box=(74, 97, 29, 15))
+    whole, stabilized = stabilize_clip(_decoded(frames), stab)
+    assert len(whole.frames) == 12 and len(stabilized.frames) == 12
+    kept, stabilized = stabilize_clip(_decoded(_greyed(frames, [0, 1, 11])), stab)
+    assert len(kept.frames) == 9 and kept.clip.span == (2, 9)
+    assert np.array_equal(kept.frames, frames[2:11])
+    assert np.array_equal(stabilized.frames, stab.stabilize(frames[2:11]).frames)
+    assert (stabilized.correlations > 0.95).all() and len(stabilized.transforms) == 9
+    assert kept.phones[0] == Phone("pau", 0.0, pytest.approx(0.1))
+    with pytest.raises(ClipError, match=r"^clip grey frame 5 does not register .*, in its speech$"):
+        stabilize_clip(_decoded(_greyed(frames, [0, 5])), stab)
+
+
+def test_a_corpus_keeps_a_clip_whose_first_frames_are_grey(tmp_path):
+    frames, _ = _clip(12)
+    clips = {"steady": _decoded(frames, "steady"), "grey": _decoded(_greyed(frames, [0, 1]))}
+    clips["holed"] = _decoded(_greyed(frames, [4]), "holed")
+    done = ingest_clips(tmp_path, clips=[c.clip for c in clips.values()],
+                        decode=lambda clip: clips[clip.id])  # fmt: skip
+    assert done["clips"] == 2 and done["frames"] == 12 + 10 and done["skipped"] == 1
+    table = (tmp_path / "clips.tsv").read_text().splitlines()
+    assert [row.split("\t")[:3] for row in table[1:]] == [
+        ["steady", "0", "12"],
+        ["grey", "12", "10"],
+    ]
+    skipped = (tmp_path / "skipped.tsv").read_text().splitlines()[1:]
+    assert len(skipped) == 1 and skipped[0].startswith(
+        "holed\tclip holed frame 4 does not register"
+    )
+    phones = (tmp_path / "phones.tsv").read_text().splitlines()[1:]
+    grey = [row.split("\t") for row in phones if row.startswith("grey\t")]
+    assert [(p[2], p[3], p[5]) for p in grey[:2]] == [("pau", "1.200000", "0.000000"),
+                                                      ("b", "1.300000", "0.100000")]  # fmt: skip

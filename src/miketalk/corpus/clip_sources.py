@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +55,43 @@ class DecodedClip:
     samples: np.ndarray
     phones: tuple[Phone, ...]
     words: tuple[WordTiming, ...]
+
+    def cut(self, first: int, stop: int) -> DecodedClip:
+        """Frames ``first`` to ``stop`` (exclusive), with their sound, phones and words.
+
+        Times are taken from the new first frame, phones and words are cut at the
+        ends (a phone left without duration goes), and ``clip`` says where the
+        part is in its media file (:attr:`Clip.span`).
+        """
+        if not 0 <= first < stop <= len(self.frames):
+            raise ValueError(f"cannot cut frames {first} to {stop} of {len(self.frames)}")
+        t0, t1 = first / self.fps, stop / self.fps
+
+        def moved(items, make):
+            out = []
+            for item in items:
+                start, end = max(item.start, t0), min(item.end, t1)
+                if end - start > 1e-9:
+                    out.append(make(item, start - t0, end - t0))
+            return tuple(out)
+
+        before = self.clip.span[0] if self.clip.span is not None else 0
+        clip = replace(
+            self.clip,
+            span=(before + first, stop - first),
+            fps=self.fps,
+            given_words=None
+            if self.clip.given_words is None
+            else moved(self.clip.given_words, lambda w, a, b: WordTiming(w.word, a, b)),
+        )
+        return DecodedClip(
+            clip,
+            self.frames[first:stop],
+            self.fps,
+            self.samples[round(t0 * RATE) : round(t1 * RATE)],
+            moved(self.phones, lambda p, a, b: Phone(p.name, a, b)),
+            moved(self.words, lambda w, a, b: WordTiming(w.word, a, b)),
+        )
 
 
 class ClipError(MiketalkError):

@@ -13,7 +13,8 @@ all named by the clip's id through patterns such as ``video/{id}.mpg``.
    inside the given word timings when there are any);
 3. every frame of every clip is registered to one reference frame on the face
    outside the mouth (:mod:`miketalk.stabilize`) and warped onto it, so
-   nothing after this stage sees the head move;
+   nothing after this stage sees the head move; frames before or after the
+   speech that do not register are left out (:mod:`miketalk.corpus.steady`);
 4. the clips are written one after the other as one recording: frames
    numbered on, each clip's sound fitted to its frames (padded with silence or
    trimmed to ``n_frames / fps``), its phones shifted by its start time.
@@ -27,8 +28,8 @@ and the mouth are, found in the reference clip), ``reference.png`` and
 recordings of the same person with), and ``skipped.tsv``.
 
 A clip that cannot be used (no sound, a word the aligner cannot place, fewer
-frames than its phones need, a face that will not register, a missing timing
-file) is skipped, named in a warning and in ``skipped.tsv``: one bad clip of
+frames than its phones need, a face that will not register during its speech, a
+missing timing file) is skipped, named in a warning and in ``skipped.tsv``: one bad clip of
 many should not cost the model, and the table says what was left out. The run
 stops (:class:`~miketalk.errors.MiketalkError`) when no clip is left, and for
 mistakes in the configuration itself (a transcript table or media file that
@@ -131,6 +132,7 @@ def ingest_clips(
     MiketalkError
         When no clip can be used, or the clips differ in size or frame rate.
     """
+    from miketalk.corpus.steady import stabilize_clip
     from miketalk.media.video import write_mp4
     from miketalk.stabilize import Stabilizer, choose_reference
 
@@ -177,7 +179,7 @@ def ingest_clips(
                 "one corpus must share size and frame rate"
             )
         try:
-            stabilized = stabilizer.stabilize(item.frames, clip=f"clip {clip.id}")
+            item, stabilized = stabilize_clip(item, stabilizer)
         except MiketalkError as err:
             _skip(skipped, clip.id, str(err))
             continue

@@ -190,13 +190,16 @@ def prepare_heldout(clip, *, stabilizer, table, decode=None) -> HeldoutClip:
 
     ``clip`` is a :class:`miketalk.corpus.clip_sources.Clip`, ``stabilizer`` the
     corpus's (:func:`miketalk.corpus.clips.corpus_stabilizer`), so the test
-    frames are registered to the same reference as the training frames.
+    frames are registered to the same reference as the training frames. Frames
+    before or after the speech that do not register are left out
+    (:func:`miketalk.corpus.steady.stabilize_clip`).
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
+    from miketalk.corpus.steady import stabilize_clip
     from miketalk.talk.lipsync import plan
 
-    decoded = (decode or decode_clip)(clip)
-    real = stabilizer.stabilize(decoded.frames, clip=f"clip {clip.id}").frames
+    decoded, stabilized = stabilize_clip((decode or decode_clip)(clip), stabilizer)
+    real = stabilized.frames
     timeline = plan(decoded.phones, table, fps=decoded.fps, duration=len(real) / decoded.fps)
     if len(timeline.frames) != len(real):  # round(n / fps * fps) is n
         raise MiketalkError(

@@ -25,6 +25,9 @@ from miketalk.stabilize.locate import (
 )
 from miketalk.stabilize.warp import warp_to_reference
 
+#: :attr:`Stabilizer.correlations` of a frame whose ECC did not converge.
+NOT_CONVERGED = -1.0
+
 
 @dataclass(frozen=True)
 class Stabilized:
@@ -333,14 +336,14 @@ class Stabilizer:
         warp = None if init is None else _hom(init)
         for i in range(n):
             pyramid = self._pyramid(_gray(frames[i]))
-            rho, found = -1.0, None
+            rho, found = NOT_CONVERGED, None
             for start in (warp, None) if warp is not None else (None,):
                 try:
                     rho, found = self._register_one(
                         pyramid, self._phase_start(pyramid) if start is None else start
                     )
                 except cv2.error:
-                    rho, found = -1.0, None
+                    rho, found = NOT_CONVERGED, None
                 if rho >= self.min_correlation:
                     break
             self.correlations[i] = rho
@@ -348,14 +351,19 @@ class Stabilizer:
                 if on_failure == "nan":
                     out[i], warp = np.nan, None
                     continue
-                why = "ECC did not converge" if found is None else f"correlation {rho:.3f}"
-                raise MiketalkError(
-                    f"{clip} frame {i} does not register to the reference: {why} "
-                    f"(at least {self.min_correlation} needed)"
-                )
+                raise MiketalkError(self.failure(i, clip=clip))
             warp = found
             out[i] = warp[:2]
         return out
+
+    def failure(self, i: int, *, clip: str = "clip") -> str:
+        """Why frame ``i`` of the last :meth:`register` did not register, in one line."""
+        rho = float(self.correlations[i])
+        why = "ECC did not converge" if rho == NOT_CONVERGED else f"correlation {rho:.3f}"
+        return (
+            f"{clip} frame {i} does not register to the reference: {why} "
+            f"(at least {self.min_correlation} needed)"
+        )
 
     # -- per clip --
 
