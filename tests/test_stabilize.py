@@ -301,12 +301,14 @@ def test_cut_moves_the_sound_phones_and_words_with_the_first_frame_kept():
         decoded.cut(5, 5)
 
 
-def test_stabilize_clip_leaves_out_grey_frames_around_the_speech():
+def test_stabilize_clip_leaves_out_grey_frames_around_the_speech(caplog):
     frames, _ = _clip(12)
     stab = Stabilizer.from_reference(frames[0], mouth_box=(74, 97, 29, 15))
     whole, stabilized = stabilize_clip(_decoded(frames), stab)
     assert len(whole.frames) == 12 and len(stabilized.frames) == 12
     kept, stabilized = stabilize_clip(_decoded(_greyed(frames, [0, 1, 11])), stab)
+    assert "clip grey: frames 0-1, 11 do not register" in caplog.text
+    assert "its frames 2 to 10, around its speech, are kept" in caplog.text
     assert len(kept.frames) == 9 and kept.clip.span == (2, 9)
     assert np.array_equal(kept.frames, frames[2:11])
     assert np.array_equal(stabilized.frames, stab.stabilize(frames[2:11]).frames)
