@@ -19,7 +19,7 @@ import pytest
 
 from miketalk.corpus.clip_sources import RATE, Clip, ClipError, DecodedClip
 from miketalk.corpus.clips import ingest_clips
-from miketalk.corpus.steady import kept_frames, speech_frames, stabilize_clip
+from miketalk.corpus.steady import kept_frames, speech_span, stabilize_clip
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_video
 from miketalk.speech.types import Phone
@@ -271,10 +271,10 @@ def _greyed(frames: np.ndarray, which) -> np.ndarray:
     return out
 
 
-def test_speech_frames_and_kept_frames():
+def test_speech_span_and_kept_frames():
     phones = _decoded(np.zeros((12, 2, 2, 3), np.uint8)).phones
-    assert speech_frames(phones, FPS, 12) == (3, 9)
-    assert speech_frames([Phone("pau", 0.0, 1.2)], FPS, 12) == (0, 12)
+    assert speech_span(phones, FPS, 12) == (3, 9)
+    assert speech_span([Phone("pau", 0.0, 1.2)], FPS, 12) == (0, 12)
     assert kept_frames(np.array([0, 1, 10]), (3, 9), 12) == (2, 10)
     assert kept_frames(np.array([2, 11]), (3, 9), 12) == (3, 11)
     assert kept_frames(np.array([], int), (3, 9), 12) == (0, 12)

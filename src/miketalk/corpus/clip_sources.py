@@ -67,30 +67,28 @@ class DecodedClip:
             raise ValueError(f"cannot cut frames {first} to {stop} of {len(self.frames)}")
         t0, t1 = first / self.fps, stop / self.fps
 
-        def moved(items, make):
-            out = []
-            for item in items:
-                start, end = max(item.start, t0), min(item.end, t1)
-                if end - start > 1e-9:
-                    out.append(make(item, start - t0, end - t0))
-            return tuple(out)
+        def moved(items):  # Phone or WordTiming: cut at the ends, timed from t0
+            return tuple(
+                replace(item, start=max(item.start, t0) - t0, end=min(item.end, t1) - t0)
+                for item in items
+                if min(item.end, t1) - max(item.start, t0) > 1e-9
+            )
 
         before = self.clip.span[0] if self.clip.span is not None else 0
+        given = self.clip.given_words
         clip = replace(
             self.clip,
             span=(before + first, stop - first),
             fps=self.fps,
-            given_words=None
-            if self.clip.given_words is None
-            else moved(self.clip.given_words, lambda w, a, b: WordTiming(w.word, a, b)),
+            given_words=None if given is None else moved(given),
         )
         return DecodedClip(
             clip,
             self.frames[first:stop],
             self.fps,
             self.samples[round(t0 * RATE) : round(t1 * RATE)],
-            moved(self.phones, lambda p, a, b: Phone(p.name, a, b)),
-            moved(self.words, lambda w, a, b: WordTiming(w.word, a, b)),
+            moved(self.phones),
+            moved(self.words),
         )
 
 

@@ -25,7 +25,7 @@ from miketalk.speech.types import Phone
 log = logging.getLogger(__name__)
 
 
-def speech_frames(phones: Sequence[Phone], fps: float, n_frames: int) -> tuple[int, int]:
+def speech_span(phones: Sequence[Phone], fps: float, n_frames: int) -> tuple[int, int]:
     """The frames ``[first, stop)`` that show any of the spoken phones (not ``pau``).
 
     All ``n_frames`` when no phone is spoken.
@@ -72,15 +72,13 @@ def stabilize_clip(decoded: DecodedClip, stabilizer):
     ClipError
         Naming the clip and the first frame in its speech that does not register.
     """
-    from miketalk.stabilize import Stabilized
-
     name = f"clip {decoded.clip.id}"
     transforms = stabilizer.register(decoded.frames, clip=name, on_failure="nan")
     correlations = stabilizer.correlations.copy()
     failed = np.flatnonzero(np.isnan(transforms[:, 0, 0]))
     if failed.size:
         n = len(decoded.frames)
-        speech = speech_frames(decoded.phones, decoded.fps, n)
+        speech = speech_span(decoded.phones, decoded.fps, n)
         if (inside := failed[(failed >= speech[0]) & (failed < speech[1])]).size:
             raise ClipError(f"{stabilizer.failure(int(inside[0]), clip=name)}, in its speech")
         first, stop = kept_frames(failed, speech, n)
@@ -90,9 +88,7 @@ def stabilize_clip(decoded: DecodedClip, stabilizer):
         )  # fmt: skip
         decoded = decoded.cut(first, stop)
         transforms, correlations = transforms[first:stop], correlations[first:stop]
-    field = stabilizer.conform(decoded.frames, transforms, clip=name)
-    frames = stabilizer.apply(decoded.frames, transforms, field=field)
-    return decoded, Stabilized(frames, transforms, field, correlations)
+    return decoded, stabilizer.registered(decoded.frames, transforms, correlations, clip=name)
 
 
 def _ranges(frames: np.ndarray) -> str:
@@ -106,4 +102,4 @@ def _ranges(frames: np.ndarray) -> str:
     return ", ".join(parts)
 
 
-__all__ = ["kept_frames", "speech_frames", "stabilize_clip"]
+__all__ = ["kept_frames", "speech_span", "stabilize_clip"]

@@ -423,7 +423,18 @@ class Stabilizer:
             If a frame does not register, or the clip does not conform.
         """
         transforms = self.register(frames, clip=clip)
-        correlations = self.correlations.copy()
+        return self.registered(frames, transforms, self.correlations.copy(), clip=clip)
+
+    def registered(
+        self,
+        frames: np.ndarray,
+        transforms: np.ndarray,
+        correlations: np.ndarray,
+        *,
+        clip: str = "clip",
+    ) -> Stabilized:
+        """Conform and warp a clip :meth:`register` has registered (:meth:`conform`,
+        :meth:`apply`); ``correlations`` are its frames' (:attr:`correlations`)."""
         field = self.conform(frames, transforms, clip=clip)
         return Stabilized(
             self.apply(frames, transforms, field=field), transforms, field, correlations
