@@ -13,7 +13,7 @@ its validity mask, and the mouth mask used by the metrics::
         image = r.render(face.target("aa"))
         flow, valid = r.true_flow(face.target("#"), face.target("aa"))
 
-How the true flow is checked (``tests/test_synth_face.py``, ``miketalk.bench.synth_face``):
+How the true flow is checked (``tests/test_synth_face.py``, ``miketalk_lab.bench.synth_face``):
 a rigid rotation of the face about the camera centre gives exactly the analytic homography
 and a rigid translation ``f t / depth``; B warped back along the flow reproduces A up to
 resampling noise (and shading, in the lit renders), with the residual smallest at zero

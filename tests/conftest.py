@@ -32,7 +32,7 @@ def s1_joined(tmp_path_factory: pytest.TempPathFactory):
     """The .test face s1's six clips (four training, two held-out) joined into one 18 s
     video, with its plain transcript and an SRT of sentence cues from GRID's word
     timings (made here from the committed clips: no new data)."""
-    from miketalk.bench.joined import join_clips
+    from miketalk_lab.bench.joined import join_clips
 
     s1 = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["faces"]["s1"]["corpus"]
     return join_clips(

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import sharpness
+from miketalk_lab.evaluation.measures import sharpness
 from miketalk.render.composite import Compositor, blend_mask, colour_offset
 from miketalk.stabilize import Stabilizer
 
@@ -205,7 +205,7 @@ def test_cubic_sampling_keeps_the_detail_bilinear_sampling_averages_away():
 def test_the_round_trip_calibration_measures_what_compositing_costs_a_perfect_mouth():
     from types import SimpleNamespace
 
-    from miketalk.evaluation.dubbing import DubbedClip, roundtrip_measures
+    from miketalk_lab.evaluation.dubbing import DubbedClip, roundtrip_measures
 
     frames = np.stack([_texture(seed=s) for s in (1, 2, 3)])
     transforms = np.stack([_affine(shift=(dx, 1.5)) for dx in (0.5, 2.25, -1.75)])

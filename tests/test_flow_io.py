@@ -9,7 +9,7 @@ import OpenEXR
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.flow_error import endpoint_error
+from miketalk_lab.evaluation.flow_error import endpoint_error
 from miketalk.flow import (
     FlowDatabase,
     pair_filename,

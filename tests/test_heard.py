@@ -100,7 +100,7 @@ def test_another_voice_follows_the_persons_phone_timing() -> None:
     """The voice's phones take the person's durations: one by one where the two match (the
     same phone or another pronunciation), a moment for a phone only the voice speaks, and
     the time of one only the person spoke goes to the phone before it."""
-    from miketalk.bench.other_voice import EXTRA_PHONE, retimed_durations
+    from miketalk_lab.bench.other_voice import EXTRA_PHONE, retimed_durations
 
     table = VisemeTable()
     person = [Phone("pau", 0.0, 0.5), Phone("s", 0.5, 0.6), Phone("hh", 0.6, 0.65),
@@ -116,7 +116,7 @@ def test_another_voice_follows_the_persons_phone_timing() -> None:
 def test_held_out_features_can_differ_from_the_fitted_ones() -> None:
     """cross_validated_r2's held_xs: the model fitted on xs meets other features for the
     held-out clips (another voice): the same features score as before, noise does not."""
-    from miketalk.bench.trajectory_cv import cross_validated_r2, ridge_fit
+    from miketalk_lab.bench.trajectory_cv import cross_validated_r2, ridge_fit
 
     rng = np.random.default_rng(3)
     xs = [rng.normal(size=(30, 4)) for _ in range(10)]
@@ -135,7 +135,7 @@ def test_festival_speaks_a_clip_at_the_persons_timing(tmp_path) -> None:
     phones, loud where he speaks and quiet in his lead-in."""
     import json
 
-    from miketalk.bench.other_voice import voiced_recordings
+    from miketalk_lab.bench.other_voice import voiced_recordings
 
     person = (Phone("pau", 0.0, 0.6), Phone("b", 0.6, 0.66), Phone("l", 0.66, 0.72),
               Phone("uw", 0.72, 0.95), Phone("pau", 0.95, 1.3))  # fmt: skip

@@ -1,4 +1,4 @@
-"""Tests of miketalk.evaluation.inbetween, its benchmark, and the morph's splat="bilinear"."""
+"""Tests of miketalk_lab.evaluation.inbetween, its benchmark, and the morph's splat="bilinear"."""
 
 from __future__ import annotations
 
@@ -7,13 +7,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from miketalk.bench.inbetween import main as bench_main
-from miketalk.bench.inbetween import parse_estimator
+from miketalk_lab.bench.inbetween import main as bench_main
+from miketalk_lab.bench.inbetween import parse_estimator
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.inbetween import COLUMNS, Method, default_methods, inbetween_table
-from miketalk.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
-from miketalk.evaluation.measures import psnr
-from miketalk.evaluation.slomo import slomo_flows, slomo_frame
+from miketalk_lab.evaluation.inbetween import COLUMNS, Method, default_methods, inbetween_table
+from miketalk_lab.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
+from miketalk_lab.evaluation.measures import psnr
+from miketalk_lab.evaluation.slomo import slomo_flows, slomo_frame
 from miketalk.flow.registry import get_estimator
 from miketalk.mouth.lip_colour import find_mouth_box
 from miketalk.render.morph import Morpher, morph, morph_stages

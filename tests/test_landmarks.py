@@ -9,14 +9,14 @@ import pandas as pd
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.heldout import summarize
-from miketalk.evaluation.landmark_scores import (
+from miketalk_lab.evaluation.heldout import summarize
+from miketalk_lab.evaluation.landmark_scores import (
     LANDMARK_MEASURES,
     ClipLandmarks,
     landmark_scores,
     paired_differences,
 )
-from miketalk.evaluation.landmarks import (
+from miketalk_lab.evaluation.landmarks import (
     delayed,
     face_landmarks,
     lip_opening,
@@ -161,7 +161,7 @@ def test_paired_differences_against_the_morph() -> None:
 
 
 def test_the_bench_reports_each_lip_sync_renderer_against_the_morph() -> None:
-    from miketalk.bench.real_face import RENDERER_FIGURES, landmark_figures
+    from miketalk_lab.bench.real_face import RENDERER_FIGURES, landmark_figures
 
     rows = []
     for clip, lag in (("a", 0), ("b", 2)):
@@ -188,7 +188,7 @@ def test_the_bench_finds_the_faces_own_model_and_sweeps_each_trained_renderer(
 ) -> None:
     """The own model is the one the baselines draw (not a name written in the bench), and the
     sweep reports the morph and both trained renderers of that model only."""
-    from miketalk.bench.real_face import RENDERER_FIGURES, own_model, sweep_figures
+    from miketalk_lab.bench.real_face import RENDERER_FIGURES, own_model, sweep_figures
 
     rows = [
         {"training_clips": n, "renderer": renderer, "model": model}
@@ -212,7 +212,7 @@ def test_the_bench_finds_the_faces_own_model_and_sweeps_each_trained_renderer(
 
 
 def test_the_bench_keeps_the_dubs_means(tmp_path: Path) -> None:
-    from miketalk.bench.real_face import DUB_FIGURES, dub_figures
+    from miketalk_lab.bench.real_face import DUB_FIGURES, dub_figures
 
     row = {f"{k}_mean": float(i) for i, k in enumerate(DUB_FIGURES)}
     row |= {f"{k}_sd": 9.0 for k in DUB_FIGURES} | {"clips": 40, "renderer": "trained_heard"}
@@ -225,7 +225,7 @@ def test_the_bench_keeps_the_dubs_means(tmp_path: Path) -> None:
 
 
 def test_mouth_to_nose_jitter_and_eye_openness() -> None:
-    from miketalk.evaluation.landmarks import eye_openness, mouth_nose_jitter
+    from miketalk_lab.evaluation.landmarks import eye_openness, mouth_nose_jitter
 
     rng = np.random.default_rng(0)
     base = rng.uniform(0, 100, (68, 2))

@@ -8,7 +8,7 @@ import pytest
 from skimage.metrics import structural_similarity
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import (
+from miketalk_lab.evaluation.measures import (
     box_mask,
     lag_frames,
     psnr,

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from miketalk.bench.morph import numpy_morph, scene
+from miketalk_lab.bench.morph import numpy_morph, scene
 from miketalk.errors import MiketalkError
 from miketalk.render.morph import Morpher, cross_dissolve, morph, morph_stages
 from miketalk.render.splat import HOLE_VALUE, fill_holes_scanline, forward_warp

@@ -1,7 +1,7 @@
 """A face from one video: the script readers, the long-form aligner, the utterances, the checks.
 
 The video is made at test time from the committed GRID s1 clips
-(:func:`miketalk.bench.joined.join_clips`): no new data.
+(:func:`miketalk_lab.bench.joined.join_clips`): no new data.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from miketalk.bench.joined import join_clips
-from miketalk.bench.one_video import boundary_errors
+from miketalk_lab.bench.joined import join_clips
+from miketalk_lab.bench.one_video import boundary_errors
 from miketalk.corpus.clip_sources import decode_clip
 from miketalk.corpus.one_video import face_clips, segment_video, video_clips
 from miketalk.corpus.script import Cue, read_script, text_words

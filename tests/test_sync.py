@@ -152,7 +152,7 @@ def test_read_said_errors(tmp_path: Path) -> None:
 def test_the_frames_measured_are_the_frames_say_writes(
     model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from miketalk.evaluation.sync import utterance_frames
+    from miketalk_lab.evaluation.sync import utterance_frames
     from miketalk.talk import utterance as utterance_module
     from miketalk.talk.say import say
     from miketalk.talk.utterance import read_said
@@ -182,7 +182,7 @@ def test_the_frames_measured_are_the_frames_say_writes(
 def test_sync_table_of_an_utterance_reads_its_json_and_probes_its_mp4(
     model_dir: Path, tmp_path: Path
 ) -> None:
-    from miketalk.evaluation.sync import MOTION_QUANTITIES, summarize_sync, sync_table
+    from miketalk_lab.evaluation.sync import MOTION_QUANTITIES, summarize_sync, sync_table
     from miketalk.media.video import probe_durations
     from miketalk.talk.say import say
     from miketalk.talk.utterance import read_said
@@ -217,7 +217,7 @@ def test_sync_table_of_an_utterance_reads_its_json_and_probes_its_mp4(
 
 
 def test_psnr_of_mean_mse_averages_the_error_not_the_decibels() -> None:
-    from miketalk.evaluation.sync import psnr_of_mean_mse
+    from miketalk_lab.evaluation.sync import psnr_of_mean_mse
 
     assert psnr_of_mean_mse([20.0, 20.0]) == pytest.approx(20.0)
     mse = 255.0**2 / np.array([10.0, 100.0])  # 10 dB and 20 dB
@@ -273,7 +273,7 @@ def _through_csv(parts: list[pd.DataFrame]) -> pd.DataFrame:
 
 
 def test_summarize_sync_one_row_per_utterance_and_setting() -> None:
-    from miketalk.evaluation.sync import summarize_sync
+    from miketalk_lab.evaluation.sync import summarize_sync
 
     parts = [
         _tidy("quick", 30, 2.5, [20.0, 30.0, math.inf]),
@@ -308,7 +308,7 @@ def test_summarize_sync_one_row_per_utterance_and_setting() -> None:
 
 def test_summarize_sync_groups_the_sampling_modes_apart() -> None:
     """The same sentence and setting in two modes: two rows, each with its own motion."""
-    from miketalk.evaluation.sync import summarize_sync
+    from miketalk_lab.evaluation.sync import summarize_sync
 
     parts = [
         _tidy("hello", 30, 2.5, [25.0] * 9, sampling="paper", ratio=3.0),
@@ -329,7 +329,7 @@ def test_summarize_sync_groups_the_sampling_modes_apart() -> None:
 
 def _sweep_summary(tmp_path: Path) -> Path:
     """A sync sweep summary of both modes: three max_px at 30 fps, two more frame rates."""
-    from miketalk.evaluation.sync import summarize_sync
+    from miketalk_lab.evaluation.sync import summarize_sync
 
     parts = []
     for sampling, ratio in (("blur", 1.0), ("paper", 3.0)):
@@ -350,7 +350,7 @@ def _png_size(path: Path) -> tuple[int, int]:
 
 
 def test_sync_sweep_figure_is_drawn_by_name_a_row_per_mode(tmp_path: Path) -> None:
-    from miketalk.figures.plots import draw
+    from miketalk_lab.figures.plots import draw
 
     summary = _sweep_summary(tmp_path)
     out = tmp_path / "sync.png"
@@ -366,7 +366,7 @@ def test_sync_sweep_figure_is_drawn_by_name_a_row_per_mode(tmp_path: Path) -> No
 
 
 def test_sampling_modes_figure_is_drawn_at_the_configured_rate(tmp_path: Path) -> None:
-    from miketalk.figures.plots import FIGURES, draw
+    from miketalk_lab.figures.plots import FIGURES, draw
 
     assert "sampling_vs_max_px" in FIGURES and "sampling_strip" in FIGURES
     summary = _sweep_summary(tmp_path)
@@ -385,7 +385,7 @@ def test_sampling_strip_shows_both_modes_at_the_same_moments(
 ) -> None:
     """Rows are modes, columns the same moments of the speech; the paper row's frames
     run further apart in the lengthened video."""
-    from miketalk.figures.plots import draw
+    from miketalk_lab.figures.plots import draw
     from miketalk.talk.say import say
 
     model = Model(model_dir)
@@ -415,7 +415,7 @@ def test_sampling_strip_shows_both_modes_at_the_same_moments(
 
 def test_sampling_bench_targets() -> None:
     """The bench's targets: blur within 10% of natural on every text, its step no larger."""
-    from miketalk.bench.sampling import TEXT_300, targets
+    from miketalk_lab.bench.sampling import TEXT_300, targets
 
     assert 290 <= len(TEXT_300.split()) <= 320
     rows = [("a", "blur", 1.0, 2.49), ("a", "paper", 3.0, 2.499), ("b", "blur", 1.05, 2.4995),

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.dub_heldout import dub_renderer
+from miketalk_lab.evaluation.dub_heldout import dub_renderer
 from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import plan
@@ -390,7 +390,7 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
 
 
 def test_trajectory_cv_ridge_recovers_a_predictable_description_and_not_noise() -> None:
-    from miketalk.bench.trajectory_cv import cross_validated_r2, ridge_fit
+    from miketalk_lab.bench.trajectory_cv import cross_validated_r2, ridge_fit
 
     rng = np.random.default_rng(5)
     xs = [rng.integers(0, 2, size=(40, 6)).astype(float) for _ in range(10)]
@@ -405,7 +405,7 @@ def test_trajectory_cv_ridge_recovers_a_predictable_description_and_not_noise() 
 def test_heldout_table_pairs_each_renderer_with_the_morph_by_clip() -> None:
     import pandas as pd
 
-    from miketalk.bench.heldout_table import MEASURES, main, tables
+    from miketalk_lab.bench.heldout_table import MEASURES, main, tables
 
     rows = []
     for k, clip in enumerate(("a", "b", "c")):

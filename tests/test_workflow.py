@@ -216,7 +216,7 @@ PHONES_WITHIN_50MS, PHONES_MEDIAN_MS = 0.90, 30.0
 def test_one_video_phones_match_the_clips_corpus(
     run: Path, s1_built: Path, s1_joined, script: str
 ) -> None:
-    from miketalk.bench.video_vs_clips import phone_errors
+    from miketalk_lab.bench.video_vs_clips import phone_errors
 
     corpus, segments, _ = one_video_face(run, s1_built, script)
     assert segments["unaligned"] == []
@@ -235,7 +235,7 @@ def heldout_gaps(clips_built: pd.DataFrame, video_built: pd.DataFrame) -> list[s
     and learned): mouth PSNR within 1 dB and mouth landmark distance within 0.5 px either
     way; the lip opening's correlation with the real one no more than 0.1 lower, its
     amplitude (as a share of the real one's) no more than 0.1 farther from 1."""
-    from miketalk.bench.video_vs_clips import compare_heldout
+    from miketalk_lab.bench.video_vs_clips import compare_heldout
 
     table = compare_heldout(clips_built, video_built, model="bergen/bridge")
     gaps = []
@@ -264,7 +264,7 @@ def test_one_video_model_matches_the_clips_model_on_held_out_clips(
     corpus's frame, paired clip by clip (see :func:`heldout_gaps`)."""
     import yaml
 
-    from miketalk.bench.video_vs_clips import heldout_of_model
+    from miketalk_lab.bench.video_vs_clips import heldout_of_model
     from miketalk.corpus.clip_sources import clip_sources
 
     corpus, _, model = one_video_face(run, s1_built, script)

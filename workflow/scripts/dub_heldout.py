@@ -8,8 +8,8 @@ from miketalk.stage import run_stage
 def main() -> None:
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.one_video import face_clips
-    from miketalk.evaluation.dub_heldout import dub_heldout, dub_renderer
-    from miketalk.figures.dub_strip import strip
+    from miketalk_lab.evaluation.dub_heldout import dub_heldout, dub_renderer
+    from miketalk_lab.figures.dub_strip import strip
 
     corpus = snakemake.params.corpus
     clips = face_clips(corpus, "test", segments=snakemake.input.get("segments"))

@@ -4,7 +4,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.figures.plots import draw
+    from miketalk_lab.figures.plots import draw
 
     settings = dict(snakemake.params.items())
     figure = settings.pop("figure")

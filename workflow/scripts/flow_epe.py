@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.evaluation.tables import flow_epe_table
+    from miketalk_lab.evaluation.tables import flow_epe_table
     from miketalk.media.atomic import write_text_atomic
 
     spec = json.loads(snakemake.params.spec)

@@ -8,7 +8,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.one_video import face_clips
-    from miketalk.evaluation.heldout import heldout_stage
+    from miketalk_lab.evaluation.heldout import heldout_stage
 
     corpus = snakemake.params.corpus
     clips = face_clips(corpus, "test", segments=snakemake.input.get("segments"))

@@ -7,8 +7,8 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.figures.heldout_strip import heldout_strip
-    from miketalk.figures.plots import heldout_psnr, heldout_trajectory
+    from miketalk_lab.figures.heldout_strip import heldout_strip
+    from miketalk_lab.figures.plots import heldout_psnr, heldout_trajectory
     from miketalk.mouth import mouth_region
 
     p, frames, out = snakemake.params, snakemake.input.frames_csv, snakemake.output

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk.evaluation.tables import morph_fidelity_table
+    from miketalk_lab.evaluation.tables import morph_fidelity_table
     from miketalk.media.atomic import write_text_atomic
 
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)

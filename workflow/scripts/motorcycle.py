@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk.evaluation.flow_error import motorcycle_table
+    from miketalk_lab.evaluation.flow_error import motorcycle_table
     from miketalk.flow import get_estimator
     from miketalk.media.atomic import write_text_atomic
 

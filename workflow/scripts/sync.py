@@ -6,8 +6,8 @@ from miketalk.stage import run_stage
 def main() -> None:
     import json
 
-    from miketalk.evaluation.sync import sync_table
-    from miketalk.evaluation.tables import read_mask
+    from miketalk_lab.evaluation.sync import sync_table
+    from miketalk_lab.evaluation.tables import read_mask
     from miketalk.media.atomic import write_text_atomic
     from miketalk.talk.say import open_model
     from miketalk.talk.utterance import read_said

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk.evaluation.sync import summarize_sync
+    from miketalk_lab.evaluation.sync import summarize_sync
     from miketalk.media.atomic import write_text_atomic
 
     table = pd.concat([pd.read_csv(p, keep_default_na=False) for p in snakemake.input])

@@ -4,7 +4,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.evaluation.heldout import sweep_table
+    from miketalk_lab.evaluation.heldout import sweep_table
     from miketalk.media.atomic import write_text_atomic
 
     table = sweep_table(dict(zip(snakemake.params.training_clips, snakemake.input, strict=True)))

@@ -7,7 +7,7 @@ def main() -> None:
     import numpy as np
     import pandas as pd
 
-    from miketalk.evaluation.truth import viseme_params, write_true_flows
+    from miketalk_lab.evaluation.truth import viseme_params, write_true_flows
     from miketalk.media.images import write_png
 
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)

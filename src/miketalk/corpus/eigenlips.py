@@ -5,7 +5,7 @@ the principal components of its training frames' grey mouth regions) are used
 twice: to fit the face's learned coarticulation on the training clips'
 trajectories (:func:`miketalk.talk.coarticulation.fit_coarticulation`) and to
 compare held-out clips with their re-synthesis
-(:func:`miketalk.evaluation.heldout.heldout_stage`). Reading every corpus
+(:func:`miketalk_lab.evaluation.heldout.heldout_stage`). Reading every corpus
 frame and decomposing the (frames x pixels) matrix is most of what either
 costs, so the workflow does it once (rule ``eigenlips``) and both read this
 file: the same arrays, so the same results as fitting them in each.

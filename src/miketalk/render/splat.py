@@ -18,7 +18,7 @@ half a pixel and a collision keeps one of several noisy flow vectors, which
 costs more than the warp gains when a mouth moves a pixel or two between
 frames: predicting frame ``t + 2`` of GRID talker s1 from frames ``t`` and
 ``t + 4`` (48 clips, mouth box, bergen flow, no median;
-:mod:`miketalk.evaluation.inbetween`), the rounded morph is 0.23 dB under a
+:mod:`miketalk_lab.evaluation.inbetween`), the rounded morph is 0.23 dB under a
 cross-dissolve and the bilinear one 0.18 dB over it. Real frames also carry
 detail the 3x3 median removes (the median of a real frame is 41.6 dB from the
 frame), so on them ``median=False`` goes with ``splat="bilinear"``. The

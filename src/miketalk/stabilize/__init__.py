@@ -79,7 +79,7 @@ their median (no blink, no movement); the first training clip's is used.
 
 Measurement: :func:`residual_motion`, the mean magnitude of the DIS optical
 flow (preset medium) from the reference to each frame over a mask; see
-:mod:`miketalk.bench.stabilization` for the numbers.
+:mod:`miketalk_lab.bench.stabilization` for the numbers.
 """
 
 from miketalk.stabilize.locate import (

@@ -84,7 +84,7 @@ def render_model_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarra
     """:func:`render_learned` with the parameters fitted into the model's directory.
 
     The ``(model, timeline)`` signature of
-    :data:`miketalk.evaluation.renderers.RENDERERS`; raises
+    :data:`miketalk_lab.evaluation.renderers.RENDERERS`; raises
     :class:`~miketalk.errors.MiketalkError` for a model without
     ``coarticulation.json`` (:func:`miketalk.talk.coarticulation.read_params`).
     """

@@ -73,7 +73,7 @@ class SelectionSettings:
         (0: every component all of it).
 
     The defaults were chosen by 5-fold cross-validation on the training clips
-    (``python -m miketalk.bench.trained_cv``, on the bench's 40 and on its first 10;
+    (``python -m miketalk_lab.bench.trained_cv``, on the bench's 40 and on its first 10;
     :data:`PREVIOUS_SELECTION` were the settings before): the gain measured on
     cross-validated predictions, given to every component the phones predict at
     all, with a stronger join, raised the opening's correlation and amplitude at
@@ -133,7 +133,7 @@ class SelectionSettings:
 
 
 #: The selection settings before cross-validation on the training clips chose the
-#: defaults (``python -m miketalk.bench.trained_cv``): the held-out evaluation's
+#: defaults (``python -m miketalk_lab.bench.trained_cv``): the held-out evaluation's
 #: ``trained_previous`` renders with them, for a paired comparison.
 PREVIOUS_SELECTION = {
     "join": 0.3, "gain_r2": 0.25, "amplitude": 1.0, "cv_gain": False, "fade": 1.0 / 3.0,

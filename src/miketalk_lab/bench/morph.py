@@ -6,7 +6,7 @@ warps, hole-aware blend, scanline hole filling, 3x3 median) at 256x256 and
 thread. In the same run it times ``cv2.remap`` (bilinear, one backward warp of
 the same image: the speed ceiling) and :func:`numpy_morph`, a vectorised numpy
 version of the same algorithm (the floor). Run it with
-``python -m miketalk.bench.morph --out DIR``.
+``python -m miketalk_lab.bench.morph --out DIR``.
 """
 
 from __future__ import annotations
@@ -214,7 +214,7 @@ def _print_table(figures: dict[str, float]) -> None:
 
 
 def main() -> None:
-    """``python -m miketalk.bench.morph --out DIR``."""
+    """``python -m miketalk_lab.bench.morph --out DIR``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, default=defaults.RESULTS / "bench")
     run(parser.parse_args().out)

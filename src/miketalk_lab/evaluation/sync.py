@@ -21,7 +21,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from miketalk.evaluation.measures import lag_frames, psnr
+from miketalk_lab.evaluation.measures import lag_frames, psnr
 from miketalk.mouth import mouth_opening
 from miketalk.talk.lipsync import Timeline, plan
 from miketalk.talk.model import Model

@@ -12,7 +12,7 @@ motion from one frame to the next, and the mean and largest jerk of the frames.
 The issue's targets: in the default mode (blur) the speech lasts within
 :data:`TARGET_DURATION` of its natural duration on every text, and its largest
 step is no larger than the paper mode's. ``say`` of a 10-word sentence in at
-most a second, warm, is timed by :mod:`miketalk.bench.pipeline`.
+most a second, warm, is timed by :mod:`miketalk_lab.bench.pipeline`.
 
 Writes ``sampling.csv`` (a row per text and mode) to ``out_dir``.
 """

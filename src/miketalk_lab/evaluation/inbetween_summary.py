@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.inbetween import _DISSOLVE, COLUMNS
+from miketalk_lab.evaluation.inbetween import _DISSOLVE, COLUMNS
 
 
 def summarize_inbetween(table: pd.DataFrame, *, baseline: str = _DISSOLVE) -> pd.DataFrame:

@@ -1,14 +1,14 @@
 """Does ``say --background auto`` move the head and blink as the source frames do?
 
-``python -m miketalk.evaluation.head_motion MODEL_DIR VIDEO.mp4``: dlib's landmarks
-(:mod:`miketalk.evaluation.landmarks`) are marked on the model's background frames (the
+``python -m miketalk_lab.evaluation.head_motion MODEL_DIR VIDEO.mp4``: dlib's landmarks
+(:mod:`miketalk_lab.evaluation.landmarks`) are marked on the model's background frames (the
 source) and on the video ``say`` made, each from the face box of its own median frame.
 Prints, for each, the standard deviation of the nose's position (the centroid of the
-nose tip and the nostrils' base, :data:`~miketalk.evaluation.landmarks.NOSE`) and its
+nose tip and the nostrils' base, :data:`~miketalk_lab.evaluation.landmarks.NOSE`) and its
 largest frame-to-frame step (a loop that jumps would show as a step larger than the
 source's), the ratio of the output's to the source's standard deviation (the issue's
 target: within 20 %), and the eyes: the eye aspect ratio
-(:func:`~miketalk.evaluation.landmarks.eye_openness`) of each output frame against that
+(:func:`~miketalk_lab.evaluation.landmarks.eye_openness`) of each output frame against that
 of the background frame it shows (their correlation), and the frames where the eyes
 close (below :data:`CLOSED` of the sequence's median) in the background, where the output
 should show them, and where it does.
@@ -25,7 +25,7 @@ CLOSED = 0.75
 
 
 def _marks(frames: np.ndarray) -> np.ndarray:
-    from miketalk.evaluation.landmarks import face_landmarks
+    from miketalk_lab.evaluation.landmarks import face_landmarks
 
     landmarks = face_landmarks()
     return landmarks.points(frames, landmarks.face_box(frames))
@@ -37,7 +37,7 @@ def _closed(openness: np.ndarray) -> np.ndarray:
 
 def head_motion(model_dir: str, video: str) -> dict:
     """The nose's spread and largest step, and the blinks, of the background and ``video``."""
-    from miketalk.evaluation.landmarks import NOSE, eye_openness
+    from miketalk_lab.evaluation.landmarks import NOSE, eye_openness
     from miketalk.media.decode import read_video
     from miketalk.talk.background_files import read_background
 

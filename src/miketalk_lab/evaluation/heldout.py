@@ -5,10 +5,10 @@ rate, so synthesized frame ``k`` and the real (stabilized) frame ``k`` show the
 same moment, ``k / fps``. Every measure compares the two on the mouth region:
 
 ``psnr_mouth``, ``ssim_mouth``
-    pixels (:func:`miketalk.evaluation.measures.psnr`, ``ssim``);
+    pixels (:func:`miketalk_lab.evaluation.measures.psnr`, ``ssim``);
 ``sharpness_ratio``
     the synthesized mouth's fine detail over the real one's
-    (:func:`miketalk.evaluation.measures.sharpness`, means over the frames): under 1
+    (:func:`miketalk_lab.evaluation.measures.sharpness`, means over the frames): under 1
     a softer picture than the video, which PSNR rewards;
 ``eigenlip_<i>``
     mouth shape without a learned landmark model: the mouth region projected
@@ -25,7 +25,7 @@ same moment, ``k / fps``. Every measure compares the two on the mouth region:
     speech) dominate a whole clip's correlation; inside the speech it measures
     how well the mouth's shapes follow the phones;
 ``mouth_lmd``, ``lip_opening_...``, ``mouth_width_...``
-    dlib's 68 face landmarks of both (:mod:`miketalk.evaluation.landmark_scores`).
+    dlib's 68 face landmarks of both (:mod:`miketalk_lab.evaluation.landmark_scores`).
 
 Renderers (:data:`RENDERERS`) put the paper's morph beside baselines that use
 the same timeline and so the same frames: the silence viseme held (a still
@@ -49,9 +49,9 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
-from miketalk.evaluation.landmarks import delayed
-from miketalk.evaluation.measures import (
+from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
+from miketalk_lab.evaluation.landmarks import delayed
+from miketalk_lab.evaluation.measures import (
     box_mask,
     lag_frames,
     psnr,
@@ -59,8 +59,8 @@ from miketalk.evaluation.measures import (
     sharpness,
     ssim,
 )
-from miketalk.evaluation.measures import correlation as _corr
-from miketalk.evaluation.renderers import RENDERERS
+from miketalk_lab.evaluation.measures import correlation as _corr
+from miketalk_lab.evaluation.renderers import RENDERERS
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
 from miketalk.speech.acoustic import Recording
@@ -230,7 +230,7 @@ def evaluate_clip(
         The model whose images the baselines (still, flip-book, dissolve) use;
         the calibration rows (the real frames late) are labelled with it.
     landmarks : FaceLandmarks, optional
-        Adds the landmark measures (:mod:`miketalk.evaluation.landmark_scores`);
+        Adds the landmark measures (:mod:`miketalk_lab.evaluation.landmark_scores`);
         each real frame is marked once.
 
     Returns
@@ -307,7 +307,7 @@ def summarize(table: pd.DataFrame, *, reference: tuple[str, str] | None = None) 
 
     With ``reference`` (``(renderer, model)``, the paper's morph), the landmark
     measures are also paired with it clip by clip
-    (:func:`miketalk.evaluation.landmark_scores.paired_differences`).
+    (:func:`miketalk_lab.evaluation.landmark_scores.paired_differences`).
     """
     measures = [c for c in table.columns if c not in ("clip", "renderer", "model", "frames")]
     grouped = table.groupby(["renderer", "model"], sort=False)[measures]
@@ -373,7 +373,7 @@ def heldout_stage(
 
     from miketalk.corpus.clips import corpus_stabilizer
     from miketalk.corpus.folder import open_corpus
-    from miketalk.evaluation.landmarks import face_landmarks
+    from miketalk_lab.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region

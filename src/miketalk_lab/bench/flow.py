@@ -1,12 +1,12 @@
 """Benchmark of the flow estimators (paper section 5.2) on one core: speed and accuracy.
 
 ``run(out_dir)`` times every registered estimator on the 256x256 textured
-sinusoidal pair (:func:`miketalk.evaluation.flow_error.sinusoidal_pair`, 4-pixel flow) with the
+sinusoidal pair (:func:`miketalk_lab.evaluation.flow_error.sinusoidal_pair`, 4-pixel flow) with the
 process pinned to one CPU and OpenCV on one thread (median of several calls,
 after a warm-up call), scores each against the pair's ground truth, and runs
-the Middlebury motorcycle stereo pair (:func:`miketalk.evaluation.flow_error.motorcycle_table`,
+the Middlebury motorcycle stereo pair (:func:`miketalk_lab.evaluation.flow_error.motorcycle_table`,
 also one thread), writing that table to ``motorcycle_epe.csv``. Run it with
-``python -m miketalk.bench.flow --out DIR``.
+``python -m miketalk_lab.bench.flow --out DIR``.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from contextlib import contextmanager
 import cv2
 
 from miketalk import defaults
-from miketalk.evaluation.flow_error import endpoint_error, motorcycle_table, sinusoidal_pair
+from miketalk_lab.evaluation.flow_error import endpoint_error, motorcycle_table, sinusoidal_pair
 from miketalk.flow import ESTIMATORS
 from miketalk.media.atomic import atomic_path, write_text_atomic
 
@@ -115,7 +115,7 @@ def viseme_pairs(out_dir: pathlib.Path) -> dict[str, float]:
 
     import pandas as pd
 
-    from miketalk.evaluation.tables import flow_epe_table
+    from miketalk_lab.evaluation.tables import flow_epe_table
     from miketalk.flow.build import build_flow_database
 
     visemes = pd.read_csv(VISEMES / "visemes.tsv", sep="\t", keep_default_na=False)
@@ -169,7 +169,7 @@ def _print_table(figures: dict[str, float], table: object) -> None:
 
 
 def main() -> None:
-    """``python -m miketalk.bench.flow --out DIR``."""
+    """``python -m miketalk_lab.bench.flow --out DIR``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=pathlib.Path, default=defaults.RESULTS / "bench" / "flow")
     run(parser.parse_args().out)

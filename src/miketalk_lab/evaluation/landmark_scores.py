@@ -1,6 +1,6 @@
 """Landmark measures of a synthesized clip against its real frames (the held-out evaluation).
 
-From the 68 face landmarks of each frame (:mod:`miketalk.evaluation.landmarks`),
+From the 68 face landmarks of each frame (:mod:`miketalk_lab.evaluation.landmarks`),
 in pixels of the stabilized frame:
 
 ``mouth_lmd``, ``mouth_lmd_speech``
@@ -10,7 +10,7 @@ in pixels of the stabilized frame:
 ``lip_opening_corr_speech``, ``lip_opening_corr``
     Pearson correlation of the inner-lip opening (the mean distance of the
     inner-lip pairs 61-67, 62-66, 63-65), synthesized vs real, over the speech
-    (:func:`miketalk.evaluation.heldout.speech_frames`) and over the clip;
+    (:func:`miketalk_lab.evaluation.heldout.speech_frames`) and over the clip;
 ``lip_opening_amplitude_speech``
     how far the synthesized mouth opens and closes against the real one: the
     standard deviation of its opening over the speech divided by the real one's;
@@ -18,7 +18,7 @@ in pixels of the stabilized frame:
     the correlation of the mouth width (corners 48-54) over the speech;
 ``lip_opening_lag``
     the shift in frames that best aligns the synthesized opening to the real one
-    over the clip (:func:`miketalk.evaluation.measures.lag_frames`; positive when
+    over the clip (:func:`miketalk_lab.evaluation.measures.lag_frames`; positive when
     the synthesis is late); undefined (NaN) when either opening never changes
     (a still face has no lag: the cross-correlation of a constant is noise).
 
@@ -34,14 +34,14 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.landmarks import (
+from miketalk_lab.evaluation.landmarks import (
     FaceLandmarks,
     delayed,
     lip_opening,
     mouth_lmd,
     mouth_width,
 )
-from miketalk.evaluation.measures import correlation, lag_frames
+from miketalk_lab.evaluation.measures import correlation, lag_frames
 
 #: The per-clip landmark measures, in the order the tables show them.
 LANDMARK_MEASURES = (

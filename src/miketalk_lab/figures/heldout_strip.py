@@ -1,6 +1,6 @@
 """A strip of a held-out side-by-side video: its columns as rows, around the mouth, over time.
 
-The held-out videos (:func:`miketalk.evaluation.heldout.heldout_stage`) put the
+The held-out videos (:func:`miketalk_lab.evaluation.heldout.heldout_stage`) put the
 real clip and its re-syntheses side by side, one column each. The strip cuts
 the mouth region out of every column at evenly spaced frames of the speech
 and lays them out with one row per column (real, paper, learned, trained, trained_heard), each tile
@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.heldout import speech_frames
+from miketalk_lab.evaluation.heldout import speech_frames
 from miketalk.media.decode import read_video
 from miketalk.media.images import write_png
 from miketalk.media.sheets import grid
@@ -61,7 +61,7 @@ def heldout_strip(
         ``difference``).
     count : int
         Frames shown, evenly spaced over the speech
-        (:func:`miketalk.evaluation.heldout.speech_frames`).
+        (:func:`miketalk_lab.evaluation.heldout.speech_frames`).
     scale : float
         Tiles are enlarged by this factor.
 

@@ -1,6 +1,6 @@
 """How much of the mouth the phones predict: the trajectory's cross-validated R², by model.
 
-``python -m miketalk.bench.trajectory_cv --corpus DIR [--mlp 128 512] [--heard] [--opening]
+``python -m miketalk_lab.bench.trajectory_cv --corpus DIR [--mlp 128 512] [--heard] [--opening]
 [--voice kal ked]``
 
 The trained face's description of every frame of a corpus folder
@@ -16,7 +16,7 @@ only: the ceiling a phone model meets, judged without the held-out clips.
 
 ``--voice kal ked`` asks whether the ``heard`` trajectory holds for another
 speaker: fitted on his recordings as always, it meets each held-out clip spoken
-by that Festival voice at his own phone timing (:mod:`miketalk.bench.other_voice`).
+by that Festival voice at his own phone timing (:mod:`miketalk_lab.bench.other_voice`).
 
 ``--heard`` adds the ``heard`` trajectory's features (the clip's recording,
 :func:`miketalk.speech.acoustic.heard_features`) beside the phones. ``--opening``
@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from miketalk.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 
 if TYPE_CHECKING:
@@ -115,8 +115,8 @@ def opening_ceiling(
     import pandas as pd
 
     from miketalk.corpus.folder import frame_path
-    from miketalk.evaluation.landmarks import face_landmarks, lip_opening
-    from miketalk.evaluation.measures import correlation
+    from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening
+    from miketalk_lab.evaluation.measures import correlation
     from miketalk.media.images import read_image
     from miketalk.talk.trained.trajectory import ridge
     from miketalk.visemes import SILENCE, VisemeTable
@@ -170,7 +170,7 @@ def voice_scores(
 
     ``data`` and ``clip_ids`` are the corpus's training set and clip ids, when the caller
     has them already."""
-    from miketalk.bench.other_voice import voiced_recordings
+    from miketalk_lab.bench.other_voice import voiced_recordings
     from miketalk.talk.trained.trajectory import HEARD_HALF, Context, window_features
     from miketalk.visemes import VisemeTable
 
@@ -227,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
         default=[],
         choices=("kal", "ked"),
         help="the heard trajectory fitted on his recordings, meeting each held-out clip "
-        "spoken by this Festival voice at his own phone timing (miketalk.bench.other_voice)",
+        "spoken by this Festival voice at his own phone timing (miketalk_lab.bench.other_voice)",
     )
 
     def check(args) -> str | None:

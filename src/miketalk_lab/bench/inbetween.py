@@ -1,9 +1,9 @@
 """Benchmark: in-between frames of real video by morph, dissolve and SloMo-style warps.
 
-``python -m miketalk.bench.inbetween --clips DIR [--out OUT] [--limit N]`` reads
+``python -m miketalk_lab.bench.inbetween --clips DIR [--out OUT] [--limit N]`` reads
 every clip of ``DIR`` (``*.mpg``, ``*.mp4``, ``*.avi``, ``*.mov``), finds its
 mouth box, predicts frame ``t + k/2`` from frames ``t`` and ``t + k`` by every
-method of :mod:`miketalk.evaluation.inbetween` and measures each prediction
+method of :mod:`miketalk_lab.evaluation.inbetween` and measures each prediction
 against the real frame on the mouth region.
 
 The estimators default to the model's flow method (``default``: the
@@ -35,10 +35,10 @@ import pandas as pd
 import yaml
 
 from miketalk import defaults
-from miketalk.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.inbetween import VARIANTS, Method, default_methods, inbetween_table
-from miketalk.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
+from miketalk_lab.evaluation.inbetween import VARIANTS, Method, default_methods, inbetween_table
+from miketalk_lab.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
 from miketalk.flow.registry import Estimator, get_estimator
 from miketalk.media.atomic import write_text_atomic
 from miketalk.mouth.lip_colour import find_mouth_box
@@ -265,7 +265,7 @@ def _run(args: argparse.Namespace, argv: Sequence[str] | None) -> str:
     )
     parts = {key: sum(r[2][key] for r in results) for key in ("decode", "box", "measure")}
     settings = "; ".join(f"{label} = {_describe(e)}" for label, e in estimators)
-    command = "python -m miketalk.bench.inbetween " + shlex.join(
+    command = "python -m miketalk_lab.bench.inbetween " + shlex.join(
         sys.argv[1:] if argv is None else list(argv)
     )
     w, h = boxes["w"].median(), boxes["h"].median()

@@ -1,6 +1,6 @@
 """A face from one video against the same face from its clips: phones and held-out measures.
 
-When the video is clips joined (:mod:`miketalk.bench.joined`), the face built
+When the video is clips joined (:mod:`miketalk_lab.bench.joined`), the face built
 from it should be the face built from the clips, within the aligner's accuracy:
 
 - :func:`phone_errors`: each utterance of the video's corpus is paired with the
@@ -8,7 +8,7 @@ from it should be the face built from the clips, within the aligner's accuracy:
   sequence, and every phone boundary is measured in the joined video's time;
 - :func:`heldout_of_model`: a model measured on held-out clips (the clip files
   themselves, never read to build either model) with the held-out evaluation of
-  the workflow (:func:`miketalk.evaluation.heldout.heldout_stage`), in its own
+  the workflow (:func:`miketalk_lab.evaluation.heldout.heldout_stage`), in its own
   corpus's frame;
 - :func:`compare_heldout`: the two models' held-out measures paired clip by clip.
 """
@@ -134,7 +134,7 @@ def heldout_of_model(
     name, to pair the two); the tables and side-by-side videos go to ``out_dir``.
     """
     from miketalk.corpus.eigenlips import read_eigenlips
-    from miketalk.evaluation.heldout import heldout_stage
+    from miketalk_lab.evaluation.heldout import heldout_stage
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

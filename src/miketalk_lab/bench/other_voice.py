@@ -7,7 +7,7 @@ standing in for the other speaker. Each training clip's words are spoken by
 Festival with each phone lasting as long as the person's aligned phone
 (:meth:`~miketalk.speech.backend.SpeechBackend.synthesize_retimed`), so that the
 other voice's sound lines up with the clip's frames and phones, and the only
-difference left is the voice (:mod:`miketalk.bench.trajectory_cv` ``--voice``).
+difference left is the voice (:mod:`miketalk_lab.bench.trajectory_cv` ``--voice``).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
-"""Held-out clips dubbed with their own audio: the measures of :mod:`miketalk.evaluation.dubbing`
+"""Held-out clips dubbed with their own audio: the measures of :mod:`miketalk_lab.evaluation.dubbing`
 per clip, a side-by-side mp4 (real | dubbed) per clip, a strip of the first, and a summary.
 
 The workflow's ``dub_heldout`` rule runs :func:`dub_heldout`; by hand:
-``python -m miketalk.evaluation.dub_heldout --model results/model/s1 --corpus
+``python -m miketalk_lab.evaluation.dub_heldout --model results/model/s1 --corpus
 results/corpus/s1 --config config.yaml --face s1 --out results/dub/s1``.
 """
 
@@ -23,7 +23,7 @@ from miketalk.errors import MiketalkError
 
 log = logging.getLogger(__name__)
 
-#: What can draw the dubbed mouth (:data:`miketalk.evaluation.renderers.RENDERERS`).
+#: What can draw the dubbed mouth (:data:`miketalk_lab.evaluation.renderers.RENDERERS`).
 DUB_RENDERERS = ("morph", "learned", "trained", "trained_heard")
 
 
@@ -78,7 +78,7 @@ def dub_heldout(
         (default ``clips.csv`` and ``summary.csv`` in ``out_dir``).
     strip_png : path, optional
         Every 5th frame of the first clip, real above dubbed, whole and the
-        mouth, drawn by ``draw_strip`` (e.g. :func:`miketalk.figures.dub_strip.strip`:
+        mouth, drawn by ``draw_strip`` (e.g. :func:`miketalk_lab.figures.dub_strip.strip`:
         figures come after the evaluation, so the caller hands it in).
     draw_strip : callable, optional
         ``draw_strip(frames, split=2, mouth=(x, y, w, h))`` -> the strip image.
@@ -106,9 +106,9 @@ def dub_heldout(
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
-    from miketalk.evaluation.dubbing import dub_clip, dub_measures
-    from miketalk.evaluation.heldout import RENDERERS, speech_frames
-    from miketalk.evaluation.landmarks import face_landmarks
+    from miketalk_lab.evaluation.dubbing import dub_clip, dub_measures
+    from miketalk_lab.evaluation.heldout import RENDERERS, speech_frames
+    from miketalk_lab.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region

@@ -24,7 +24,7 @@ the mouth was blended in. Measures (:func:`dub_measures`):
     the mouth's frame-to-frame motion against the nose from dlib's landmarks on
     the frames as seen (:func:`jitter_measures`), real, dubbed and dubbed beyond
     real (``jitter_beyond``: the issue's target, at most 0.3 px RMS);
-the held-out mouth measures (:func:`miketalk.evaluation.heldout.compare`) on
+the held-out mouth measures (:func:`miketalk_lab.evaluation.heldout.compare`) on
 the dubbed frames brought back onto the reference (``dub``) beside the same
 render uncomposited (``render``);
 ``roundtrip_sharpness_ratio``, ``roundtrip_psnr_mouth``
@@ -169,9 +169,9 @@ def dub_measures(
 
     Parameters
     ----------
-    landmarks : miketalk.evaluation.landmarks.FaceLandmarks, optional
+    landmarks : miketalk_lab.evaluation.landmarks.FaceLandmarks, optional
         With it, the landmark measures too (``mouth_lmd``, ``lip_opening_corr_speech``, ...:
-        :func:`miketalk.evaluation.landmark_scores.landmark_scores`), the dub and the render
+        :func:`miketalk_lab.evaluation.landmark_scores.landmark_scores`), the dub and the render
         each against the real frames, all stabilized onto the reference and marked from the
         real frames' one face box.
     compositor : miketalk.render.composite.Compositor, optional
@@ -182,11 +182,11 @@ def dub_measures(
     -------
     (frame_measures, dub_mouth, render_mouth)
         ``psnr_frame``, ``seam_ratio``, ``nose_jitter`` (and ``roundtrip_*``); then the summaries of
-        :func:`miketalk.evaluation.heldout.compare` for the dubbed frames
+        :func:`miketalk_lab.evaluation.heldout.compare` for the dubbed frames
         stabilized onto the reference and for the uncomposited render.
     """
-    from miketalk.evaluation.heldout import MAX_LAG, compare
-    from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores
+    from miketalk_lab.evaluation.heldout import MAX_LAG, compare
+    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
 
     bg = dubbed.background
     real_steady = stabilizer.apply(dubbed.real, bg.transforms, field=bg.field)
@@ -232,7 +232,7 @@ def roundtrip_measures(
         ``roundtrip_sharpness_ratio`` (its mouth's sharpness over the real one's) and
         ``roundtrip_psnr_mouth`` (dB, over the mouth box; ``inf`` for identical pixels).
     """
-    from miketalk.evaluation.measures import box_mask, psnr, sharpness_ratio
+    from miketalk_lab.evaluation.measures import box_mask, psnr, sharpness_ratio
 
     bg = dubbed.background
     zero = np.zeros((*real_steady.shape[1:3], 3), np.float32)
@@ -265,7 +265,7 @@ def jitter_measures(real: np.ndarray, dub: np.ndarray, render: np.ndarray) -> di
     -------
     dict
         ``jitter_real``, ``jitter_dub``, ``jitter_render`` (px RMS,
-        :func:`miketalk.evaluation.landmarks.mouth_nose_jitter` of the 20 mouth points)
+        :func:`miketalk_lab.evaluation.landmarks.mouth_nose_jitter` of the 20 mouth points)
         and ``jitter_beyond`` (dub minus real: the issue's target, at most 0.3 px); the
         same of the upper lip alone (``upper_jitter_*``), which the jaw moves least. Both
         include articulation, and the synthesized mouth moves less than his (its opening's
@@ -273,7 +273,7 @@ def jitter_measures(real: np.ndarray, dub: np.ndarray, render: np.ndarray) -> di
         slides against the nose; the slide alone is ``nose_jitter`` (the registration's
         frame-to-frame error, :func:`nose_jitter`).
     """
-    from miketalk.evaluation.landmarks import MOUTH, UPPER_LIP, mouth_nose_jitter
+    from miketalk_lab.evaluation.landmarks import MOUTH, UPPER_LIP, mouth_nose_jitter
 
     out = {}
     for prefix, part in (("jitter", MOUTH), ("upper_jitter", UPPER_LIP)):

@@ -1,25 +1,25 @@
 """A face from one video: GRID clips joined, aligned in pieces, built with ``miketalk build``.
 
-``python -m miketalk.bench.one_video --pool DIR --out OUT [--clips ID ... | --face F]
+``python -m miketalk_lab.bench.one_video --pool DIR --out OUT [--clips ID ... | --face F]
 [--limit N] [--build [--build-from subtitles]] [--heldout-seconds S]`` joins the
 pool's clips (``video/<id>.mpg``, ``align/<id>.align``, ``transcripts.txt``; all
 of them in name order, the ``--clips`` given, in that order, or the training
 clips of face F of ``--config``) into one video with its plain transcript and an
-SRT of sentence cues (:mod:`miketalk.bench.joined`), then, for each of the two,
+SRT of sentence cues (:mod:`miketalk_lab.bench.joined`), then, for each of the two,
 cuts the video into utterances (:func:`miketalk.corpus.one_video.segment_video`)
 and measures every aligned word's start and end against GRID's timings (as
-:mod:`miketalk.bench.aligner` does for single clips). With ``--build``, it also
+:mod:`miketalk_lab.bench.aligner` does for single clips). With ``--build``, it also
 builds the model from the plain transcript (or the SRT) with ``miketalk build``
 and reports each stage's time; with ``--face`` too, the model is measured on the
 face's held-out clips (the clip files) and compared, clip by clip, with the
 clips-built face's own held-out measures (``--against``, default
 ``results/metrics/heldout/F/clips.csv`` of ``make run``), and the two corpora's
-phones are compared (:mod:`miketalk.bench.video_vs_clips`).
+phones are compared (:mod:`miketalk_lab.bench.video_vs_clips`).
 
 Writes ``OUT/<transcript|subtitles>/segments.json``, ``OUT/boundaries.csv``,
 ``OUT/summary.md`` (and with ``--face``: ``OUT/heldout/``,
 ``OUT/heldout_comparison.csv``, ``OUT/phones.csv``), and prints the summary.
-``run(out_dir)`` (``python -m miketalk.bench one_video``) does all of it on
+``run(out_dir)`` (``python -m miketalk_lab.bench one_video``) does all of it on
 ``.bench/config.yaml``'s pool, all 200 clips (10 minutes), with the build.
 """
 
@@ -37,7 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from miketalk.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
@@ -111,7 +111,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> str:
-    from miketalk.bench.joined import join_clips
+    from miketalk_lab.bench.joined import join_clips
     from miketalk.corpus.one_video import segment_video
 
     pool, out = args.pool, args.out
@@ -211,7 +211,7 @@ def _face(config_path: pathlib.Path, name: str) -> dict:
 
 def _versus_clips(args: argparse.Namespace, face: dict, joined) -> str:
     """The built model on the face's held-out clips against the clips-built one; the phones."""
-    from miketalk.bench.video_vs_clips import compare_heldout, heldout_of_model, phone_errors
+    from miketalk_lab.bench.video_vs_clips import compare_heldout, heldout_of_model, phone_errors
     from miketalk.corpus.clip_sources import clip_sources
 
     out, root, corpus = args.out, face["root"], face["corpus"]

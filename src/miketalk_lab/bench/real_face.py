@@ -4,8 +4,8 @@
 ``make bench``: GRID talker s1's 40 training clips and 40 held-out clips from
 the pool it names), then
 
-1. the forced aligner against the pool's word timings (:mod:`miketalk.bench.aligner`);
-2. the stabilization's residual motion (:mod:`miketalk.bench.stabilization`);
+1. the forced aligner against the pool's word timings (:mod:`miketalk_lab.bench.aligner`);
+2. the stabilization's residual motion (:mod:`miketalk_lab.bench.stabilization`);
 3. the workflow on that configuration (``snakemake --directory .bench``): the s1
    model from 40 clips, the training-clips sweep and the held-out evaluation,
    with each rule's time from its benchmark file;
@@ -97,7 +97,7 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     pool = (ROOT / corpus["transcripts"]).resolve().parent
     figures: dict[str, float] = {}
 
-    from miketalk.bench import aligner
+    from miketalk_lab.bench import aligner
 
     aligner.main(["--pool", str(pool), "--out", str(out_dir / "aligner")])
     boundaries = pd.read_csv(out_dir / "aligner" / "boundaries.csv")
@@ -105,7 +105,7 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     figures["aligner_median_ms"] = float(error.median())
     figures["aligner_p90_ms"] = float(error.quantile(0.9))
 
-    from miketalk.bench import stabilization
+    from miketalk_lab.bench import stabilization
 
     stabilization.main(["--pool", str(pool), "--out", str(out_dir / "stabilization")])
     table = pd.read_csv(out_dir / "stabilization" / "stabilization.csv")
@@ -150,7 +150,7 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
     figures |= sweep_figures(workdir / "results" / "metrics" / "heldout" / "s1")
     figures |= dub_figures(workdir / "results" / "metrics" / "dub" / "s1" / "summary.csv")
     # the heard trajectory meeting other voices (Festival's, at his timing): R² by voice
-    from miketalk.bench.trajectory_cv import voice_scores
+    from miketalk_lab.bench.trajectory_cv import voice_scores
 
     by_voice = voice_scores(workdir / "results" / "corpus" / "s1", ("kal", "ked"), (300.0,))
     for voice, (whole, _) in by_voice[300.0].items():

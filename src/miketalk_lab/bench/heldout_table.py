@@ -1,6 +1,6 @@
 """The held-out tables of the README: per renderer, mean ± sd over clips, and paired margins.
 
-``python -m miketalk.bench.heldout_table results/metrics/heldout/s1/clips.csv`` prints,
+``python -m miketalk_lab.bench.heldout_table results/metrics/heldout/s1/clips.csv`` prints,
 for the face's own model (``--model``, default ``bergen/bridge``), two Markdown tables:
 
 1. per renderer, the mean ± sd over clips of :data:`MEASURES` and the fraction
@@ -30,7 +30,7 @@ MEASURES = (
 
 def tables(clips: pd.DataFrame, *, model: str, against: str = "morph") -> tuple[str, str]:
     """The two Markdown tables (see the module docstring) of one held-out ``clips.csv``."""
-    from miketalk.evaluation.landmark_scores import paired_differences
+    from miketalk_lab.evaluation.landmark_scores import paired_differences
 
     rows = clips[clips["model"] == model]
     margins = paired_differences(rows, reference=(against, model), measures=MEASURES)
@@ -56,7 +56,7 @@ def tables(clips: pd.DataFrame, *, model: str, against: str = "morph") -> tuple[
 
 def main(argv: list[str] | None = None) -> int:
     """Print the tables of a held-out ``clips.csv``; a missing file or model is refused."""
-    parser = argparse.ArgumentParser(prog="python -m miketalk.bench.heldout_table")
+    parser = argparse.ArgumentParser(prog="python -m miketalk_lab.bench.heldout_table")
     parser.add_argument("clips", type=Path, help="a held-out evaluation's clips.csv")
     parser.add_argument("--model", default="bergen/bridge", help="the face's own model")
     parser.add_argument("--against", default="morph", help="the renderer margins are taken to")

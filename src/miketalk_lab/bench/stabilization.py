@@ -1,6 +1,6 @@
 """Benchmark of talking-head stabilization on real clips: residual motion before and after.
 
-``python -m miketalk.bench.stabilization --pool DIR --out OUT [--limit N]`` takes
+``python -m miketalk_lab.bench.stabilization --pool DIR --out OUT [--limit N]`` takes
 the clips of a pool (``DIR/video/*.mpg``, GRID's layout, or the video files in
 ``DIR`` itself) in name order, picks the reference frame in the first clip
 (:func:`~miketalk.stabilize.choose_reference`), builds a
@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from miketalk import defaults
-from miketalk.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.decode import read_video

@@ -1,4 +1,4 @@
-"""``python -m miketalk.bench --out DIR``: every benchmark, one summary table.
+"""``python -m miketalk_lab.bench --out DIR``: every benchmark, one summary table.
 
 Each benchmark module has ``run(out_dir) -> dict[str, float]``; this runs them in
 turn, each in its own process (so one core-pinned benchmark does not affect the
@@ -23,7 +23,7 @@ MODULES = ("synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "
 
 def main() -> int:
     """Run the benchmarks named on the command line (default: all)."""
-    parser = argparse.ArgumentParser(prog="python -m miketalk.bench")
+    parser = argparse.ArgumentParser(prog="python -m miketalk_lab.bench")
     parser.add_argument("--out", type=Path, default=defaults.RESULTS / "bench")
     parser.add_argument("only", nargs="*", help=f"benchmarks to run, of: {' '.join(MODULES)}")
     args = parser.parse_args()
@@ -36,7 +36,7 @@ def main() -> int:
         start = time.monotonic()
         code = (
             "import json, pathlib, sys\n"
-            f"from miketalk.bench.{name} import run\n"
+            f"from miketalk_lab.bench.{name} import run\n"
             f"figures = run(pathlib.Path({str(args.out / name)!r}))\n"
             "print('@@' + json.dumps(figures))\n"
         )

@@ -126,7 +126,7 @@ def sampling_vs_max_px(summary_csv: Path_, out: Path_, *, fps: float) -> None:
     Parameters
     ----------
     summary_csv : path-like
-        A sync summary (:func:`miketalk.evaluation.sync.summarize_sync`) with
+        A sync summary (:func:`miketalk_lab.evaluation.sync.summarize_sync`) with
         rows of several modes.
     out : path-like
         The PNG to write.

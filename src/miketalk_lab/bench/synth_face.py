@@ -15,7 +15,7 @@ uses every core):
 - the alignment of the true flow with the renderer: the constant flow offset that
   minimises the rigid warp-back residual (pixels; 0 when they agree).
 
-Run it with ``python -m miketalk.bench.synth_face --out DIR``; it writes only the small
+Run it with ``python -m miketalk_lab.bench.synth_face --out DIR``; it writes only the small
 ``synth_face.json``.
 """
 
@@ -184,7 +184,7 @@ def _print_table(figures: dict[str, float], tags: list[str]) -> None:
 
 
 def main() -> None:
-    """``python -m miketalk.bench.synth_face --out DIR``."""
+    """``python -m miketalk_lab.bench.synth_face --out DIR``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
         "--out", type=pathlib.Path, default=defaults.RESULTS / "bench" / "synth_face"

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.flow_error import endpoint_error_map, summarize_endpoint_error
+from miketalk_lab.evaluation.flow_error import endpoint_error_map, summarize_endpoint_error
 from miketalk.flow import FlowDatabase
 
 
@@ -110,8 +110,8 @@ def morph_fidelity_table(
     to beat). Rows: source, target, alpha, candidate, region, psnr, ssim,
     holes_before_fill (pixels neither warp reached), holes_left.
     """
-    from miketalk.evaluation.measures import psnr, ssim
-    from miketalk.evaluation.truth import viseme_params
+    from miketalk_lab.evaluation.measures import psnr, ssim
+    from miketalk_lab.evaluation.truth import viseme_params
     from miketalk.media.images import read_image
     from miketalk.render.morph import Morpher, cross_dissolve
     from miketalk.render.splat import HOLE_VALUE

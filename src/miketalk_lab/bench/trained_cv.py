@@ -1,6 +1,6 @@
 """Cross-validation of the trained face on its own training clips: choose its settings.
 
-``python -m miketalk.bench.trained_cv --corpus DIR --model DIR --out DIR [--variants ...]``
+``python -m miketalk_lab.bench.trained_cv --corpus DIR --model DIR --out DIR [--variants ...]``
 
 The trained face's settings (:class:`miketalk.talk.trained.selection.SelectionSettings`)
 are chosen here, never on held-out clips: the face's training clips are split into
@@ -9,8 +9,8 @@ other folds only (its principal components too) and renders the fold's clips fro
 their aligned phones, composited onto the model's silence image as ``say`` does.
 Each rendering is measured against the clip's real (stabilized) frames with the
 held-out evaluation's measures: dlib's mouth landmarks
-(:mod:`miketalk.evaluation.landmark_scores`), mouth PSNR and the first eigenlip
-(:func:`miketalk.evaluation.heldout.compare`). Beside them, in the description's
+(:mod:`miketalk_lab.evaluation.landmark_scores`), mouth PSNR and the first eigenlip
+(:func:`miketalk_lab.evaluation.heldout.compare`). Beside them, in the description's
 own terms: how well the trajectory follows the real frames' first components
 (``traj_r1``..) and how closely the chosen frames follow the trajectory
 (``chosen_r1``..), so that what limits the model shows. The variant ``oracle`` aims
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from miketalk.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.talk.trained.selection import PREVIOUS_SELECTION
 
@@ -47,7 +47,7 @@ ORACLE = "oracle"
 #: recording; ``oracle`` is no trajectory at all but the real frames' own descriptions, what
 #: the selection and the compositing reach with a perfect prediction; ``voice="kal"`` gives
 #: each clip's words spoken by that Festival voice at his timing as its recording
-#: (:mod:`miketalk.bench.other_voice`): another speaker's recording of his sentence).
+#: (:mod:`miketalk_lab.bench.other_voice`): another speaker's recording of his sentence).
 VARIANTS: dict[str, dict] = {
     "default": {},
     "previous": PREVIOUS_SELECTION,
@@ -133,10 +133,10 @@ def cross_validate(
     morph settings, used where a variant's joins are morphed."""
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.folder import frame_path
-    from miketalk.evaluation.heldout import compare, speech_frames
-    from miketalk.evaluation.landmark_scores import ClipLandmarks, landmark_scores
-    from miketalk.evaluation.landmarks import face_landmarks
-    from miketalk.evaluation.measures import correlation
+    from miketalk_lab.evaluation.heldout import compare, speech_frames
+    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
+    from miketalk_lab.evaluation.landmarks import face_landmarks
+    from miketalk_lab.evaluation.measures import correlation
     from miketalk.media.images import read_image
     from miketalk.mouth import mouth_region
     from miketalk.mouth.region import grey_mouths
@@ -161,7 +161,7 @@ def cross_validate(
 
     def voiced(voice: str) -> list:
         """Every clip's words in Festival's ``voice`` at his timing (made once)."""
-        from miketalk.bench.other_voice import voiced_recordings
+        from miketalk_lab.bench.other_voice import voiced_recordings
 
         if voice not in voices:
             voices[voice] = voiced_recordings(

@@ -3,7 +3,7 @@
 A model-free test of the morph on a real face. For real frames ``t`` and
 ``t + k`` of a clip, each :class:`Method` predicts the frame half-way between
 them, and the prediction is compared with the real frame ``t + k/2`` on the
-mouth region (:func:`miketalk.evaluation.measures.psnr` and ``ssim`` over the
+mouth region (:func:`miketalk_lab.evaluation.measures.psnr` and ``ssim`` over the
 mouth box). The methods:
 
 ``dissolve``
@@ -20,7 +20,7 @@ mouth box). The methods:
 ``slomo/<estimator>``
     backward warping in the manner of Super SloMo's linear approximation of
     the intermediate flow (Jiang et al. 2018, their Eq. 4), nothing learned:
-    :func:`miketalk.evaluation.slomo.slomo_frame`.
+    :func:`miketalk_lab.evaluation.slomo.slomo_frame`.
 
 Flows are estimated once per pair and estimator and shared by every method
 that uses them. They are estimated on a crop around the mouth box (the box
@@ -44,8 +44,8 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk.evaluation.measures import psnr, ssim
-from miketalk.evaluation.slomo import slomo_frame
+from miketalk_lab.evaluation.measures import psnr, ssim
+from miketalk_lab.evaluation.slomo import slomo_frame
 from miketalk.flow.registry import Estimator, get_estimator
 from miketalk.mouth.region import Box
 from miketalk.render.morph import Morpher, cross_dissolve

@@ -1,6 +1,6 @@
 """Benchmark of the forced aligner against GRID's word timings.
 
-``python -m miketalk.bench.aligner --pool DIR --out OUT [--limit N]`` aligns
+``python -m miketalk_lab.bench.aligner --pool DIR --out OUT [--limit N]`` aligns
 every clip of a GRID-style pool (``video/<id>.mpg``, ``align/<id>.align``,
 ``transcripts.txt``) from its transcript alone, *without* GRID's word timings,
 and compares each word's start and end with GRID's ``.align``.
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_media_audio
 from miketalk.speech.align import align

@@ -1,6 +1,6 @@
 """Strips of a composited video: every ``step``-th frame, whole and cropped to the mouth.
 
-``python -m miketalk.figures.dub_strip VIDEO.mp4 --out strip.png [--split 2] [--step 5]
+``python -m miketalk_lab.figures.dub_strip VIDEO.mp4 --out strip.png [--split 2] [--step 5]
 [--mouth X Y W H]``: a video of ``split`` side-by-side columns (real | dubbed)
 becomes one row per column, each tile labelled with its frame number; the mouth
 rows crop ``--mouth`` (in one column's pixels), enlarged to a tile's width.
