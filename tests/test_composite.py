@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.measures import sharpness
 from miketalk.render.composite import Compositor, blend_mask, colour_offset
 from miketalk.stabilize import Stabilizer
+from miketalk_lab.evaluation.measures import sharpness
 
 SIZE = (160, 200)
 MOUTH = (80, 100, 40, 10)  # x, y, w, h: centre (100, 105), 40 px wide

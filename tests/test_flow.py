@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.flow_error import endpoint_error
 from miketalk.flow import (
     ESTIMATORS,
     backward_warp,
@@ -22,6 +21,7 @@ from miketalk.flow import (
     get_estimator,
     mixed_flow,
 )
+from miketalk_lab.evaluation.flow_error import endpoint_error
 
 
 def _texture(shape: tuple[int, int], seed: int = 0, sigma: float = 1.5) -> np.ndarray:

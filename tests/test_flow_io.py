@@ -9,7 +9,6 @@ import OpenEXR
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.flow_error import endpoint_error
 from miketalk.flow import (
     FlowDatabase,
     pair_filename,
@@ -20,6 +19,7 @@ from miketalk.flow import (
     write_flow_pair,
 )
 from miketalk.visemes import VISEMES, viseme_slug
+from miketalk_lab.evaluation.flow_error import endpoint_error
 
 
 def _flows(shape=(24, 32), seed=0):

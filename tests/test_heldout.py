@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.heldout import compare, side_by_side, speech_frames, video_columns
-from miketalk_lab.figures.heldout_strip import heldout_strip
 from miketalk.media.video import write_mp4
 from miketalk.mouth import Eigenlips
 from miketalk.speech import Phone
 from miketalk.talk.lipsync import plan
 from miketalk.visemes import VisemeTable
+from miketalk_lab.evaluation.heldout import compare, side_by_side, speech_frames, video_columns
+from miketalk_lab.figures.heldout_strip import heldout_strip
 
 
 def _timeline(fps: float = 25.0):

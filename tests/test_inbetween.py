@@ -7,17 +7,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from miketalk_lab.bench.inbetween import main as bench_main
-from miketalk_lab.bench.inbetween import parse_estimator
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.inbetween import COLUMNS, Method, default_methods, inbetween_table
-from miketalk_lab.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
-from miketalk_lab.evaluation.measures import psnr
-from miketalk_lab.evaluation.slomo import slomo_flows, slomo_frame
 from miketalk.flow.registry import get_estimator
 from miketalk.mouth.lip_colour import find_mouth_box
 from miketalk.render.morph import Morpher, morph, morph_stages
 from miketalk.render.splat import forward_warp
+from miketalk_lab.bench.inbetween import main as bench_main
+from miketalk_lab.bench.inbetween import parse_estimator
+from miketalk_lab.evaluation.inbetween import COLUMNS, Method, default_methods, inbetween_table
+from miketalk_lab.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
+from miketalk_lab.evaluation.measures import psnr
+from miketalk_lab.evaluation.slomo import slomo_flows, slomo_frame
 
 
 def _texture(h: int, w: int, seed: int = 0, cell: int = 6) -> np.ndarray:

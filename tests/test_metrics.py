@@ -8,6 +8,7 @@ import pytest
 from skimage.metrics import structural_similarity
 
 from miketalk.errors import MiketalkError
+from miketalk.mouth import mouth_opening
 from miketalk_lab.evaluation.measures import (
     box_mask,
     lag_frames,
@@ -16,7 +17,6 @@ from miketalk_lab.evaluation.measures import (
     sharpness_ratio,
     ssim,
 )
-from miketalk.mouth import mouth_opening
 
 
 @pytest.mark.parametrize("shape", [(256, 256, 3), (97, 140, 3), (64, 64)])

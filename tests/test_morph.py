@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 import pytest
 
-from miketalk_lab.bench.morph import numpy_morph, scene
 from miketalk.errors import MiketalkError
 from miketalk.render.morph import Morpher, cross_dissolve, morph, morph_stages
 from miketalk.render.splat import HOLE_VALUE, fill_holes_scanline, forward_warp
+from miketalk_lab.bench.morph import numpy_morph, scene
 
 
 def _texture(h: int, w: int, channels: int = 3, seed: int = 0) -> np.ndarray:

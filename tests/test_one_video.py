@@ -13,14 +13,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from miketalk_lab.bench.joined import join_clips
-from miketalk_lab.bench.one_video import boundary_errors
 from miketalk.corpus.clip_sources import decode_clip
 from miketalk.corpus.one_video import face_clips, segment_video, video_clips
 from miketalk.corpus.script import Cue, read_script, text_words
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_media_audio, read_video
 from miketalk.media.video import write_mp4
+from miketalk_lab.bench.joined import join_clips
+from miketalk_lab.bench.one_video import boundary_errors
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data" / "grid_s1"

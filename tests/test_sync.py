@@ -152,10 +152,10 @@ def test_read_said_errors(tmp_path: Path) -> None:
 def test_the_frames_measured_are_the_frames_say_writes(
     model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from miketalk_lab.evaluation.sync import utterance_frames
     from miketalk.talk import utterance as utterance_module
     from miketalk.talk.say import say
     from miketalk.talk.utterance import read_said
+    from miketalk_lab.evaluation.sync import utterance_frames
 
     written: list[np.ndarray] = []
     real_write_mp4 = utterance_module.write_mp4
@@ -182,10 +182,10 @@ def test_the_frames_measured_are_the_frames_say_writes(
 def test_sync_table_of_an_utterance_reads_its_json_and_probes_its_mp4(
     model_dir: Path, tmp_path: Path
 ) -> None:
-    from miketalk_lab.evaluation.sync import MOTION_QUANTITIES, summarize_sync, sync_table
     from miketalk.media.video import probe_durations
     from miketalk.talk.say import say
     from miketalk.talk.utterance import read_said
+    from miketalk_lab.evaluation.sync import MOTION_QUANTITIES, summarize_sync, sync_table
 
     model = Model(model_dir)
     out = tmp_path / "hello.mp4"
@@ -385,8 +385,8 @@ def test_sampling_strip_shows_both_modes_at_the_same_moments(
 ) -> None:
     """Rows are modes, columns the same moments of the speech; the paper row's frames
     run further apart in the lengthened video."""
-    from miketalk_lab.figures.plots import draw
     from miketalk.talk.say import say
+    from miketalk_lab.figures.plots import draw
 
     model = Model(model_dir)
     timelines = []

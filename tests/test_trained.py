@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.dub_heldout import dub_renderer
 from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
 from miketalk.talk.lipsync import plan
@@ -22,6 +21,7 @@ from miketalk.talk.trained.mouths import MouthFrames, feather_mask
 from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, select
 from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
 from miketalk.visemes import default_table
+from miketalk_lab.evaluation.dub_heldout import dub_renderer
 
 #: Mouth opening (pixels) of each phone of the synthetic speaker.
 OPENING = {"pau": 1, "m": 0, "p": 0, "aa": 9, "iy": 3, "s": 2, "uw": 5}

@@ -264,8 +264,8 @@ def test_one_video_model_matches_the_clips_model_on_held_out_clips(
     corpus's frame, paired clip by clip (see :func:`heldout_gaps`)."""
     import yaml
 
-    from miketalk_lab.bench.video_vs_clips import heldout_of_model
     from miketalk.corpus.clip_sources import clip_sources
+    from miketalk_lab.bench.video_vs_clips import heldout_of_model
 
     corpus, _, model = one_video_face(run, s1_built, script)
     s1 = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["faces"]["s1"]["corpus"]

@@ -6,8 +6,8 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk_lab.evaluation.tables import flow_epe_table
     from miketalk.media.atomic import write_text_atomic
+    from miketalk_lab.evaluation.tables import flow_epe_table
 
     spec = json.loads(snakemake.params.spec)
     table = flow_epe_table(

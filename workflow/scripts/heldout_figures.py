@@ -7,9 +7,9 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
+    from miketalk.mouth import mouth_region
     from miketalk_lab.figures.heldout_strip import heldout_strip
     from miketalk_lab.figures.plots import heldout_psnr, heldout_trajectory
-    from miketalk.mouth import mouth_region
 
     p, frames, out = snakemake.params, snakemake.input.frames_csv, snakemake.output
     videos = Path(snakemake.input.videos)

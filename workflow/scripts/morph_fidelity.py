@@ -6,8 +6,8 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk_lab.evaluation.tables import morph_fidelity_table
     from miketalk.media.atomic import write_text_atomic
+    from miketalk_lab.evaluation.tables import morph_fidelity_table
 
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
     table = morph_fidelity_table(

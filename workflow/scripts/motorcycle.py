@@ -6,9 +6,9 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk_lab.evaluation.flow_error import motorcycle_table
     from miketalk.flow import get_estimator
     from miketalk.media.atomic import write_text_atomic
+    from miketalk_lab.evaluation.flow_error import motorcycle_table
 
     rows = []
     for name, spec in snakemake.params.methods.items():

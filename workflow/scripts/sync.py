@@ -6,12 +6,12 @@ from miketalk.stage import run_stage
 def main() -> None:
     import json
 
-    from miketalk_lab.evaluation.sync import sync_table
-    from miketalk_lab.evaluation.tables import read_mask
     from miketalk.media.atomic import write_text_atomic
     from miketalk.talk.say import open_model
     from miketalk.talk.utterance import read_said
     from miketalk.visemes import VisemeTable
+    from miketalk_lab.evaluation.sync import sync_table
+    from miketalk_lab.evaluation.tables import read_mask
 
     inputs, params = snakemake.input, snakemake.params
     # the measures of the motion as say made them (with the frames it wrote)

@@ -6,8 +6,8 @@ from miketalk.stage import run_stage
 def main() -> None:
     import pandas as pd
 
-    from miketalk_lab.evaluation.sync import summarize_sync
     from miketalk.media.atomic import write_text_atomic
+    from miketalk_lab.evaluation.sync import summarize_sync
 
     table = pd.concat([pd.read_csv(p, keep_default_na=False) for p in snakemake.input])
     write_text_atomic(snakemake.output.table, table.to_csv(index=False, float_format="%.6g"))

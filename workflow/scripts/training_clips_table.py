@@ -4,8 +4,8 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk_lab.evaluation.heldout import sweep_table
     from miketalk.media.atomic import write_text_atomic
+    from miketalk_lab.evaluation.heldout import sweep_table
 
     table = sweep_table(dict(zip(snakemake.params.training_clips, snakemake.input, strict=True)))
     write_text_atomic(snakemake.output[0], table.to_csv(index=False, float_format="%.4f"))

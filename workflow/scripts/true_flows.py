@@ -7,8 +7,8 @@ def main() -> None:
     import numpy as np
     import pandas as pd
 
-    from miketalk_lab.evaluation.truth import viseme_params, write_true_flows
     from miketalk.media.images import write_png
+    from miketalk_lab.evaluation.truth import viseme_params, write_true_flows
 
     visemes = pd.read_csv(snakemake.input.visemes, sep="\t", keep_default_na=False)
     params = viseme_params(snakemake.input.table, visemes)

@@ -29,11 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_media_audio
 from miketalk.speech.align import align
 from miketalk.speech.word_timings import WordTiming, read_word_timings
+from miketalk_lab.bench.command import bench_parser, run_bench
 
 #: The issue's target: median and 90th percentile absolute boundary error, ms.
 TARGET_MEDIAN_MS = 20.0

@@ -23,9 +23,9 @@ from contextlib import contextmanager
 import cv2
 
 from miketalk import defaults
-from miketalk_lab.evaluation.flow_error import endpoint_error, motorcycle_table, sinusoidal_pair
 from miketalk.flow import ESTIMATORS
 from miketalk.media.atomic import atomic_path, write_text_atomic
+from miketalk_lab.evaluation.flow_error import endpoint_error, motorcycle_table, sinusoidal_pair
 
 SIZE = 256
 # what `make run` leaves (the default config): the viseme images, the recording, true flows
@@ -115,8 +115,8 @@ def viseme_pairs(out_dir: pathlib.Path) -> dict[str, float]:
 
     import pandas as pd
 
-    from miketalk_lab.evaluation.tables import flow_epe_table
     from miketalk.flow.build import build_flow_database
+    from miketalk_lab.evaluation.tables import flow_epe_table
 
     visemes = pd.read_csv(VISEMES / "visemes.tsv", sep="\t", keep_default_na=False)
     tables = []

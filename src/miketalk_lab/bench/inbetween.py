@@ -35,13 +35,13 @@ import pandas as pd
 import yaml
 
 from miketalk import defaults
-from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.inbetween import VARIANTS, Method, default_methods, inbetween_table
-from miketalk_lab.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
 from miketalk.flow.registry import Estimator, get_estimator
 from miketalk.media.atomic import write_text_atomic
 from miketalk.mouth.lip_colour import find_mouth_box
+from miketalk_lab.bench.command import bench_parser, run_bench
+from miketalk_lab.evaluation.inbetween import VARIANTS, Method, default_methods, inbetween_table
+from miketalk_lab.evaluation.inbetween_summary import summarize_inbetween, summary_markdown
 
 #: File name endings read as clips.
 SUFFIXES = (".mpg", ".mp4", ".avi", ".mov")

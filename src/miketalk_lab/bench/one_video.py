@@ -37,8 +37,8 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
+from miketalk_lab.bench.command import bench_parser, run_bench
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 
@@ -111,8 +111,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> str:
-    from miketalk_lab.bench.joined import join_clips
     from miketalk.corpus.one_video import segment_video
+    from miketalk_lab.bench.joined import join_clips
 
     pool, out = args.pool, args.out
     face = _face(args.config, args.face) if args.face else None
@@ -211,8 +211,8 @@ def _face(config_path: pathlib.Path, name: str) -> dict:
 
 def _versus_clips(args: argparse.Namespace, face: dict, joined) -> str:
     """The built model on the face's held-out clips against the clips-built one; the phones."""
-    from miketalk_lab.bench.video_vs_clips import compare_heldout, heldout_of_model, phone_errors
     from miketalk.corpus.clip_sources import clip_sources
+    from miketalk_lab.bench.video_vs_clips import compare_heldout, heldout_of_model, phone_errors
 
     out, root, corpus = args.out, face["root"], face["corpus"]
     clips = clip_sources(

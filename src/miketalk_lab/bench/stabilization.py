@@ -39,11 +39,11 @@ from pathlib import Path
 import numpy as np
 
 from miketalk import defaults
-from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.decode import read_video
 from miketalk.stabilize import Stabilizer, choose_reference, registration_mask, residual_motion
+from miketalk_lab.bench.command import bench_parser, run_bench
 
 _VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mov", ".mkv")
 _COLUMNS = (

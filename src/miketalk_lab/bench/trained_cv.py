@@ -33,9 +33,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
 from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+from miketalk_lab.bench.command import bench_parser, run_bench
 
 log = logging.getLogger(__name__)
 
@@ -133,10 +133,6 @@ def cross_validate(
     morph settings, used where a variant's joins are morphed."""
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.folder import frame_path
-    from miketalk_lab.evaluation.heldout import compare, speech_frames
-    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
-    from miketalk_lab.evaluation.landmarks import face_landmarks
-    from miketalk_lab.evaluation.measures import correlation
     from miketalk.media.images import read_image
     from miketalk.mouth import mouth_region
     from miketalk.mouth.region import grey_mouths
@@ -147,6 +143,10 @@ def cross_validate(
     from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings
     from miketalk.talk.trained.training import FitSettings, training_set
     from miketalk.visemes import SILENCE, VisemeTable
+    from miketalk_lab.evaluation.heldout import compare, speech_frames
+    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
+    from miketalk_lab.evaluation.landmarks import face_landmarks
+    from miketalk_lab.evaluation.measures import correlation
 
     table = VisemeTable()
     everything = measure_frames(corpus_dir)

@@ -37,8 +37,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk.errors import MiketalkError
+from miketalk_lab.bench.command import bench_parser, run_bench
 
 if TYPE_CHECKING:
     from miketalk.talk.trained.training import TrainingSet
@@ -115,11 +115,11 @@ def opening_ceiling(
     import pandas as pd
 
     from miketalk.corpus.folder import frame_path
-    from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening
-    from miketalk_lab.evaluation.measures import correlation
     from miketalk.media.images import read_image
     from miketalk.talk.trained.trajectory import ridge
     from miketalk.visemes import SILENCE, VisemeTable
+    from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening
+    from miketalk_lab.evaluation.measures import correlation
 
     table = VisemeTable()
     frames = pd.read_csv(corpus / "frames.tsv", sep="\t", dtype={"clip": str})
@@ -170,9 +170,9 @@ def voice_scores(
 
     ``data`` and ``clip_ids`` are the corpus's training set and clip ids, when the caller
     has them already."""
-    from miketalk_lab.bench.other_voice import voiced_recordings
     from miketalk.talk.trained.trajectory import HEARD_HALF, Context, window_features
     from miketalk.visemes import VisemeTable
+    from miketalk_lab.bench.other_voice import voiced_recordings
 
     if data is None or clip_ids is None:
         from miketalk.talk.trained.mouths import measure_frames

@@ -106,9 +106,6 @@ def dub_heldout(
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
-    from miketalk_lab.evaluation.dubbing import dub_clip, dub_measures
-    from miketalk_lab.evaluation.heldout import RENDERERS, speech_frames
-    from miketalk_lab.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region
@@ -117,6 +114,9 @@ def dub_heldout(
     from miketalk.talk.lipsync import plan
     from miketalk.talk.model import Model
     from miketalk.visemes import SILENCE, default_table
+    from miketalk_lab.evaluation.dubbing import dub_clip, dub_measures
+    from miketalk_lab.evaluation.heldout import RENDERERS, speech_frames
+    from miketalk_lab.evaluation.landmarks import face_landmarks
 
     if renderer not in DUB_RENDERERS:
         raise MiketalkError(f"cannot dub with {renderer!r} (known: {', '.join(DUB_RENDERERS)})")

@@ -49,7 +49,18 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores, paired_differences
+from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
+from miketalk.mouth.region import Box
+from miketalk.speech.acoustic import Recording
+from miketalk.talk.lipsync import Timeline
+from miketalk.talk.model import Model
+from miketalk.talk.model_parts import COARTICULATION, trained_trajectories
+from miketalk.visemes import SILENCE
+from miketalk_lab.evaluation.landmark_scores import (
+    ClipLandmarks,
+    landmark_scores,
+    paired_differences,
+)
 from miketalk_lab.evaluation.landmarks import delayed
 from miketalk_lab.evaluation.measures import (
     box_mask,
@@ -61,13 +72,6 @@ from miketalk_lab.evaluation.measures import (
 )
 from miketalk_lab.evaluation.measures import correlation as _corr
 from miketalk_lab.evaluation.renderers import RENDERERS
-from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
-from miketalk.mouth.region import Box
-from miketalk.speech.acoustic import Recording
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.model import Model
-from miketalk.talk.model_parts import COARTICULATION, trained_trajectories
-from miketalk.visemes import SILENCE
 
 #: Largest lag (frames) searched by the cross-correlation.
 MAX_LAG = 5
@@ -373,11 +377,11 @@ def heldout_stage(
 
     from miketalk.corpus.clips import corpus_stabilizer
     from miketalk.corpus.folder import open_corpus
-    from miketalk_lab.evaluation.landmarks import face_landmarks
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.mouth import mouth_region
     from miketalk.visemes import VisemeTable
+    from miketalk_lab.evaluation.landmarks import face_landmarks
 
     box = mouth_region(corpus_dir)
     open_corpus(corpus_dir)  # complete

@@ -44,11 +44,11 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.measures import psnr, ssim
-from miketalk_lab.evaluation.slomo import slomo_frame
 from miketalk.flow.registry import Estimator, get_estimator
 from miketalk.mouth.region import Box
 from miketalk.render.morph import Morpher, cross_dissolve
+from miketalk_lab.evaluation.measures import psnr, ssim
+from miketalk_lab.evaluation.slomo import slomo_frame
 
 __all__ = [
     "COLUMNS",

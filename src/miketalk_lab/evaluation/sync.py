@@ -21,7 +21,6 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
-from miketalk_lab.evaluation.measures import lag_frames, psnr
 from miketalk.mouth import mouth_opening
 from miketalk.talk.lipsync import Timeline, plan
 from miketalk.talk.model import Model
@@ -29,6 +28,7 @@ from miketalk.talk.motion import JerkMeter, measure
 from miketalk.talk.sampling import largest_step
 from miketalk.talk.utterance import Said
 from miketalk.visemes import VisemeTable
+from miketalk_lab.evaluation.measures import lag_frames, psnr
 
 #: The key columns of a sync table: one utterance at one setting (``sampling`` is the
 #: mode its JSON records: ``"blur"``, ``"paper"`` or ``"none"``).

@@ -20,8 +20,8 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.evaluation.flow_error import endpoint_error_map, summarize_endpoint_error
 from miketalk.flow import FlowDatabase
+from miketalk_lab.evaluation.flow_error import endpoint_error_map, summarize_endpoint_error
 
 
 def read_mask(path: str | os.PathLike[str]) -> np.ndarray:
@@ -110,11 +110,11 @@ def morph_fidelity_table(
     to beat). Rows: source, target, alpha, candidate, region, psnr, ssim,
     holes_before_fill (pixels neither warp reached), holes_left.
     """
-    from miketalk_lab.evaluation.measures import psnr, ssim
-    from miketalk_lab.evaluation.truth import viseme_params
     from miketalk.media.images import read_image
     from miketalk.render.morph import Morpher, cross_dissolve
     from miketalk.render.splat import HOLE_VALUE
+    from miketalk_lab.evaluation.measures import psnr, ssim
+    from miketalk_lab.evaluation.truth import viseme_params
     from synth_face import Face, FaceRenderer
 
     options = dict(morph_options or {})
