@@ -1,4 +1,5 @@
-"""Held-out clips dubbed with their own audio: the measures of :mod:`miketalk_lab.evaluation.dubbing`
+"""Held-out clips dubbed with their own audio: the measures of
+:mod:`miketalk_lab.evaluation.dubbing`
 per clip, a side-by-side mp4 (real | dubbed) per clip, a strip of the first, and a summary.
 
 The workflow's ``dub_heldout`` rule runs :func:`dub_heldout`; by hand:
