@@ -3,7 +3,7 @@
 The face speaks the corpus words in order, each timed by Festival's phones for
 that word, with the silence pose held in the pauses between words. Each phone
 puts a keyframe at its middle (a diphthong one per nucleus, at a quarter and
-three quarters of it, as :mod:`miketalk.talk.lipsync` does); the word's target
+three quarters of it, as :mod:`miketalk.lipsync.timeline` does); the word's target
 phone takes the corpus target's pose (``o`` for the ``aa`` of "body", ``e@:1``
 and ``e@:2`` for the ``eh`` and ``r`` of "there"). Between keyframes the mouth
 parameters follow a smoothstep, so the mouth comes to rest at each target: the

@@ -31,7 +31,7 @@ from miketalk.flow import pair_path, write_flow_pair
 from miketalk.media.audio import read_wav
 from miketalk.media.images import write_png
 from miketalk.media.video import probe_durations
-from miketalk.talk.build import build_model
+from miketalk.model.write import build_model
 from miketalk.visemes import VISEMES
 
 #: How far each viseme's texture is shifted, pixels (0, 3, ..., 45).
@@ -187,7 +187,7 @@ def test_paper_mode_lengthens_and_max_slowdown_caps_it(
 def test_learned_lipsync_draws_the_models_coarticulation(
     model: Path, dirs: tuple[Path, Path]
 ) -> None:
-    from miketalk.talk.coarticulation import CoarticulationParams, write_params
+    from miketalk.draw.coarticulation import CoarticulationParams, write_params
     from miketalk.visemes import VisemeTable
 
     work, scratch = dirs

@@ -9,14 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from miketalk.errors import MiketalkError
-from miketalk.flow import pair_path, write_flow_pair
-from miketalk.media.images import write_png
-from miketalk.render.morph import Morpher
-from miketalk.render.multimorph import MultiMorpher
-from miketalk.speech import Phone
-from miketalk.talk.build import build_model
-from miketalk.talk.coarticulation import (
+from miketalk.draw.coarticulation import (
     CoarticulationParams,
     TrainingClip,
     dominance_weights,
@@ -26,9 +19,16 @@ from miketalk.talk.coarticulation import (
     read_params,
     write_params,
 )
-from miketalk.talk.learned import render_learned, render_model_learned
-from miketalk.talk.lipsync import Keyframe, keyframes, plan
-from miketalk.talk.model import Model
+from miketalk.draw.learned import render_learned, render_model_learned
+from miketalk.errors import MiketalkError
+from miketalk.flow import pair_path, write_flow_pair
+from miketalk.lipsync.timeline import Keyframe, keyframes, plan
+from miketalk.media.images import write_png
+from miketalk.model.face import Model
+from miketalk.model.write import build_model
+from miketalk.render.morph import Morpher
+from miketalk.render.multimorph import MultiMorpher
+from miketalk.speech import Phone
 from miketalk.visemes import VISEMES, VisemeTable
 
 # ---------------------------------------------------------------------------
@@ -271,7 +271,7 @@ def _cost(a: str, b: str) -> float:
 
 
 def test_weights_step_on_one_transition_is_the_papers_step() -> None:
-    from miketalk.talk.motion import weights_step
+    from miketalk.lipsync.motion import weights_step
 
     for before, after in ((0.2, 0.5), (0.9, 0.1), (0.0, 1.0)):
         got = weights_step([("p", 1 - before), ("aa", before)], [("p", 1 - after), ("aa", after)],
@@ -284,7 +284,7 @@ def test_weights_step_is_the_least_transport_cost() -> None:
     """Against a linear program over every split, for frames of up to three visemes each."""
     from scipy.optimize import linprog
 
-    from miketalk.talk.motion import weights_step
+    from miketalk.lipsync.motion import weights_step
 
     rng = np.random.default_rng(3)
     names = ["p", "aa", "t", "f", "ii", "w"]

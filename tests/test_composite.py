@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
+from miketalk.composite.compositor import Compositor, blend_mask, colour_offset
 from miketalk.errors import MiketalkError
-from miketalk.render.composite import Compositor, blend_mask, colour_offset
 from miketalk.stabilize import Stabilizer
 from miketalk_lab.evaluation.measures import sharpness
 
@@ -139,7 +139,7 @@ def test_poisson_blend_gives_back_the_frame_and_keeps_the_frames_light():
 
 
 def test_follow_render_moves_the_frames_jaw_to_the_renders_beside_the_mask():
-    from miketalk.render.follow import follow_render
+    from miketalk.composite.follow import follow_render
 
     h, w = 120, 200
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
@@ -168,7 +168,7 @@ def test_follow_render_moves_the_frames_jaw_to_the_renders_beside_the_mask():
 
 
 def test_skin_weight_keeps_face_and_lips_and_drops_backdrop_and_collar():
-    from miketalk.render.follow import skin_weight
+    from miketalk.composite.follow import skin_weight
 
     image = np.zeros((60, 90, 3), np.uint8)
     image[:] = (40, 150, 200)  # blue backdrop

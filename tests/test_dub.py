@@ -17,13 +17,13 @@ import pytest
 from test_stabilize import H, W, _clip, _head, _write_video
 
 from miketalk import cli
+from miketalk.composite.background import background_from_video, pingpong
+from miketalk.composite.background_files import read_background, save_background
 from miketalk.flow import pair_path, write_flow_pair
 from miketalk.media.decode import read_video
 from miketalk.media.images import write_png
+from miketalk.model.write import build_model
 from miketalk.stabilize import Stabilizer
-from miketalk.talk.background import background_from_video, pingpong
-from miketalk.talk.background_files import read_background, save_background
-from miketalk.talk.build import build_model
 from miketalk.visemes import VISEMES
 
 
@@ -221,7 +221,7 @@ def test_say_background_auto_moves_the_head(capsys, tmp_path, person, video):
 
 
 def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
-    from miketalk.talk.background import lower_face_correlation
+    from miketalk.composite.background import lower_face_correlation
 
     frame = _head(4)
     box = (74, 100, 28, 8)  # the synthetic mouth: centre (88, 104), 28 px wide
@@ -230,7 +230,7 @@ def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
 
 
 def test_the_background_turns_where_the_head_stands_still():
-    from miketalk.talk.loop import head_speed, still_window
+    from miketalk.composite.loop import head_speed, still_window
 
     speed = np.full(75, 0.5)
     speed[[3, 40, 60]] = 0.01  # still at frames 3, 40 and 60
@@ -249,7 +249,7 @@ def test_the_background_turns_where_the_head_stands_still():
 def test_smoothing_in_time_is_scipys_gaussian_filter():
     from scipy.ndimage import gaussian_filter1d
 
-    from miketalk.talk.loop import smooth_in_time
+    from miketalk.composite.loop import smooth_in_time
 
     for n in (2, 5, 75):
         t = np.random.default_rng(n).normal(size=(n, 2, 3))

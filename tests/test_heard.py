@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from miketalk.draw.trained.training import TrainingSet
+from miketalk.draw.trained.trajectory import Context, fit_window
 from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import RATE, Recording, heard_features
 from miketalk.speech.festival.backend import FestivalBackend
 from miketalk.speech.types import Phone
-from miketalk.talk.trained.training import TrainingSet
-from miketalk.talk.trained.trajectory import Context, fit_window
 from miketalk.visemes import VisemeTable
 
 FPS = 25.0

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import plan
 from miketalk.media.video import write_mp4
 from miketalk.mouth import Eigenlips
 from miketalk.speech import Phone
-from miketalk.talk.lipsync import plan
 from miketalk.visemes import VisemeTable
 from miketalk_lab.evaluation.heldout import compare, side_by_side, speech_frames, video_columns
 from miketalk_lab.figures.heldout_strip import heldout_strip

@@ -15,10 +15,12 @@ lower layer's, never a higher one's. The product's layers, bottom to top:
 3. stabilize and mouth: vision on a person's frames;
 4. corpus: recordings to the corpus folder;
 5. flow: optical flow between visemes;
-6. render: images from images and flows (morphs, compositing);
-7. the model a face speaks with, then the lip-sync plan, the mouth drawn, the video
-   composited, the utterance said (see :data:`LAYERS`);
-8. cli.
+6. render: images from images and flows (the morphs);
+7. lipsync: timed phones to a timeline of transitions and morph parameters;
+8. model: the model a face speaks with, on disk;
+9. draw (the mouth beyond the paper's morph: learned, trained) and composite (onto video);
+10. building (a face's model from clips or a video) and talk (saying things: the entry point);
+11. cli.
 
 Above the product: the synthetic face, then the laboratory (evaluation, figures,
 bench), then the workflow's scripts. So the product never imports the laboratory.
@@ -57,7 +59,12 @@ LAYERS: dict[str, int] = {
     "miketalk.corpus": 4,
     "miketalk.flow": 5,
     "miketalk.render": 6,
-    "miketalk.talk": 7,
+    "miketalk.lipsync": 7,
+    "miketalk.model": 8,
+    "miketalk.draw": 9,
+    "miketalk.composite": 9,
+    "miketalk.building": 10,
+    "miketalk.talk": 10,
     "miketalk.cli": 12,
     "synth_face": 20,
     "miketalk_lab": 30,

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync import sampling
+from miketalk.lipsync import timeline as lipsync
 from miketalk.speech import FestivalBackend, Phone, Utterance
-from miketalk.talk import lipsync, sampling
 from miketalk.visemes import default_table
 
 TABLE = default_table()

@@ -15,9 +15,9 @@ import pytest
 from miketalk.errors import MiketalkError
 from miketalk.flow import get_estimator, pair_path, write_flow_pair
 from miketalk.media.images import write_png
+from miketalk.model.face import Model
+from miketalk.model.write import build_model
 from miketalk.speech import FestivalBackend, Phone
-from miketalk.talk.build import build_model
-from miketalk.talk.model import Model
 from miketalk.visemes import VISEMES
 
 needs_festival = pytest.mark.skipif(
@@ -162,7 +162,7 @@ def test_cli_say_errors_are_one_line(model_dir: Path, tmp_path: Path) -> None:
 
 
 def test_a_blurred_frame_is_the_weighted_mean_of_its_morphs(model_dir: Path) -> None:
-    from miketalk.talk import lipsync
+    from miketalk.lipsync import timeline as lipsync
     from miketalk.visemes import default_table
 
     phones = [Phone("pau", 0.0, 0.1), Phone("f", 0.1, 0.2), Phone("aa", 0.2, 0.3)]
@@ -180,7 +180,8 @@ def test_a_blurred_frame_is_the_weighted_mean_of_its_morphs(model_dir: Path) -> 
 
 
 def test_render_gives_the_same_bytes_with_any_number_of_workers(model_dir: Path) -> None:
-    from miketalk.talk import lipsync, sampling
+    from miketalk.lipsync import sampling
+    from miketalk.lipsync import timeline as lipsync
     from miketalk.visemes import default_table
 
     phones = [
@@ -201,7 +202,7 @@ def test_render_gives_the_same_bytes_with_any_number_of_workers(model_dir: Path)
 
 
 def test_manifest_paths_stay_inside_the_model(model_dir: Path, tmp_path: Path) -> None:
-    from miketalk.talk.manifest import inside
+    from miketalk.model.manifest import inside
 
     assert inside(model_dir, "visemes/p.png", "x") == model_dir / "visemes" / "p.png"
     for bad in ("../x.png", "/etc/passwd", "visemes/../../x", "..\\x", "C:/x.png", "a/../../b"):

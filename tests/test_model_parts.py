@@ -1,4 +1,4 @@
-"""Model directories before they are opened (miketalk.talk.model_parts): the default model,
+"""Model directories before they are opened (miketalk.model.parts): the default model,
 what a model holds, and the lip-sync model an utterance takes when none is asked for."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import pytest
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk.talk import model_parts
-from miketalk.talk.model_parts import (
+from miketalk.model import parts as model_parts
+from miketalk.model.parts import (
     COARTICULATION,
     TRAINED_DIRECTORY,
     TRAINED_MANIFEST,
@@ -52,7 +52,7 @@ def test_each_kind_of_utterance_takes_the_best_model_the_directory_has(tmp_path:
 
 
 def test_the_preferences_name_known_models_and_end_with_the_papers() -> None:
-    from miketalk.talk.settings import LIPSYNC_MODELS
+    from miketalk.lipsync.settings import LIPSYNC_MODELS
 
     for kind, order in defaults.PREFERRED_LIPSYNC_MODELS.items():
         assert set(order) == set(LIPSYNC_MODELS), kind

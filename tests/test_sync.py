@@ -18,11 +18,11 @@ import pytest
 import test_model  # the tiny model of noise textures that tests/test_model.py builds
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync import sampling as talk_sampling
+from miketalk.lipsync import timeline as lipsync
+from miketalk.model.face import Model
 from miketalk.speech import FestivalBackend, Phone, Utterance
 from miketalk.speech.backend import SpeechBackend
-from miketalk.talk import lipsync
-from miketalk.talk import sampling as talk_sampling
-from miketalk.talk.model import Model
 from miketalk.visemes import default_table
 
 TABLE = default_table()

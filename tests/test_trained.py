@@ -1,4 +1,4 @@
-"""The trained face (miketalk.talk.trained): trajectories, selection, compositing, end to end."""
+"""The trained face (miketalk.draw.trained): trajectories, selection, compositing, end to end."""
 
 from __future__ import annotations
 
@@ -10,16 +10,16 @@ import cv2
 import numpy as np
 import pytest
 
+from miketalk.draw.trained import fit_trained, read_trained
+from miketalk.draw.trained.draw import render_trained
+from miketalk.draw.trained.mouths import MouthFrames, feather_mask
+from miketalk.draw.trained.selection import PatchCompositor, SelectionSettings, select
+from miketalk.draw.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import plan
+from miketalk.model.parts import trained_trajectories
 from miketalk.speech.acoustic import RATE, Recording
 from miketalk.speech.types import Phone
-from miketalk.talk.lipsync import plan
-from miketalk.talk.model_parts import trained_trajectories
-from miketalk.talk.trained import fit_trained, read_trained
-from miketalk.talk.trained.draw import render_trained
-from miketalk.talk.trained.mouths import MouthFrames, feather_mask
-from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings, select
-from miketalk.talk.trained.trajectory import PAUSE_BINS, pause_features, ridge, smooth_targets
 from miketalk.visemes import default_table
 from miketalk_lab.evaluation.dub_heldout import dub_renderer
 
@@ -275,7 +275,7 @@ def test_a_trained_face_keeps_its_fit_settings_apart_and_reads_one_that_mixed_th
     ``trained.json`` from before, which kept them among the selection's, reads the same."""
     import json
 
-    from miketalk.talk.trained.training import FitSettings
+    from miketalk.draw.trained.training import FitSettings
 
     corpus = _synthetic_corpus(tmp_path)
     doc = fit_trained(corpus, tmp_path / "model", components=6)
@@ -347,10 +347,10 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     """The previous selection settings render from the same model (paired comparison); the
     full gain makes the target move at least as far; centred fits are zero-mean per clip;
     settings fitted with the model cannot be overridden at render time."""
-    from miketalk.talk.trained.build import fitted_face
-    from miketalk.talk.trained.mouths import measure_frames
-    from miketalk.talk.trained.selection import PREVIOUS_SELECTION
-    from miketalk.talk.trained.training import FitSettings, clip_offsets
+    from miketalk.draw.trained.build import fitted_face
+    from miketalk.draw.trained.mouths import measure_frames
+    from miketalk.draw.trained.selection import PREVIOUS_SELECTION
+    from miketalk.draw.trained.training import FitSettings, clip_offsets
     from miketalk.visemes import VisemeTable
 
     corpus = _synthetic_corpus(tmp_path)
@@ -461,8 +461,8 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
 
 def test_a_trained_utterance_reports_the_persons_frames_not_the_visemes_morphs() -> None:
     from miketalk.cli.say import drawn_words
-    from miketalk.talk.motion import measure
-    from miketalk.talk.sampling import motion_blur
+    from miketalk.lipsync.motion import measure
+    from miketalk.lipsync.sampling import motion_blur
 
     phones = (Phone("pau", 0.0, 0.2), Phone("aa", 0.2, 0.3), Phone("m", 0.3, 0.4),
               Phone("pau", 0.4, 0.6))  # fmt: skip

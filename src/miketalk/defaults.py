@@ -27,12 +27,12 @@ MAX_PX_PER_FRAME = 2.5
 
 #: How the mouth moves between visemes: ``"paper"`` (each transition from one
 #: viseme all the way to the next, paper §7) or ``"learned"`` (the model's
-#: fitted coarticulation, :mod:`miketalk.talk.coarticulation`) or ``"trained"`` (the
-#: person's own frames along a trajectory trained on all of them, :mod:`miketalk.talk.trained`).
+#: fitted coarticulation, :mod:`miketalk.draw.coarticulation`) or ``"trained"`` (the
+#: person's own frames along a trajectory trained on all of them, :mod:`miketalk.draw.trained`).
 LIPSYNC_MODEL = "paper"
 
 #: ``miketalk say`` and ``dub`` without ``--lipsync-model``: the first of these the model
-#: has (:func:`miketalk.talk.model_parts.default_lipsync_model`), for typed text and for a
+#: has (:func:`miketalk.model.parts.default_lipsync_model`), for typed text and for a
 #: recording. On s1's 40 held-out bench clips (the README's table of the trained face), typed text
 #: through ``learned`` follows his lip opening better (r 0.641) than through ``trained`` from
 #: the phones alone (0.622) or ``paper`` (0.602); his recording through ``trained``, which
@@ -91,7 +91,7 @@ def figures_dir(*, root: Path = RESULTS) -> Path:
 BACKGROUND = "auto"
 
 #: The region a synthesized mouth is blended into a frame over, in mouth widths about
-#: the mouth box's centre (:func:`miketalk.render.composite.blend_mask`): half its width,
+#: the mouth box's centre (:func:`miketalk.composite.compositor.blend_mask`): half its width,
 #: how far above the centre it starts (below the nose) and how far below it ends (past
 #: the chin), half the width of its lower half, and the feathered edge's Gaussian sigma.
 BLEND_HALF_WIDTH = 1.15
@@ -101,7 +101,7 @@ BLEND_CHIN_WIDTH = 0.7
 BLEND_FEATHER = 0.1
 
 #: Warp the frame's lower face about the blend to follow the synthesized jaw
-#: (:func:`miketalk.render.follow.follow_render`), so its jaw line does not show twice.
+#: (:func:`miketalk.composite.follow.follow_render`), so its jaw line does not show twice.
 BLEND_FOLLOW = True
 
 #: How a render is sampled into a frame of the person (the compositor): ``"cubic"``
@@ -116,17 +116,18 @@ BLEND_FOLLOW = True
 BLEND_INTERPOLATION = "cubic"
 
 #: Keep the blend off the reference's backdrop and clothes
-#: (:func:`miketalk.render.follow.skin_weight`): the render's collar beside the jaw.
+#: (:func:`miketalk.composite.follow.skin_weight`): the render's collar beside the jaw.
 BLEND_SKIN = True
 
 #: Seconds of the person's own frames a model built from clips keeps as the background
-#: ``say`` plays (:mod:`miketalk.talk.background`): at most ``BACKGROUND_SECONDS``, at least
+#: ``say`` plays (:mod:`miketalk.composite.background`): at most ``BACKGROUND_SECONDS``, at least
 #: ``BACKGROUND_SHORTEST``, cut where the head stands still (the ping-pong loop's turns).
 BACKGROUND_SECONDS = 3.0
 BACKGROUND_SHORTEST = 2.0
 
 #: Gaussian sigma, seconds, of the smoothing in time of a video's stabilization transforms
-#: before the mouth is composited by them (:func:`miketalk.talk.background.background_from_video`):
+#: before the mouth is composited by them
+#: (:func:`miketalk.composite.background.background_from_video`):
 #: each frame's registration has its own error, which slides the mouth against the nose. On
 #: s1's held-out clips 0.04 s (one frame at 25 fps) halves the nose's frame-to-frame motion in
 #: the stabilized frames (lbbk4n 0.34 to 0.18 px, prbdzn 0.31 to 0.18); 0 keeps them raw.

@@ -9,7 +9,7 @@ from snakemake.utils import validate
 
 from miketalk import defaults
 from miketalk.flow.strategies import STRATEGIES, get_strategy
-from miketalk.talk.settings import SAMPLINGS
+from miketalk.lipsync.settings import SAMPLINGS
 
 ROOT = Path(workflow.basedir)
 

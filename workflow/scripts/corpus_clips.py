@@ -7,7 +7,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.talk.stages import corpus_stage
+    from miketalk.building.stages import corpus_stage
 
     corpus_stage(
         Path(snakemake.output.audio).parent,

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 def main() -> None:
     from pathlib import Path
 
-    from miketalk.talk.stages import eigenlips_stage
+    from miketalk.building.stages import eigenlips_stage
 
     eigenlips_stage(Path(snakemake.input.regions).parent, snakemake.output[0])
 

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.talk.stages import flows_stage
+    from miketalk.building.stages import flows_stage
 
     flows_stage(
         snakemake.output.flows,

@@ -6,7 +6,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.talk.stages import model_stage
+    from miketalk.building.stages import model_stage
 
     model_stage(
         snakemake.output[0],

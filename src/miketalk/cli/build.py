@@ -1,7 +1,7 @@
 """``miketalk build``: a talking-face model from one video of a person and what it says.
 
 ``miketalk build VIDEO (--transcript T | --subtitles S) -o MODEL_DIR`` runs the
-workflow's stages for a face from one video (:mod:`miketalk.talk.stages`), one
+workflow's stages for a face from one video (:mod:`miketalk.building.stages`), one
 after the other, with a progress bar naming the running stage and each stage's
 time on stderr. The work is done in a folder beside MODEL_DIR that is removed at
 the end; MODEL_DIR appears only when the model is complete (and replaces an
@@ -63,14 +63,14 @@ def build_model_from_video(
     """
     from tqdm import tqdm
 
-    from miketalk.corpus.one_video import check_video_inputs, segment_video
-    from miketalk.corpus.viseme_choice import choose_visemes_stage
-    from miketalk.talk.stages import (
+    from miketalk.building.stages import (
         corpus_stage,
         eigenlips_stage,
         flows_stage,
         model_stage,
     )
+    from miketalk.corpus.one_video import check_video_inputs, segment_video
+    from miketalk.corpus.viseme_choice import choose_visemes_stage
 
     model_dir = Path(model_dir)
     if model_dir.exists():

@@ -11,7 +11,7 @@ from miketalk.errors import MiketalkError
 
 def cmd_cues(args: argparse.Namespace) -> int:
     """Write mouth cues (Rhubarb JSON/TSV) and timed phones and visemes (Praat TextGrid)."""
-    from miketalk.talk.cues import check_extended, format_of, render_cues, write_cues
+    from miketalk.lipsync.cues import check_extended, format_of, render_cues, write_cues
     from miketalk.visemes import default_table
 
     extended = check_extended(args.extended_shapes)

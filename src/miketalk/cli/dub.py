@@ -2,9 +2,9 @@
 
 ``miketalk dub VIDEO (--text T | --audio A [--text T]) -o OUT.mp4``: every frame
 of VIDEO is registered to the model's reference
-(:func:`miketalk.talk.background.background_from_video`), the mouth is
+(:func:`miketalk.composite.background.background_from_video`), the mouth is
 synthesized for the new speech at the video's own frame rate, and composited
-into every frame at the video's own size (:mod:`miketalk.render.composite`),
+into every frame at the video's own size (:mod:`miketalk.composite.compositor`),
 with the new audio. Speech longer than the video plays the video forwards,
 backwards, forwards (no jump); shorter speech ends the video with it.
 
@@ -36,12 +36,12 @@ def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
     from miketalk.cli.common import festival_backend, has_text, read_text, seconds_since
     from miketalk.cli.say import check_lipsync_model
-    from miketalk.talk.background import background_from_video, check_video
-    from miketalk.talk.background_files import has_background, model_stabilizer
-    from miketalk.talk.model_parts import default_model_dir
+    from miketalk.composite.background import background_from_video, check_video
+    from miketalk.composite.background_files import has_background, model_stabilizer
+    from miketalk.lipsync.settings import check_fps
+    from miketalk.model.parts import default_model_dir
     from miketalk.talk.output import check_output
     from miketalk.talk.say import open_model
-    from miketalk.talk.settings import check_fps
 
     started = time.perf_counter()
     text = read_text(args) if has_text(args) else None

@@ -34,19 +34,19 @@ def checked(check: Callable[[object], object]) -> Callable[[str], float]:
 
 
 def fps_value(value: object) -> object:
-    from miketalk.talk.settings import check_fps
+    from miketalk.lipsync.settings import check_fps
 
     return check_fps(value)
 
 
 def max_px_value(value: object) -> object:
-    from miketalk.talk.settings import check_max_px
+    from miketalk.lipsync.settings import check_max_px
 
     return check_max_px(value)
 
 
 def max_slowdown_value(value: object) -> object:
-    from miketalk.talk.settings import check_max_slowdown
+    from miketalk.lipsync.settings import check_max_slowdown
 
     return check_max_slowdown(value)
 
@@ -62,7 +62,7 @@ def voice_option(parser: argparse.ArgumentParser) -> None:
 
 
 def trajectory_option(parser: argparse.ArgumentParser) -> None:
-    from miketalk.talk.trained.trajectory import TRAJECTORIES
+    from miketalk.draw.trained.trajectory import TRAJECTORIES
 
     parser.add_argument(
         "--trajectory",

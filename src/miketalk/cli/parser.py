@@ -49,7 +49,7 @@ renders one morph per frame."""
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
-    from miketalk.talk.settings import FPS_RANGE, MAX_PX_RANGE
+    from miketalk.lipsync.settings import FPS_RANGE, MAX_PX_RANGE
 
     parser = _Parser(prog="miketalk", description="Text-to-audiovisual speech by morphing visemes.")
     parser.add_argument("--version", action="version", version=f"miketalk {__version__}")

@@ -65,7 +65,7 @@ def cmd_say(args: argparse.Namespace) -> int:
 
         with open_model(args.model) as model:
             log.info("model %s opened, %.2f s after start", model.directory, seconds_since(started))
-            from miketalk.talk.background_files import resolve_background
+            from miketalk.composite.background_files import resolve_background
 
             background = resolve_background(args.background, model, progress=args.progress)
             long_text = len(text.split()) > 40
@@ -121,16 +121,16 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
     """Settle ``args.lipsync_model`` and check it against the model, in one line if it fails.
 
     Not given, it is ``trained`` when a ``--trajectory`` is asked for, else the model's own
-    (:func:`~miketalk.talk.model_parts.default_lipsync_model`: for a model built from clips,
+    (:func:`~miketalk.model.parts.default_lipsync_model`: for a model built from clips,
     ``learned`` for typed text and ``trained`` for a recording). ``learned`` needs a model
     with learned coarticulation, ``trained`` a trained face with the ``--trajectory`` asked for.
     """
-    from miketalk.talk.model_parts import (
+    from miketalk.lipsync.settings import check_trajectory
+    from miketalk.model.parts import (
         default_lipsync_model,
         default_model_dir,
         trained_trajectories,
     )
-    from miketalk.talk.settings import check_trajectory
 
     trajectory = getattr(args, "trajectory", None)
     recorded = args.audio is not None
@@ -144,11 +144,11 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
                  "a recording" if recorded else "typed text")  # fmt: skip
     check_trajectory(trajectory, lipsync_model=args.lipsync_model, recorded=recorded)
     if args.lipsync_model == "learned":
-        from miketalk.talk.coarticulation import read_params
+        from miketalk.draw.coarticulation import read_params
 
         read_params(directory)
     elif args.lipsync_model == "trained":
-        from miketalk.talk.trained.build import read_trained
+        from miketalk.draw.trained.build import read_trained
 
         kinds = trained_trajectories(directory)
         if not kinds:
@@ -176,7 +176,7 @@ def _say_recorded(
     text = read_text(args) if has_text(args) else None
     check_output(args.output, overwrite=args.force)
     check_lipsync_model(args)
-    from miketalk.talk.background_files import resolve_background
+    from miketalk.composite.background_files import resolve_background
     from miketalk.talk.recorded import say_recorded
     from miketalk.talk.say import open_model
 

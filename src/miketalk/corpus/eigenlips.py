@@ -3,7 +3,7 @@
 The eigenlips of a face built from clips (:class:`miketalk.mouth.Eigenlips`,
 the principal components of its training frames' grey mouth regions) are used
 twice: to fit the face's learned coarticulation on the training clips'
-trajectories (:func:`miketalk.talk.coarticulation.fit_coarticulation`) and to
+trajectories (:func:`miketalk.draw.coarticulation.fit_coarticulation`) and to
 compare held-out clips with their re-synthesis
 (:func:`miketalk_lab.evaluation.heldout.heldout_stage`). Reading every corpus
 frame and decomposing the (frames x pixels) matrix is most of what either

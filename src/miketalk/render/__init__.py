@@ -6,7 +6,7 @@
   splat, and scanline hole filling;
 - :mod:`~miketalk.render.multimorph`: the N-way morph of several visemes' weights;
 - :mod:`~miketalk.render.kernels`: the C kernels behind the splat and blend;
-- :mod:`~miketalk.render.composite`: a mouth rendered in the reference frame carried
+- :mod:`~miketalk.composite.compositor`: a mouth rendered in the reference frame carried
   into a video frame and blended in.
 """
 

@@ -1,6 +1,6 @@
 """A morph between more than two visemes (beyond the paper), the paper's morph as its special case.
 
-The learned coarticulation (:mod:`miketalk.talk.coarticulation`) puts the mouth
+The learned coarticulation (:mod:`miketalk.draw.coarticulation`) puts the mouth
 at points between several visemes: weights ``w_V`` summing to 1. A frame is
 drawn from them as follows (:meth:`MultiMorpher.frame`):
 
@@ -8,7 +8,7 @@ one viseme
     its image;
 two visemes ``A`` then ``B``
     the paper's two-image morph (:class:`miketalk.render.morph.Morpher`, through
-    the source's ``frame``, e.g. :meth:`miketalk.talk.model.Model.frame`) at
+    the source's ``frame``, e.g. :meth:`miketalk.model.face.Model.frame`) at
     ``alpha = w_B / (w_A + w_B)``,
     byte for byte what the paper's renderer draws at that alpha;
 three or more
@@ -27,7 +27,7 @@ three or more
     in ``tests/test_coarticulation.py``. The model's ``median`` setting applies
     as in the paper's morph (3x3 median).
 
-All warps are ``cv2.remap`` in float32. :func:`miketalk.talk.learned.render_learned`
+All warps are ``cv2.remap`` in float32. :func:`miketalk.draw.learned.render_learned`
 draws a timeline with the learned weights.
 """
 
@@ -76,7 +76,7 @@ class MultiMorpher:
     ----------
     model : MorphSource
         The visemes' images, flows and morph settings (a
-        :class:`miketalk.talk.model.Model`).
+        :class:`miketalk.model.face.Model`).
     inverse_iterations : int
         Fixed-point steps inverting the blended shape (0: first order).
     flow_cache : int

@@ -9,7 +9,7 @@ The phones are placed in the recording by
 
 The audio is fixed, so the paper's oversampling (which lengthens phones and
 speaks them again) cannot apply; motion blur (the default sampling,
-:func:`miketalk.talk.sampling.motion_blur`) keeps the steps between morphs
+:func:`miketalk.lipsync.sampling.motion_blur`) keeps the steps between morphs
 under ``max_px_per_frame`` at the recording's own speed. The measures of the
 motion are in the JSON beside the mp4 and in the return value.
 """
@@ -25,19 +25,19 @@ from typing import TYPE_CHECKING
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.motion import Motion
+from miketalk.lipsync.sampling import motion_blur
+from miketalk.lipsync.settings import LipsyncModel
+from miketalk.lipsync.timeline import Sampling, Timeline, plan
+from miketalk.model.face import Model
 from miketalk.speech.types import Phone
-from miketalk.talk.lipsync import Sampling, Timeline, plan
-from miketalk.talk.model import Model
-from miketalk.talk.motion import Motion
-from miketalk.talk.sampling import motion_blur
-from miketalk.talk.settings import LipsyncModel
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:
     import numpy as np
 
+    from miketalk.composite.background import Background
     from miketalk.speech.coverage import SpeechCoverage
-    from miketalk.talk.background import Background
 
 log = logging.getLogger(__name__)
 
@@ -224,7 +224,7 @@ def say_recorded(
         Replace a ``NAME.json`` that is not a miketalk timeline.
     background : Background, optional
         Frames of the person the mouth is composited into
-        (:mod:`miketalk.talk.background`); None: the model's still face.
+        (:mod:`miketalk.composite.background`); None: the model's still face.
 
     Raises
     ------
@@ -232,12 +232,12 @@ def say_recorded(
         A bad setting or output name (before the recording is read), and the
         errors of :func:`align_recording`.
     """
+    from miketalk.composite.background import background_doc
+    from miketalk.draw.trained import read_trained
+    from miketalk.lipsync.settings import check_settings, check_trajectory
     from miketalk.speech.acoustic import Recording
-    from miketalk.talk.background import background_doc
     from miketalk.talk.output import check_output
     from miketalk.talk.say import learned_coarticulation
-    from miketalk.talk.settings import check_settings, check_trajectory
-    from miketalk.talk.trained import read_trained
     from miketalk.talk.utterance import write_utterance
 
     if sampling == "paper":

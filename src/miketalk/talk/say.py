@@ -2,7 +2,7 @@
 
 :func:`say` writes two files: ``NAME.mp4`` and, beside it, ``NAME.json``, the
 timeline of its frames and the measures of its motion
-(:mod:`miketalk.talk.motion`). They are replaced together or not at all
+(:mod:`miketalk.lipsync.motion`). They are replaced together or not at all
 (:func:`miketalk.media.atomic.atomic_paths`): on any failure, Ctrl-C or
 SIGTERM included, an older pair is left as it was, and a run killed outright
 leaves nothing the next run does not tidy. The output is checked before any
@@ -21,20 +21,20 @@ from typing import TYPE_CHECKING
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.sampling import speak_in_sync
+from miketalk.lipsync.settings import LipsyncModel, Sampling, check_settings, check_trajectory
+from miketalk.lipsync.timeline import Timeline, keyframes
+from miketalk.model.face import Model
+from miketalk.model.parts import default_model_dir
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone, Utterance
-from miketalk.talk.lipsync import Timeline, keyframes
-from miketalk.talk.model import Model
-from miketalk.talk.model_parts import default_model_dir
 from miketalk.talk.output import check_output
-from miketalk.talk.sampling import speak_in_sync
-from miketalk.talk.settings import LipsyncModel, Sampling, check_settings, check_trajectory
 from miketalk.talk.utterance import Spoken, write_utterance
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
-    from miketalk.talk.background import Background
-    from miketalk.talk.coarticulation import CoarticulationParams
+    from miketalk.composite.background import Background
+    from miketalk.draw.coarticulation import CoarticulationParams
 
 
 log = logging.getLogger(__name__)
@@ -111,7 +111,7 @@ def speak(
     ``max_px_per_frame``, ``max_slowdown``, ``planned_phones`` (the phones
     the engine predicted, before the paper's mode lengthened any),
     ``planned_duration``, ``largest_step_px`` and ``motion``
-    (:class:`~miketalk.talk.motion.Motion`); :func:`read_said` reads it back.
+    (:class:`~miketalk.lipsync.motion.Motion`); :func:`read_said` reads it back.
     It is strict JSON (no NaN).
 
     Parameters
@@ -125,14 +125,14 @@ def speak(
     model : Model
         The visemes and their flows.
     fps : float
-        Frame rate, in :data:`~miketalk.talk.lipsync.FPS_RANGE`.
+        Frame rate, in :data:`~miketalk.lipsync.timeline.FPS_RANGE`.
     max_px_per_frame : float or None
         The largest step between consecutive morphs, in
-        :data:`~miketalk.talk.lipsync.MAX_PX_RANGE`; None: no limit (as
+        :data:`~miketalk.lipsync.timeline.MAX_PX_RANGE`; None: no limit (as
         ``sampling="none"``).
     sampling : {"blur", "paper", "none"}
         How transitions too fast for the limit are sampled
-        (:mod:`miketalk.talk.lipsync`): ``"blur"`` (default) keeps the speech's
+        (:mod:`miketalk.lipsync.timeline`): ``"blur"`` (default) keeps the speech's
         own duration and renders more morphs than frames, each frame their
         average; ``"paper"`` lengthens the speech (paper §7); ``"none"``
         renders one morph per frame.
@@ -145,11 +145,11 @@ def speak(
         ``"paper"`` draws each frame on the transition from one viseme to the
         next; ``"learned"`` draws each frame's point between several visemes
         from the coarticulation fitted into the model
-        (:func:`miketalk.talk.coarticulation.frame_weights`, drawn by
+        (:func:`miketalk.draw.coarticulation.frame_weights`, drawn by
         :mod:`miketalk.render.multimorph`) at the frame's middle: ``sampling`` then
         sets only the speech's duration (blur's extra morphs are not drawn;
         the learned path is smooth of itself); ``"trained"`` draws each frame
-        from his own frames along a trained trajectory (:mod:`miketalk.talk.trained`).
+        from his own frames along a trained trajectory (:mod:`miketalk.draw.trained`).
     trajectory : str, optional
         With ``"trained"``: its trajectory model (default the face's; ``heard`` listens to
         a recording, which synthesized speech is not, and is refused here).
@@ -163,7 +163,7 @@ def speak(
         Replace a ``NAME.json`` that is not a miketalk timeline.
     background : Background, optional
         Frames of the person the mouth is composited into
-        (:mod:`miketalk.talk.background`); None: the model's still face.
+        (:mod:`miketalk.composite.background`); None: the model's still face.
 
     Returns
     -------
@@ -188,7 +188,7 @@ def speak(
         coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
         trained = None
         if lipsync_model == "trained":  # one line for a model without a trained face
-            from miketalk.talk.trained import read_trained
+            from miketalk.draw.trained import read_trained
 
             trained = read_trained(model.directory)
             trajectory = trained.kind_for(trajectory, recorded=False)
@@ -262,7 +262,7 @@ def speak(
 
 
 def _background_doc(background: Background | None) -> dict:
-    from miketalk.talk.background import background_doc
+    from miketalk.composite.background import background_doc
 
     return background_doc(background)
 
@@ -276,6 +276,6 @@ def learned_coarticulation(model: Model) -> CoarticulationParams:
         One line, when the model has none (a model built from a synthetic
         face, or before coarticulation was fitted): use the paper's lip-sync.
     """
-    from miketalk.talk.coarticulation import read_params
+    from miketalk.draw.coarticulation import read_params
 
     return read_params(model.directory)

@@ -12,22 +12,22 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.motion import JerkMeter, Motion, measure
+from miketalk.lipsync.timeline import Timeline
 from miketalk.media.atomic import atomic_paths, sweep_beside
 from miketalk.media.video import write_mp4
+from miketalk.model.face import Model
+from miketalk.model.manifest import strict_json
 from miketalk.speech.types import Phone, Utterance
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.manifest import strict_json
-from miketalk.talk.model import Model
-from miketalk.talk.motion import JerkMeter, Motion, measure
 from miketalk.talk.output import TIMELINE_FORMAT, check_output
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
+    from miketalk.composite.background import Background
+    from miketalk.draw.coarticulation import CoarticulationParams
+    from miketalk.draw.trained import TrainedFace
     from miketalk.speech.acoustic import Recording
-    from miketalk.talk.background import Background
-    from miketalk.talk.coarticulation import CoarticulationParams
-    from miketalk.talk.trained import TrainedFace
 
 log = logging.getLogger(__name__)
 
@@ -83,11 +83,11 @@ def write_utterance(
     ----------
     coarticulation : CoarticulationParams, optional
         Draw the frames with this learned coarticulation
-        (:func:`miketalk.talk.learned.render_learned`) instead of the paper's
+        (:func:`miketalk.draw.learned.render_learned`) instead of the paper's
         transitions; the motion is then measured on its weights.
     trained : TrainedFace, optional
         Draw the frames from the person's own with this trained face
-        (:func:`miketalk.talk.trained.draw.render_trained`).
+        (:func:`miketalk.draw.trained.draw.render_trained`).
     trajectory : str, optional
         The trained face's trajectory model (default: ``heard`` with a ``recording`` when
         the face has it, else the face's default).
@@ -96,7 +96,7 @@ def write_utterance(
         trained face's ``heard`` trajectory listens to it. None for synthesized speech.
     background : Background, optional
         Frames of the person to composite each rendered mouth into
-        (:func:`miketalk.talk.background.composited`); the video then has the
+        (:func:`miketalk.composite.background.composited`); the video then has the
         background's size. None: the model's frames as they are (a still face).
 
     Returns
@@ -112,7 +112,7 @@ def write_utterance(
     jerk = JerkMeter()
     weights = None
     if trained is not None:
-        from miketalk.talk.trained.draw import render_trained
+        from miketalk.draw.trained.draw import render_trained
 
         rendered = render_trained(
             model, timeline, trained=trained, kind=trajectory, recording=recording
@@ -120,14 +120,14 @@ def write_utterance(
     elif coarticulation is None:
         rendered = model.render(timeline)
     else:
-        from miketalk.talk.coarticulation import frame_weights
-        from miketalk.talk.learned import render_learned
+        from miketalk.draw.coarticulation import frame_weights
+        from miketalk.draw.learned import render_learned
 
         weights = frame_weights(timeline, coarticulation)
         rendered = render_learned(model, timeline, coarticulation, weights=weights)
     frames = jerk.watch(rendered)
     if background is not None:
-        from miketalk.talk.background_files import composite_renders
+        from miketalk.composite.background_files import composite_renders
 
         frames = composite_renders(frames, background, model, fps=timeline.fps)
     if progress:

@@ -5,7 +5,7 @@ default ``max_px_per_frame``, ``--json``) on the default model (``make run``
 builds it) in each mode of :data:`MODES`, for the sentences of the project's
 ``config.yaml`` and for a text of about 300 words (:data:`TEXT_300`), and
 reads back the measures of the motion ``say`` reports
-(:class:`miketalk.talk.motion.Motion`): the duration of the speech over its
+(:class:`miketalk.lipsync.motion.Motion`): the duration of the speech over its
 natural duration, the largest step between consecutive morphs, the largest
 motion from one frame to the next, and the mean and largest jerk of the frames.
 

@@ -2,7 +2,7 @@
 
 ``python -m miketalk_lab.bench.trained_cv --corpus DIR --model DIR --out DIR [--variants ...]``
 
-The trained face's settings (:class:`miketalk.talk.trained.selection.SelectionSettings`)
+The trained face's settings (:class:`miketalk.draw.trained.selection.SelectionSettings`)
 are chosen here, never on held-out clips: the face's training clips are split into
 ``--folds`` folds (every k-th clip); for each fold the trained face is fitted on the
 other folds only (its principal components too) and renders the fold's clips from
@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from miketalk.draw.trained.selection import PREVIOUS_SELECTION
 from miketalk.errors import MiketalkError
-from miketalk.talk.trained.selection import PREVIOUS_SELECTION
 from miketalk_lab.bench.command import bench_parser, run_bench
 
 log = logging.getLogger(__name__)
@@ -69,8 +69,8 @@ def parse_variant(text: str) -> tuple[str, dict]:
         if name not in VARIANTS:
             raise MiketalkError(f"unknown variant {name!r} (known: {', '.join(VARIANTS)})")
         return name, dict(VARIANTS[name])
-    from miketalk.talk.trained.selection import SelectionSettings
-    from miketalk.talk.trained.training import FitSettings
+    from miketalk.draw.trained.selection import SelectionSettings
+    from miketalk.draw.trained.training import FitSettings
 
     known = {"kind", "voice"} | {
         f.name for c in (SelectionSettings, FitSettings) for f in dataclasses.fields(c)
@@ -102,7 +102,7 @@ def json_object(text: str) -> dict:
 
 def refit_frames(frames, rows: np.ndarray, components: int):
     """``frames`` restricted to ``rows``, its principal components fitted on them alone."""
-    from miketalk.talk.trained.mouths import describe
+    from miketalk.draw.trained.mouths import describe
 
     patches = np.asarray(frames.patches[rows])
     coords, mean, comps, variance = describe(
@@ -133,15 +133,15 @@ def cross_validate(
     morph settings, used where a variant's joins are morphed."""
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.corpus.folder import frame_path
+    from miketalk.draw.trained.build import TrainedFace, fitted_face
+    from miketalk.draw.trained.mouths import measure_frames
+    from miketalk.draw.trained.selection import PatchCompositor, SelectionSettings
+    from miketalk.draw.trained.training import FitSettings, training_set
+    from miketalk.lipsync.timeline import plan
     from miketalk.media.images import read_image
+    from miketalk.model.face import Model
     from miketalk.mouth import mouth_region
     from miketalk.mouth.region import grey_mouths
-    from miketalk.talk.lipsync import plan
-    from miketalk.talk.model import Model
-    from miketalk.talk.trained.build import TrainedFace, fitted_face
-    from miketalk.talk.trained.mouths import measure_frames
-    from miketalk.talk.trained.selection import PatchCompositor, SelectionSettings
-    from miketalk.talk.trained.training import FitSettings, training_set
     from miketalk.visemes import SILENCE, VisemeTable
     from miketalk_lab.evaluation.heldout import compare, speech_frames
     from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores

@@ -4,8 +4,8 @@
 [--voice kal ked]``
 
 The trained face's description of every frame of a corpus folder
-(:func:`miketalk.talk.trained.mouths.measure_frames`) predicted from the phone
-context (:func:`miketalk.talk.trained.trajectory.window_features`), 5-fold over
+(:func:`miketalk.draw.trained.mouths.measure_frames`) predicted from the phone
+context (:func:`miketalk.draw.trained.trajectory.window_features`), 5-fold over
 clips (every 5th clip held out, as the model's own fit does): the ridge of the
 ``window`` trajectory at each window half-width and strength, and, with
 ``--mlp``, scikit-learn's ``MLPRegressor`` on the same features (one hidden
@@ -41,7 +41,7 @@ from miketalk.errors import MiketalkError
 from miketalk_lab.bench.command import bench_parser, run_bench
 
 if TYPE_CHECKING:
-    from miketalk.talk.trained.training import TrainingSet
+    from miketalk.draw.trained.training import TrainingSet
 
 Fit = Callable[[np.ndarray, np.ndarray, Sequence[np.ndarray]], list[np.ndarray]]
 
@@ -74,8 +74,8 @@ def cross_validated_r2(
 
 
 def ridge_fit(strength: float) -> Fit:
-    """The ``window`` trajectory's ridge (:func:`miketalk.talk.trained.trajectory.ridge`)."""
-    from miketalk.talk.trained.trajectory import ridge
+    """The ``window`` trajectory's ridge (:func:`miketalk.draw.trained.trajectory.ridge`)."""
+    from miketalk.draw.trained.trajectory import ridge
 
     def fit(x: np.ndarray, y: np.ndarray, held: Sequence[np.ndarray]) -> list[np.ndarray]:
         w, b = ridge(x, y, strength)
@@ -115,8 +115,8 @@ def opening_ceiling(
     import pandas as pd
 
     from miketalk.corpus.folder import frame_path
+    from miketalk.draw.trained.trajectory import ridge
     from miketalk.media.images import read_image
-    from miketalk.talk.trained.trajectory import ridge
     from miketalk.visemes import SILENCE, VisemeTable
     from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening
     from miketalk_lab.evaluation.measures import correlation
@@ -170,13 +170,13 @@ def voice_scores(
 
     ``data`` and ``clip_ids`` are the corpus's training set and clip ids, when the caller
     has them already."""
-    from miketalk.talk.trained.trajectory import HEARD_HALF, Context, window_features
+    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, window_features
     from miketalk.visemes import VisemeTable
     from miketalk_lab.bench.other_voice import voiced_recordings
 
     if data is None or clip_ids is None:
-        from miketalk.talk.trained.mouths import measure_frames
-        from miketalk.talk.trained.training import training_set
+        from miketalk.draw.trained.mouths import measure_frames
+        from miketalk.draw.trained.training import training_set
 
         frames = measure_frames(corpus_dir)
         data, clip_ids = training_set(corpus_dir, frames), frames.clip_ids
@@ -236,9 +236,9 @@ def main(argv: list[str] | None = None) -> int:
         return None
 
     def work(args) -> str:
-        from miketalk.talk.trained.mouths import measure_frames
-        from miketalk.talk.trained.training import training_set
-        from miketalk.talk.trained.trajectory import (
+        from miketalk.draw.trained.mouths import measure_frames
+        from miketalk.draw.trained.training import training_set
+        from miketalk.draw.trained.trajectory import (
             HEARD_HALF,
             Context,
             window_features,

@@ -32,7 +32,7 @@ def dub_renderer(lipsync_model: str, model_dir: str | Path) -> str:
     """The renderer a face's lip-sync model dubs with: ``paper`` the morph, ``learned`` the
     learned coarticulation, ``trained`` the trained face hearing the clip's own recording
     (``trained_heard``) when it has that trajectory, else from the phones (``trained``)."""
-    from miketalk.talk.model_parts import trained_trajectories
+    from miketalk.model.parts import trained_trajectories
 
     if lipsync_model == "paper":
         return "morph"
@@ -91,9 +91,9 @@ def dub_heldout(
     colour : {"clip", "frame"}
         Match the mouth's colour once per clip or frame by frame.
     blend : dict, optional
-        Settings of :func:`miketalk.render.composite.blend_mask` (its defaults otherwise).
+        Settings of :func:`miketalk.composite.compositor.blend_mask` (its defaults otherwise).
     method : {"feather", "poisson"}
-        How the render is blended (:class:`miketalk.render.composite.Compositor`).
+        How the render is blended (:class:`miketalk.composite.compositor.Compositor`).
     corpus_eigenlips : CorpusEigenlips, optional
         The corpus's eigenlips fitted before
         (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
@@ -101,19 +101,19 @@ def dub_heldout(
         Sigma (s) of the transforms' smoothing in time (0: raw).
     follow, skin : bool
         The frame's jaw warped to follow the render's, and the blend kept off the
-        reference's backdrop and clothes (:class:`miketalk.render.composite.Compositor`).
+        reference's backdrop and clothes (:class:`miketalk.composite.compositor.Compositor`).
     interpolation : {"cubic", "linear"}
-        How the render is sampled into the frames (:class:`~miketalk.render.composite.Compositor`).
+        Sampling of the render into the frames (:class:`~miketalk.composite.compositor.Compositor`).
     """
+    from miketalk.composite.background_files import model_compositor, model_stabilizer
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
+    from miketalk.lipsync.timeline import plan
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
+    from miketalk.model.face import Model
     from miketalk.mouth import mouth_region
     from miketalk.speech.acoustic import Recording
-    from miketalk.talk.background_files import model_compositor, model_stabilizer
-    from miketalk.talk.lipsync import plan
-    from miketalk.talk.model import Model
     from miketalk.visemes import SILENCE, default_table
     from miketalk_lab.evaluation.dubbing import dub_clip, dub_measures
     from miketalk_lab.evaluation.heldout import RENDERERS, speech_frames
@@ -195,8 +195,8 @@ def main(argv: list[str] | None = None) -> int:
     """Command line (see the module docstring)."""
     import yaml
 
+    from miketalk.composite.compositor import INTERPOLATIONS
     from miketalk.corpus.clip_sources import clip_sources
-    from miketalk.render.composite import INTERPOLATIONS
 
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--model", required=True)

@@ -1,9 +1,10 @@
 """Dubbing measured: each held-out clip dubbed with its own audio and compared with its real video.
 
-The clip's own frames are the background (:func:`miketalk.talk.background.background_from_video`,
+The clip's own frames are the background
+(:func:`miketalk.composite.background.background_from_video`,
 registered to the model's reference), the model renders the mouth from the
 clip's own aligned phones at its own frame rate, and the render is composited
-into every frame (:class:`miketalk.render.composite.Compositor`). So dubbed
+into every frame (:class:`miketalk.composite.compositor.Compositor`). So dubbed
 frame ``k`` and real frame ``k`` show the same moment and differ only where
 the mouth was blended in. Measures (:func:`dub_measures`):
 
@@ -72,7 +73,7 @@ class DubbedClip:
         (N, h, w, 3) the model's frames (reference coordinates).
     alphas : numpy.ndarray
         (N, H, W) float32 the blend mask as placed in each frame.
-    background : miketalk.talk.background.Background
+    background : miketalk.composite.background.Background
         The clip's frames with their transforms and conform field.
     """
 
@@ -97,9 +98,9 @@ def dub_clip(
 
     ``rest`` (the model's silence image) matches the mouth's colour once for
     the clip; without it, frame by frame. ``smooth``: the transforms' smoothing in time,
-    seconds (:func:`~miketalk.talk.background.background_from_video`; 0: raw).
+    seconds (:func:`~miketalk.composite.background.background_from_video`; 0: raw).
     """
-    from miketalk.talk.background import background_from_video, composited
+    from miketalk.composite.background import background_from_video, composited
 
     if len(frames) != len(renders):
         raise MiketalkError(f"{len(renders)} renders for {len(frames)} frames")
@@ -174,7 +175,7 @@ def dub_measures(
         :func:`miketalk_lab.evaluation.landmark_scores.landmark_scores`), the dub and the render
         each against the real frames, all stabilized onto the reference and marked from the
         real frames' one face box.
-    compositor : miketalk.render.composite.Compositor, optional
+    compositor : miketalk.composite.compositor.Compositor, optional
         The one that made the dub: with it, the frame measures also hold the dub's ceiling
         (:func:`roundtrip_measures`).
 

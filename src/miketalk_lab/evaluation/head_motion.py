@@ -37,8 +37,8 @@ def _closed(openness: np.ndarray) -> np.ndarray:
 
 def head_motion(model_dir: str, video: str) -> dict:
     """The nose's spread and largest step, and the blinks, of the background and ``video``."""
+    from miketalk.composite.background_files import read_background
     from miketalk.media.decode import read_video
-    from miketalk.talk.background_files import read_background
     from miketalk_lab.evaluation.landmarks import NOSE, eye_openness
 
     background = read_background(model_dir)

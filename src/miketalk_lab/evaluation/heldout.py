@@ -32,7 +32,7 @@ the same timeline and so the same frames: the silence viseme held (a still
 face), the nearest viseme held (a flip-book, no morph), and a cross-dissolve
 with the morph's alpha; and, for a model that has learned its person's
 coarticulation (``coarticulation.json``), that model (``learned``), and for one
-with a trained face (``trained/``, :mod:`miketalk.talk.trained`) its frames
+with a trained face (``trained/``, :mod:`miketalk.draw.trained`) its frames
 drawn from the person's own along the trained trajectory (``trained``, and
 ``trained_regularized`` with the other trajectory model, ``trained_previous``
 with the selection settings it had before they were cross-validated, ``trained_heard``
@@ -49,12 +49,12 @@ import numpy as np
 import pandas as pd
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import Timeline
+from miketalk.model.face import Model
+from miketalk.model.parts import COARTICULATION, trained_trajectories
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
 from miketalk.speech.acoustic import Recording
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.model import Model
-from miketalk.talk.model_parts import COARTICULATION, trained_trajectories
 from miketalk.visemes import SILENCE
 from miketalk_lab.evaluation.landmark_scores import (
     ClipLandmarks,
@@ -200,7 +200,7 @@ def prepare_heldout(clip, *, stabilizer, table, decode=None) -> HeldoutClip:
     """
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.steady import stabilize_clip
-    from miketalk.talk.lipsync import plan
+    from miketalk.lipsync.timeline import plan
 
     decoded, stabilized = stabilize_clip((decode or decode_clip)(clip), stabilizer)
     real = stabilized.frames

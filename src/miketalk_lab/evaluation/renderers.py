@@ -13,9 +13,9 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from miketalk.lipsync.timeline import Timeline
+from miketalk.model.face import Model
 from miketalk.speech.acoustic import Recording
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.model import Model
 from miketalk.visemes import SILENCE
 
 
@@ -63,8 +63,8 @@ def render_morph(
 def render_learned(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
-    """Learned coarticulation (:mod:`miketalk.talk.coarticulation`) drawn by the N-way morph."""
-    from miketalk.talk.learned import render_model_learned
+    """Learned coarticulation (:mod:`miketalk.draw.coarticulation`) drawn by the N-way morph."""
+    from miketalk.draw.learned import render_model_learned
 
     return render_model_learned(model, timeline)
 
@@ -72,8 +72,8 @@ def render_learned(
 def render_trained(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
-    """The trained face (:mod:`miketalk.talk.trained`): his frames along its default trajectory."""
-    from miketalk.talk.trained.draw import render_trained as render
+    """The trained face (:mod:`miketalk.draw.trained`): his frames along its default trajectory."""
+    from miketalk.draw.trained.draw import render_trained as render
 
     return render(model, timeline)
 
@@ -82,7 +82,7 @@ def render_trained_regularized(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
     """The trained face with the MMM-style regularized trajectory (the other trajectory model)."""
-    from miketalk.talk.trained.draw import render_trained as render
+    from miketalk.draw.trained.draw import render_trained as render
 
     return render(model, timeline, kind="regularized")
 
@@ -92,9 +92,9 @@ def render_trained_previous(
 ) -> Iterator[np.ndarray]:
     """The trained face with the selection settings it had before they were chosen by
     cross-validation on the training clips
-    (:data:`miketalk.talk.trained.selection.PREVIOUS_SELECTION`), for a paired comparison."""
-    from miketalk.talk.trained.draw import render_trained as render
-    from miketalk.talk.trained.selection import PREVIOUS_SELECTION
+    (:data:`miketalk.draw.trained.selection.PREVIOUS_SELECTION`), for a paired comparison."""
+    from miketalk.draw.trained.draw import render_trained as render
+    from miketalk.draw.trained.selection import PREVIOUS_SELECTION
 
     return render(model, timeline, selection=PREVIOUS_SELECTION)
 
@@ -103,7 +103,7 @@ def render_trained_heard(
     model: Model, timeline: Timeline, recording: Recording | None = None
 ) -> Iterator[np.ndarray]:
     """The trained face along the ``heard`` trajectory: the phones and the recording."""
-    from miketalk.talk.trained.draw import render_trained as render
+    from miketalk.draw.trained.draw import render_trained as render
 
     return render(model, timeline, kind="heard", recording=recording)
 

@@ -2,7 +2,7 @@
 
 The measured frames are the utterance's own: its timeline JSON (written by
 :func:`miketalk.talk.say.say` beside the mp4) is read back and rendered with
-the model's :meth:`~miketalk.talk.model.Model.render`, the very call whose
+the model's :meth:`~miketalk.model.face.Model.render`, the very call whose
 frames ``say`` streams into the mp4; no speech engine runs here.
 
 The truth is the synthetic face driven by the true parameter timeline of the
@@ -21,11 +21,11 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 import pandas as pd
 
+from miketalk.lipsync.motion import JerkMeter, measure
+from miketalk.lipsync.sampling import largest_step
+from miketalk.lipsync.timeline import Timeline, plan
+from miketalk.model.face import Model
 from miketalk.mouth import mouth_opening
-from miketalk.talk.lipsync import Timeline, plan
-from miketalk.talk.model import Model
-from miketalk.talk.motion import JerkMeter, measure
-from miketalk.talk.sampling import largest_step
 from miketalk.talk.utterance import Said
 from miketalk.visemes import VisemeTable
 from miketalk_lab.evaluation.measures import lag_frames, psnr
@@ -36,7 +36,7 @@ SYNC_KEYS = ["sentence", "sampling", "fps", "max_px_per_frame"]
 
 
 #: The measures of the utterance's motion in a sync table, one value each
-#: (:class:`~miketalk.talk.motion.Motion`).
+#: (:class:`~miketalk.lipsync.motion.Motion`).
 MOTION_QUANTITIES = [
     "duration_ratio", "morphs", "largest_frame_motion_px", "mean_jerk", "largest_jerk",
 ]  # fmt: skip
@@ -145,9 +145,9 @@ def sync_table(
         as ``mp4_video_seconds`` and ``mp4_audio_seconds``.
     motion : mapping, optional
         The measures of the utterance's motion as its JSON records them
-        (``motion``, :meth:`~miketalk.talk.motion.Motion.to_dict`). None:
+        (``motion``, :meth:`~miketalk.lipsync.motion.Motion.to_dict`). None:
         measured here, on the frames rendered again
-        (:func:`~miketalk.talk.motion.measure`; the same values for an
+        (:func:`~miketalk.lipsync.motion.measure`; the same values for an
         utterance of the paper's lip-sync model).
 
     Returns

@@ -17,10 +17,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import Timeline
 from miketalk.media.decode import read_video
 from miketalk.media.images import write_png
 from miketalk.media.sheets import grid
-from miketalk.talk.lipsync import Timeline
 from miketalk_lab.evaluation.heldout import speech_frames
 
 Path_ = str | os.PathLike[str]

@@ -172,8 +172,8 @@ def lipsync_diagram(
     model_dir: Path_, word: str, out: Path_, *, fps: float, max_px: float | None
 ) -> None:
     """The paper's Figure 8 for one word: diphones, viseme transitions, frames and alphas."""
+    from miketalk.lipsync.sampling import speak_in_sync
     from miketalk.speech import get_backend
-    from miketalk.talk.sampling import speak_in_sync
     from miketalk.talk.say import open_model
     from miketalk.visemes import default_table
 
@@ -257,9 +257,9 @@ def sampling_strip(
     MiketalkError
         If the timelines do not say the same phones.
     """
+    from miketalk.lipsync.timeline import frame_count
     from miketalk.media.images import write_png
     from miketalk.media.sheets import grid
-    from miketalk.talk.lipsync import frame_count
     from miketalk.talk.say import open_model
     from miketalk.talk.utterance import read_said
 

@@ -2,7 +2,7 @@
 
 ``miketalk say`` checks its options before it starts Festival, and Festival
 starts before numpy loads; so these checks live apart from
-:mod:`miketalk.talk.lipsync`, which re-exports them.
+:mod:`miketalk.lipsync.timeline`, which re-exports them.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Literal, get_args
 from miketalk.errors import MiketalkError
 
 #: How transitions too fast for ``max_px_per_frame`` are sampled
-#: (see :mod:`miketalk.talk.lipsync`).
+#: (see :mod:`miketalk.lipsync.timeline`).
 Sampling = Literal["blur", "paper", "none"]
 SAMPLINGS: tuple[str, ...] = get_args(Sampling)
 
@@ -89,7 +89,7 @@ def _in_range(value: object, name: str, bounds: tuple[float, float], unit: str) 
 
 def check_trajectory(trajectory: str | None, *, lipsync_model: str, recorded: bool) -> None:
     """A trajectory model asked for goes with the trained face, and ``heard`` with a recording
-    (``recorded``); which models a face has is :meth:`~miketalk.talk.trained.TrainedFace.kind_for`'s
+    (``recorded``); which models a face has is :meth:`~miketalk.draw.trained.TrainedFace.kind_for`'s
     check.
 
     Raises

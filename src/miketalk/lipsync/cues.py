@@ -233,7 +233,7 @@ def textgrid(phones: Sequence[Phone], table: VisemeTable, *, duration: float) ->
     from praatio import textgrid as tg
     from praatio.utilities.constants import Interval, Point
 
-    from miketalk.talk.lipsync import keyframes
+    from miketalk.lipsync.timeline import keyframes
 
     end = max(duration, phones[-1].end if phones else 0.0)
     grid = tg.Textgrid(0.0, end)

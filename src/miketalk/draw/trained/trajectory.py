@@ -1,6 +1,6 @@
 """Trajectories: from timed phones to the mouth's description at every frame.
 
-Two models, fitted to every training frame (:mod:`miketalk.talk.trained.mouths`),
+Two models, fitted to every training frame (:mod:`miketalk.draw.trained.mouths`),
 with coarticulation learned from the data rather than assumed:
 
 ``window`` (:class:`WindowRegression`)
@@ -37,10 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk.draw.trained.training import TrainingSet
 from miketalk.errors import MiketalkError
 from miketalk.speech.acoustic import Recording, heard_features
 from miketalk.speech.types import Phone
-from miketalk.talk.trained.training import TrainingSet
 from miketalk.visemes import SILENCE, VisemeTable
 
 #: The trajectory models, the default first; ``heard`` needs the utterance's recording.

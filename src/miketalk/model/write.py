@@ -15,7 +15,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
-from miketalk.talk.manifest import FORMAT, check_complete
+from miketalk.model.manifest import FORMAT, check_complete
 from miketalk.visemes import viseme_slug
 
 

@@ -15,7 +15,7 @@ file present. Flows are read lazily, each file checked as it is read (an error
 names the file), and morphers for recently used transitions are cached.
 
 A timeline frame with several samples (motion blur,
-:func:`miketalk.talk.sampling.motion_blur`) is rendered as the weighted average
+:func:`miketalk.lipsync.sampling.motion_blur`) is rendered as the weighted average
 of its morphs.
 """
 
@@ -34,10 +34,10 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
+from miketalk.lipsync.timeline import FrameSample, Timeline
 from miketalk.media.images import read_image
+from miketalk.model.manifest import check_complete, inside, read_manifest
 from miketalk.render.morph import Morpher
-from miketalk.talk.lipsync import FrameSample, Timeline
-from miketalk.talk.manifest import check_complete, inside, read_manifest
 
 if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
     pass

@@ -8,11 +8,11 @@ from typing import Any
 
 import numpy as np
 
+from miketalk.draw.trained.build import TrainedFace, read_trained
+from miketalk.draw.trained.selection import PatchCompositor
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import Timeline
 from miketalk.speech.acoustic import Recording
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.trained.build import TrainedFace, read_trained
-from miketalk.talk.trained.selection import PatchCompositor
 from miketalk.visemes import SILENCE
 
 
@@ -32,7 +32,7 @@ def render_trained(
     training frames and they are composited onto the model's silence image.
     The ``(model, timeline)`` signature of the held-out evaluation's renderers.
     ``selection`` overrides some of the face's selection settings (not those it was
-    fitted with, :class:`~miketalk.talk.trained.training.FitSettings`). ``recording``,
+    fitted with, :class:`~miketalk.draw.trained.training.FitSettings`). ``recording``,
     the sound that drives the timeline, lets a face with the ``heard`` trajectory hear
     it (unless ``kind`` names another).
     """

@@ -7,9 +7,9 @@ JSON, under ``motion``):
 * **duration ratio**: how much longer the speech became than the engine's
   own timing (1.0 at natural speed; the paper's oversampling makes it 2-5);
 * **largest step**: the largest distance, along the flows, between two
-  consecutive rendered morphs (:func:`miketalk.talk.sampling.largest_step`),
+  consecutive rendered morphs (:func:`miketalk.lipsync.sampling.largest_step`),
   what the paper keeps under ``max_px_per_frame``; and the largest motion from
-  one frame to the next (:func:`miketalk.talk.sampling.largest_frame_motion`),
+  one frame to the next (:func:`miketalk.lipsync.sampling.largest_frame_motion`),
   how fast the mouth moves per frame, which blur leaves as the speech has it;
 * **smoothness**, measured on the frames as written: the *jerk*, the mean
   absolute second difference in time of the grey frames
@@ -19,7 +19,7 @@ JSON, under ``motion``):
   large one. Both the largest and the mean over frames are kept.
 
 With the learned lip-sync model a frame is not a point on one transition but
-weights over several visemes (:func:`miketalk.talk.coarticulation.frame_weights`).
+weights over several visemes (:func:`miketalk.draw.coarticulation.frame_weights`).
 The step between two frames is then the least displacement that moves the
 first frame's weights into the second's (:func:`weights_step`, the earth
 mover's distance with the flows' displacement between two visemes as the cost):
@@ -36,8 +36,8 @@ from itertools import pairwise
 import cv2
 import numpy as np
 
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.sampling import Displacement, largest_frame_motion, largest_step
+from miketalk.lipsync.sampling import Displacement, largest_frame_motion, largest_step
+from miketalk.lipsync.timeline import Timeline
 
 
 class JerkMeter:
@@ -190,7 +190,7 @@ def measure(
         frame), not along the timeline's transitions.
     own_frames : bool
         Each frame was one of the person's own images (the trained face,
-        :mod:`miketalk.talk.trained`), not a morph along the timeline: one a frame, and the
+        :mod:`miketalk.draw.trained`), not a morph along the timeline: one a frame, and the
         step measures, which the visemes' flows give, are None.
     """
     if own_frames:

@@ -154,7 +154,7 @@ def model_stage(
     person's own frames become the model's background, for say and dub), with
     ``segments`` for a face from one video.
     """
-    from miketalk.talk.build import build_model, fallbacks_of
+    from miketalk.model.write import build_model, fallbacks_of
 
     table = pd.read_csv(visemes, sep="\t", keep_default_na=False)
     paths = {
@@ -170,8 +170,8 @@ def model_stage(
     )
     if phones:  # a face from clips: learn from its frames
         from miketalk.corpus.eigenlips import read_eigenlips
-        from miketalk.talk.coarticulation import fit_coarticulation
-        from miketalk.talk.trained import fit_trained
+        from miketalk.draw.coarticulation import fit_coarticulation
+        from miketalk.draw.trained import fit_trained
 
         corpus = Path(phones).parent
         fit_coarticulation(
@@ -179,6 +179,6 @@ def model_stage(
         )
         fit_trained(corpus, out, grouping=dict(grouping))
         if media:  # its person's own frames, for say and dub
-            from miketalk.talk.background_files import write_background
+            from miketalk.composite.background_files import write_background
 
             write_background(out, corpus_dir=corpus, media=media, segments=segments)

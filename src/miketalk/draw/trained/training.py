@@ -3,7 +3,7 @@
 :func:`training_set` reads each training clip's aligned phones, frame times,
 descriptions and recording from a corpus folder into a :class:`TrainingSet`;
 :class:`FitSettings` are the settings that change what is fitted (unlike the
-selection's, :class:`~miketalk.talk.trained.selection.SelectionSettings`, which
+selection's, :class:`~miketalk.draw.trained.selection.SelectionSettings`, which
 change only how a face draws); :func:`clip_offsets` are the clips' mean
 descriptions, which a ``centred`` fit leaves out.
 """
@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
+from miketalk.draw.trained.mouths import MouthFrames
 from miketalk.speech.acoustic import Recording
 from miketalk.speech.types import Phone
-from miketalk.talk.trained.mouths import MouthFrames
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@
 ``<model>/trained/`` holds
 
 ``patches.npy``, ``description.npz``, ``frames.json``
-    every training frame's description and patch (:mod:`~miketalk.talk.trained.mouths`);
+    every training frame's description and patch (:mod:`~miketalk.draw.trained.mouths`);
 ``trajectory.npz``
     the trajectory models' arrays, their keys prefixed ``window.``, ``regularized.`` and
     ``heard.``;
@@ -30,19 +30,15 @@ from typing import Any
 
 import numpy as np
 
-from miketalk.errors import MiketalkError
-from miketalk.speech.acoustic import Recording
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.model_parts import TRAINED_DIRECTORY, TRAINED_MANIFEST
-from miketalk.talk.trained.mouths import MouthFrames, load_frames, measure_frames
-from miketalk.talk.trained.selection import SelectionSettings, drawn, select
-from miketalk.talk.trained.training import (
+from miketalk.draw.trained.mouths import MouthFrames, load_frames, measure_frames
+from miketalk.draw.trained.selection import SelectionSettings, drawn, select
+from miketalk.draw.trained.training import (
     FitSettings,
     TrainingSet,
     clip_offsets,
     training_set,
 )
-from miketalk.talk.trained.trajectory import (
+from miketalk.draw.trained.trajectory import (
     HEARD_HALF,
     TRAJECTORIES,
     Context,
@@ -53,12 +49,16 @@ from miketalk.talk.trained.trajectory import (
     from_arrays,
     to_arrays,
 )
+from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import Timeline
+from miketalk.model.parts import TRAINED_DIRECTORY, TRAINED_MANIFEST
+from miketalk.speech.acoustic import Recording
 from miketalk.visemes import VisemeTable
 
 log = logging.getLogger(__name__)
 
 #: Format tag of the trained face's manifest
-#: (:data:`~miketalk.talk.model_parts.TRAINED_MANIFEST`).
+#: (:data:`~miketalk.model.parts.TRAINED_MANIFEST`).
 FORMAT = "miketalk-trained/1"
 
 
@@ -71,7 +71,7 @@ class TrainedFace:
     frames : MouthFrames
         Every training frame.
     trajectories : dict
-        ``name -> model`` (:data:`~miketalk.talk.trained.trajectory.TRAJECTORIES`).
+        ``name -> model`` (:data:`~miketalk.draw.trained.trajectory.TRAJECTORIES`).
     default : str
         The trajectory model used unless another is asked for.
     selection : SelectionSettings
@@ -98,7 +98,7 @@ class TrainedFace:
     def kind_for(self, kind: str | None, *, recorded: bool) -> str:
         """The trajectory model to use: ``kind``, else ``heard`` for an utterance driven by a
         recording (``recorded``) when the face has it, else the face's default."""
-        from miketalk.talk.settings import check_trajectory
+        from miketalk.lipsync.settings import check_trajectory
 
         if kind is None:
             kind = "heard" if recorded and "heard" in self.trajectories else self.default

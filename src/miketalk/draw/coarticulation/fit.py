@@ -13,16 +13,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from miketalk.errors import MiketalkError
-from miketalk.speech.types import Phone
-from miketalk.talk.coarticulation.params import (
+from miketalk.draw.coarticulation.params import (
     LEAD_GRID,
     PRIOR_RATE,
     CoarticulationParams,
     write_params,
 )
-from miketalk.talk.coarticulation.weights import _Pairs, _pairs, _weights_of_pairs, paper_trajectory
-from miketalk.talk.lipsync import Keyframe, Timeline
+from miketalk.draw.coarticulation.weights import _Pairs, _pairs, _weights_of_pairs, paper_trajectory
+from miketalk.errors import MiketalkError
+from miketalk.lipsync.timeline import Keyframe, Timeline
+from miketalk.speech.types import Phone
 from miketalk.visemes import VisemeTable
 
 if TYPE_CHECKING:
@@ -42,7 +42,7 @@ class TrainingClip:
     phones : tuple of Phone
         Its aligned phones.
     keys : tuple of Keyframe
-        Their keyframes (:func:`miketalk.talk.lipsync.keyframes`).
+        Their keyframes (:func:`miketalk.lipsync.timeline.keyframes`).
     fps : float
         Frame rate: frame ``k`` is at ``k / fps``.
     real : (n_frames, n) array
@@ -61,8 +61,9 @@ class TrainingClip:
         return np.arange(len(self.real)) / self.fps
 
     def paper_timeline(self, table: VisemeTable) -> Timeline:
-        """The paper's timeline of the clip (:func:`miketalk.talk.lipsync.plan`) on its frames."""
-        from miketalk.talk.lipsync import plan
+        """The paper's timeline of the clip on its frames
+        (:func:`~miketalk.lipsync.timeline.plan`)."""
+        from miketalk.lipsync.timeline import plan
 
         return plan(self.phones, table, fps=self.fps, duration=len(self.real) / self.fps)
 
@@ -296,7 +297,7 @@ def training_clips(
     import pandas as pd
 
     from miketalk.corpus.folder import open_corpus
-    from miketalk.talk.lipsync import keyframes
+    from miketalk.lipsync.timeline import keyframes
 
     corpus_dir = Path(corpus_dir)
     fps = float(open_corpus(corpus_dir).fps)
@@ -356,8 +357,8 @@ def fit_coarticulation(
         The fitted parameters; ``fit`` also holds the paper timeline's training loss.
     """
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
+    from miketalk.model.face import Model
     from miketalk.mouth import grey_mouths, mouth_region
-    from miketalk.talk.model import Model
 
     table = VisemeTable(grouping=grouping)
     box = mouth_region(corpus_dir)

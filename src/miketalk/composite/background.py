@@ -1,14 +1,14 @@
 """Background sequences: the person's own frames, head motion and blinks, under the mouth.
 
 A model built from clips keeps a few seconds of one training clip, cut where
-the head stands still (:func:`miketalk.talk.loop.still_window`), as it was
-recorded (:func:`miketalk.talk.background_files.write_background`, in
+the head stands still (:func:`miketalk.composite.loop.still_window`), as it was
+recorded (:func:`miketalk.composite.background_files.write_background`, in
 ``<model>/background/``): the frames,
 each frame's stabilization transform and the clip's conform field
 (:mod:`miketalk.stabilize`), where the eyes blink, and what is needed
 to stabilize other video of the same person (the reference frame, the face
 mask and the mouth box). :func:`composited` plays such a sequence under the
-synthesized mouth (:class:`miketalk.render.composite.Compositor`): output
+synthesized mouth (:class:`miketalk.composite.compositor.Compositor`): output
 frame ``k`` at ``k / fps`` shows the background frame of that time, the
 sequence played forwards, then backwards, then forwards again (ping-pong), so
 an utterance longer than the background loops without a jump: a
@@ -22,7 +22,7 @@ smoothed in time (each frame's registration error would slide the mouth
 against the nose); a video in which no frame registers does not show the
 model's person, and is refused in one line, as is one whose first frame shows
 the face twice or whose colour is far from the model's
-(:mod:`miketalk.talk.video_checks`).
+(:mod:`miketalk.composite.video_checks`).
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from miketalk import defaults
+from miketalk.composite.loop import pingpong, smooth_in_time
 from miketalk.errors import MiketalkError
-from miketalk.talk.loop import pingpong, smooth_in_time
 
 __all__ = [
     "Background",
@@ -121,7 +121,7 @@ def composited(
     renders : iterable of numpy.ndarray
         The model's frames, (H, W, 3) uint8, output frame ``k`` at ``k / fps``.
     background : Background
-    compositor : miketalk.render.composite.Compositor
+    compositor : miketalk.composite.compositor.Compositor
     fps : float
         The output's frame rate.
     rest : numpy.ndarray, optional
@@ -310,7 +310,7 @@ def background_from_video(
             f"{source}: its first frame does not show the model's person ({why}): give a "
             "frontal video of the same person"
         )
-    from miketalk.talk.video_checks import SECOND_FACE, face_matches
+    from miketalk.composite.video_checks import SECOND_FACE, face_matches
 
     peaks = face_matches(small[0], stabilizer, first[0])
     if len(peaks) > 1 and peaks[1] >= SECOND_FACE:
@@ -347,7 +347,7 @@ def background_from_video(
 
 def _check_colour(median: np.ndarray, stabilizer, source: str) -> None:
     """Refuse a registered video whose face's colour the model's mouth cannot match."""
-    from miketalk.talk.video_checks import MAX_COLOUR_SHIFT, colour_shift
+    from miketalk.composite.video_checks import MAX_COLOUR_SHIFT, colour_shift
 
     shift = colour_shift(median, stabilizer.reference, stabilizer.mask)
     if shift > MAX_COLOUR_SHIFT:

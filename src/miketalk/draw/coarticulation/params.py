@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from miketalk.errors import MiketalkError
-from miketalk.talk.model_parts import COARTICULATION
+from miketalk.model.parts import COARTICULATION
 
 #: The file the fitted parameters are written to, in the model directory.
 FILENAME = COARTICULATION

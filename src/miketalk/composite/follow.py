@@ -3,7 +3,7 @@
 Where the real jaw opens more or less than the synthesized one, its line would show
 twice at the blend's edge: the frame's jaw outside the mask, the render's inside (a
 dark notch on the jaw line, a doubled chin). Two remedies, both used by
-:class:`miketalk.render.composite.Compositor`:
+:class:`miketalk.composite.compositor.Compositor`:
 
 * :func:`follow_render` warps the frame's lower face about the mask to follow the
   render, by the dense flow from one to the other, so the jaw line outside the mask

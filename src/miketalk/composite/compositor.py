@@ -47,8 +47,8 @@ import cv2
 import numpy as np
 
 from miketalk import defaults
+from miketalk.composite.follow import follow_render, skin_weight
 from miketalk.errors import MiketalkError
-from miketalk.render.follow import follow_render, skin_weight
 
 __all__ = [
     "INTERPOLATIONS",

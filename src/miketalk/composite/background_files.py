@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from miketalk import defaults
+from miketalk.composite.background import Background, background_from_video, check_video, composited
+from miketalk.composite.loop import head_speed, still_window
 from miketalk.errors import MiketalkError
-from miketalk.talk.background import Background, background_from_video, check_video, composited
-from miketalk.talk.loop import head_speed, still_window
 
 __all__ = [
     "composite_renders",
@@ -74,14 +74,14 @@ def model_compositor(
     skin: bool = defaults.BLEND_SKIN,
     **settings,
 ):
-    """The :class:`~miketalk.render.composite.Compositor` of a model built from clips.
+    """The :class:`~miketalk.composite.compositor.Compositor` of a model built from clips.
 
     Its blend mask about the model's mouth box, kept off the reference's backdrop and
-    clothes (:func:`~miketalk.render.composite.skin_weight` of the reference and its
+    clothes (:func:`~miketalk.composite.compositor.skin_weight` of the reference and its
     face mask, unless ``skin=False``); ``settings`` go to the compositor.
     """
+    from miketalk.composite.compositor import Compositor, skin_weight
     from miketalk.media.images import read_image
-    from miketalk.render.composite import Compositor, skin_weight
 
     where = Path(model_dir) / DIRECTORY
     keep = None
@@ -113,7 +113,7 @@ def write_background(
 ) -> dict:
     """Keep ``shortest`` to ``seconds`` of the reference clip as the model's background.
 
-    The frames kept (:func:`~miketalk.talk.background.still_window`) start and end where
+    The frames kept (:func:`~miketalk.composite.background.still_window`) start and end where
     the head stands still, so the ping-pong loop turns unseen, and keep a blink when the
     clip has one. Written to ``background/``; ``background.json`` records which frames
     (``start``).
@@ -268,7 +268,7 @@ def resolve_background(choice: str | None, model, *, progress: bool = False):
 
     Returns
     -------
-    miketalk.talk.background.Background or None
+    miketalk.composite.background.Background or None
         None for a still face (``still``, or ``auto`` with a model that keeps
         no background: the output is then exactly ``say``'s without one).
 
@@ -298,7 +298,7 @@ def composite_renders(
     renders : iterable of numpy.ndarray
         The model's frames.
     background : Background
-    model : miketalk.talk.model.Model
+    model : miketalk.model.face.Model
         A model built from clips (:func:`has_background`).
     fps : float
         The output's frame rate.

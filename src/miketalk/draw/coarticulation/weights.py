@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk.draw.coarticulation.params import CoarticulationParams
 from miketalk.errors import MiketalkError
-from miketalk.talk.coarticulation.params import CoarticulationParams
-from miketalk.talk.lipsync import Keyframe, Timeline
+from miketalk.lipsync.timeline import Keyframe, Timeline
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ def dominance_weights(
     Parameters
     ----------
     keys : sequence of Keyframe
-        The keyframes (:func:`miketalk.talk.lipsync.keyframes`), at least one.
+        The keyframes (:func:`miketalk.lipsync.timeline.keyframes`), at least one.
     times : array of float
         Seconds.
     params : CoarticulationParams

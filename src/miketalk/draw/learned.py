@@ -1,4 +1,4 @@
-"""Frames drawn with a model's learned coarticulation (:mod:`miketalk.talk.coarticulation`).
+"""Frames drawn with a model's learned coarticulation (:mod:`miketalk.draw.coarticulation`).
 
 Each frame's viseme weights come from the fitted dominance functions at the
 frame's middle; the N-way morph (:class:`miketalk.render.multimorph.MultiMorpher`)
@@ -12,10 +12,10 @@ from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
+from miketalk.draw.coarticulation import CoarticulationParams, frame_weights, read_params
+from miketalk.lipsync.timeline import Timeline
+from miketalk.model.face import RENDER_WORKERS, Model
 from miketalk.render.multimorph import MultiMorpher, Weights
-from miketalk.talk.coarticulation import CoarticulationParams, frame_weights, read_params
-from miketalk.talk.lipsync import Timeline
-from miketalk.talk.model import RENDER_WORKERS, Model
 
 __all__ = ["render_learned", "render_model_learned"]
 
@@ -31,7 +31,7 @@ def render_learned(
 ) -> Iterator[np.ndarray]:
     """The frames of ``timeline`` with the learned coarticulation, in order.
 
-    Each frame's weights come from :func:`miketalk.talk.coarticulation.frame_weights`
+    Each frame's weights come from :func:`miketalk.draw.coarticulation.frame_weights`
     (the timeline's keyframes and frame times; its transitions and alphas are
     not used) and are drawn by :meth:`MultiMorpher.frame`.
 
@@ -40,7 +40,7 @@ def render_learned(
     model : Model
     timeline : Timeline
     params : CoarticulationParams
-        E.g. :func:`miketalk.talk.coarticulation.read_params` of the model's directory.
+        E.g. :func:`miketalk.draw.coarticulation.read_params` of the model's directory.
     workers : int, optional
         Threads drawing frames (default the model's :data:`RENDER_WORKERS`);
         the frames do not depend on it.
@@ -86,6 +86,6 @@ def render_model_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarra
     The ``(model, timeline)`` signature of
     :data:`miketalk_lab.evaluation.renderers.RENDERERS`; raises
     :class:`~miketalk.errors.MiketalkError` for a model without
-    ``coarticulation.json`` (:func:`miketalk.talk.coarticulation.read_params`).
+    ``coarticulation.json`` (:func:`miketalk.draw.coarticulation.read_params`).
     """
     return render_learned(model, timeline, read_params(model.directory))

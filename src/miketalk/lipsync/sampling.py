@@ -29,14 +29,14 @@ from itertools import pairwise
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech.backend import PendingSpeech, SpeechBackend
-from miketalk.speech.types import Phone, Utterance
-from miketalk.talk.lipsync import FrameSample, Timeline, keyframes, plan
-from miketalk.talk.settings import (
+from miketalk.lipsync.settings import (
     Sampling,
     check_max_slowdown,
     check_sampling,
 )
+from miketalk.lipsync.timeline import FrameSample, Timeline, keyframes, plan
+from miketalk.speech.backend import PendingSpeech, SpeechBackend
+from miketalk.speech.types import Phone, Utterance
 from miketalk.visemes import VisemeTable
 
 #: ``displacement(a, b)``: the largest flow displacement in pixels from viseme a to b.

@@ -23,7 +23,7 @@ recording is 25 fps, the video may be faster). Each output frame considers
 its ``candidates`` nearest training frames.
 
 :class:`PatchCompositor` draws frame ``s_t``'s colour patch onto the face with a
-feathered mask (:func:`miketalk.talk.trained.mouths.feather_mask`), the patch
+feathered mask (:func:`miketalk.draw.trained.mouths.feather_mask`), the patch
 first shifted to the face's light: the mean colour of the border band over the
 frame's clip (its recording session) made the face's own. Where the selection
 jumps (``s_t`` does not follow ``s_{t-1}``), the two frames about the jump are
@@ -42,8 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk.draw.trained.mouths import MouthFrames, feather_mask
 from miketalk.errors import MiketalkError
-from miketalk.talk.trained.mouths import MouthFrames, feather_mask
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ class SelectionSettings:
         Weigh each component's target cost by how much of it the phones predict.
     amplitude : float
         How much of the trajectory's amplitude gain (real spread over predicted,
-        :func:`miketalk.talk.trained.build.amplitude_gain`) the target gets: 0 none, 1 all,
+        :func:`miketalk.draw.trained.build.amplitude_gain`) the target gets: 0 none, 1 all,
         more to make up for what the selection's joins smooth away.
     gain_r2 : float
         A component whose cross-validated R^2 is under this gets that fraction of its gain

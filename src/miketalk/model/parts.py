@@ -4,8 +4,8 @@ can speak with (standard library only: ``miketalk say`` asks before Festival sta
 Festival starts before numpy loads).
 
 A model built from recorded clips also holds its learned coarticulation
-(:data:`COARTICULATION`, :mod:`miketalk.talk.coarticulation`) and its trained face
-(:data:`TRAINED_DIRECTORY`, :mod:`miketalk.talk.trained`); a synthetic face's model
+(:data:`COARTICULATION`, :mod:`miketalk.draw.coarticulation`) and its trained face
+(:data:`TRAINED_DIRECTORY`, :mod:`miketalk.draw.trained`); a synthetic face's model
 holds neither and speaks with the paper's model only.
 """
 
@@ -35,7 +35,7 @@ def default_model_dir() -> Path:
         return Path(env)
     if DEFAULT_MODEL.exists():
         return DEFAULT_MODEL
-    checkout = Path(__file__).resolve().parents[3] / DEFAULT_MODEL  # src/miketalk/talk/
+    checkout = Path(__file__).resolve().parents[3] / DEFAULT_MODEL  # src/miketalk/model/
     return checkout if checkout.exists() else DEFAULT_MODEL
 
 

@@ -1,6 +1,6 @@
 """Coarticulation learned from the person's own speech (beyond the paper; its §10 limitation).
 
-The paper's lip-sync (:mod:`miketalk.talk.lipsync`) runs every transition from
+The paper's lip-sync (:mod:`miketalk.lipsync.timeline`) runs every transition from
 one viseme image all the way to the next: each phone's viseme is reached in
 full at the phone's middle, however short the phone. Real lips undershoot short
 phones and anticipate the next one. This module replaces the piecewise-linear
@@ -11,7 +11,7 @@ trajectories from the recording (Ezzat, Geiger & Poggio 2002).
 Model
 -----
 Keyframe ``i`` (one per phone at its middle, two for a diphthong; see
-:func:`miketalk.talk.lipsync.keyframes`) with viseme ``V_i`` at time ``c_i``
+:func:`miketalk.lipsync.timeline.keyframes`) with viseme ``V_i`` at time ``c_i``
 has the dominance
 
 .. math:: D_i(t) = a_{V_i} \\exp(-\theta_{V_i} |t - (c_i - \\ell)|)
@@ -41,7 +41,7 @@ Levenberg-Marquardt with a finite-difference Jacobian (numpy only), kept in
 plausible bounds, with a weak pull towards the prior ``a = 1``,
 ``theta = prior_rate`` so that a viseme seen rarely keeps the prior.
 The training loss of the paper's own timeline (the same frames through
-:func:`miketalk.talk.lipsync.plan`) is stored beside the fitted one.
+:func:`miketalk.lipsync.timeline.plan`) is stored beside the fitted one.
 
 :func:`fit_coarticulation` runs it for a face built from clips and writes the
 parameters as data (``coarticulation.json`` in the model directory);
@@ -51,17 +51,17 @@ Rendering
 ---------
 :func:`frame_weights` gives every frame of a timeline its visemes and weights,
 the ``max_visemes`` largest, those under ``min_weight`` dropped, renormalized;
-:func:`miketalk.talk.learned.render_learned` draws them.
+:func:`miketalk.draw.learned.render_learned` draws them.
 """
 
-from miketalk.talk.coarticulation.fit import (
+from miketalk.draw.coarticulation.fit import (
     TrainingClip,
     detrender,
     fit,
     fit_coarticulation,
     training_clips,
 )
-from miketalk.talk.coarticulation.params import (
+from miketalk.draw.coarticulation.params import (
     FILENAME,
     FORMAT,
     LEAD_GRID,
@@ -71,7 +71,7 @@ from miketalk.talk.coarticulation.params import (
     read_params,
     write_params,
 )
-from miketalk.talk.coarticulation.weights import (
+from miketalk.draw.coarticulation.weights import (
     dominance_weights,
     frame_weights,
     paper_trajectory,

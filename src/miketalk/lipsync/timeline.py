@@ -9,7 +9,7 @@ together. Frame ``k`` at time ``k / F`` takes the transition it falls in and
 ``alpha_k = (k/F - s(V_i)) / l(V_i)`` (Eq. 10).
 
 How the transitions are sampled when the mouth moves fast is
-:mod:`miketalk.talk.sampling`'s job.
+:mod:`miketalk.lipsync.sampling`'s job.
 """
 
 from __future__ import annotations
@@ -22,8 +22,7 @@ from typing import Any
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech.types import Phone
-from miketalk.talk.settings import (
+from miketalk.lipsync.settings import (
     FPS_RANGE,
     MAX_PX_RANGE,
     SAMPLINGS,
@@ -33,6 +32,7 @@ from miketalk.talk.settings import (
     check_max_slowdown,
     check_sampling,
 )
+from miketalk.speech.types import Phone
 from miketalk.visemes import VisemeTable
 
 __all__ = [

@@ -1,6 +1,6 @@
 """Checks that a video given to ``dub`` or ``--background VIDEO`` can carry the model's mouth.
 
-Registration (:func:`miketalk.talk.background.background_from_video`) already refuses a
+Registration (:func:`miketalk.composite.background.background_from_video`) already refuses a
 video whose face does not register to the model's reference (nobody, a face turned away,
 the person mirrored). Two things it cannot see:
 

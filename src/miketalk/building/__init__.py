@@ -1,0 +1,1 @@
+"""Building a face's model from clips or one video: the workflow's stages, one function each."""
