@@ -117,11 +117,13 @@ def test_model_errors(model_dir: Path, tmp_path: Path) -> None:
 
 @needs_festival
 def test_say_writes_mp4_and_timeline(model_dir: Path, tmp_path: Path) -> None:
+    from miketalk.lipsync.settings import LipsyncSettings
     from miketalk.media.video import probe_durations
     from miketalk.talk.say import say
 
     out = tmp_path / "hello.mp4"
-    utterance, timeline = say("Hello world", out, model=Model(model_dir), fps=30)
+    spoken = say("Hello world", out, model=Model(model_dir), settings=LipsyncSettings(fps=30))
+    utterance, timeline = spoken.utterance, spoken.timeline
     video_s, audio_s = probe_durations(out)
     assert abs(video_s - audio_s) <= 1 / 30
     assert abs(len(timeline.frames) / 30 - utterance.duration) <= 1 / 30

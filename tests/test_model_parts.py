@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from miketalk import defaults
 from miketalk.errors import MiketalkError
 from miketalk.model import parts as model_parts
 from miketalk.model.parts import (
@@ -52,9 +51,9 @@ def test_each_kind_of_utterance_takes_the_best_model_the_directory_has(tmp_path:
 
 
 def test_the_preferences_name_known_models_and_end_with_the_papers() -> None:
-    from miketalk.lipsync.settings import LIPSYNC_MODELS
+    from miketalk.lipsync.settings import LIPSYNC_MODELS, PREFERRED_LIPSYNC_MODELS
 
-    for kind, order in defaults.PREFERRED_LIPSYNC_MODELS.items():
+    for kind, order in PREFERRED_LIPSYNC_MODELS.items():
         assert set(order) == set(LIPSYNC_MODELS), kind
         assert order[-1] == "paper", kind  # every model has it
 

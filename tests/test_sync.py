@@ -20,6 +20,7 @@ import test_model  # the tiny model of noise textures that tests/test_model.py b
 from miketalk.errors import MiketalkError
 from miketalk.lipsync import sampling as talk_sampling
 from miketalk.lipsync import timeline as lipsync
+from miketalk.lipsync.settings import LipsyncSettings
 from miketalk.model.face import Model
 from miketalk.speech import FestivalBackend, Phone, Utterance
 from miketalk.speech.backend import SpeechBackend
@@ -106,9 +107,9 @@ def test_say_records_planned_phones_and_read_said_rebuilds_the_timeline(
 
     model = Model(model_dir)
     out = tmp_path / "wide.mp4"
-    utterance, timeline = say(
-        "wide", out, model=model, backend=Scripted(ONE), max_px_per_frame=0.5, sampling="paper"
-    )
+    settings = LipsyncSettings(max_px_per_frame=0.5, sampling="paper")
+    spoken = say("wide", out, model=model, backend=Scripted(ONE), settings=settings)
+    utterance, timeline = spoken.utterance, spoken.timeline
     said = read_said(out.with_suffix(".json"))
     assert said.timeline == timeline and said.text == "wide"
     assert said.planned_phones == ONE and said.max_px_per_frame == 0.5
@@ -125,9 +126,9 @@ def test_say_progress_bar_counts_every_frame(
 ) -> None:
     from miketalk.talk.say import say
 
-    _, timeline = say(
+    timeline = say(
         "wide", tmp_path / "w.mp4", model=Model(model_dir), backend=Scripted(ONE), progress=True
-    )
+    ).timeline
     n = len(timeline.frames)
     last = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
     assert last.startswith("rendering: 100%") and f"{n}/{n}" in last
@@ -392,8 +393,8 @@ def test_sampling_strip_shows_both_modes_at_the_same_moments(
     timelines = []
     for sampling in ("blur", "paper"):
         out = tmp_path / f"{sampling}.mp4"
-        say("wide", out, model=model, backend=Scripted(ONE), max_px_per_frame=1.0,
-            sampling=sampling)  # fmt: skip
+        say("wide", out, model=model, backend=Scripted(ONE),
+            settings=LipsyncSettings(max_px_per_frame=1.0, sampling=sampling))  # fmt: skip
         timelines.append(out.with_suffix(".json"))
     strip = tmp_path / "strip.png"
     draw("sampling_strip", strip, model_dir=model_dir, timelines=timelines, morph={}, columns=4)
@@ -407,7 +408,8 @@ def test_sampling_strip_shows_both_modes_at_the_same_moments(
          columns=4)  # fmt: skip
     assert _png_size(single)[0] == width and _png_size(single)[1] < height
     other = tmp_path / "other.mp4"
-    say("wide", other, model=model, backend=Scripted(ONE[:3] + ONE[4:]), max_px_per_frame=1.0)
+    say("wide", other, model=model, backend=Scripted(ONE[:3] + ONE[4:]),
+        settings=LipsyncSettings(max_px_per_frame=1.0))  # fmt: skip
     with pytest.raises(MiketalkError, match="do not say the same phones"):
         draw("sampling_strip", strip, model_dir=model_dir,
              timelines=[timelines[0], other.with_suffix(".json")], morph={})  # fmt: skip

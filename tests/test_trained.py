@@ -428,7 +428,7 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     assert dub_renderer("trained", tmp_path / "model") == "trained_heard"
     assert dub_renderer("paper", tmp_path / "model") == "morph"
     assert dub_renderer("learned", tmp_path / "model") == "learned"
-    with pytest.raises(MiketalkError, match="unknown lip-sync model"):
+    with pytest.raises(MiketalkError, match="lipsync model must be one of paper, learned, trained"):
         dub_renderer("mouthy", tmp_path / "model")
     face = read_trained(tmp_path / "model")
     assert face.kind_for(None, recorded=True) == "heard"

@@ -25,24 +25,6 @@ FPS = 30.0
 #: oversampled (paper §7: 2.5-3.0 px).
 MAX_PX_PER_FRAME = 2.5
 
-#: How the mouth moves between visemes: ``"paper"`` (each transition from one
-#: viseme all the way to the next, paper §7) or ``"learned"`` (the model's
-#: fitted coarticulation, :mod:`miketalk.draw.coarticulation`) or ``"trained"`` (the
-#: person's own frames along a trajectory trained on all of them, :mod:`miketalk.draw.trained`).
-LIPSYNC_MODEL = "paper"
-
-#: ``miketalk say`` and ``dub`` without ``--lipsync-model``: the first of these the model
-#: has (:func:`miketalk.model.parts.default_lipsync_model`), for typed text and for a
-#: recording. On s1's 40 held-out bench clips (the README's table of the trained face), typed text
-#: through ``learned`` follows his lip opening better (r 0.641) than through ``trained`` from
-#: the phones alone (0.622) or ``paper`` (0.602); his recording through ``trained``, which
-#: hears it, best of all (0.698, and the least mouth LMD). A synthetic face's model has
-#: only ``paper``.
-PREFERRED_LIPSYNC_MODELS = {
-    "text": ("learned", "trained", "paper"),
-    "recording": ("trained", "learned", "paper"),
-}
-
 #: The face whose model ``miketalk say`` uses when none is given.
 FACE = "synthetic"
 

@@ -5,21 +5,25 @@ from miketalk.stage import run_stage
 
 def main() -> None:
     from miketalk.composite.background_files import resolve_background
+    from miketalk.lipsync.settings import LipsyncSettings
     from miketalk.talk.say import open_model, say
     from miketalk.visemes import VisemeTable
 
     p = snakemake.params
     model = open_model(snakemake.input.model, morph_options=p.morph)
-    say(
-        p.text,
-        snakemake.output.video,
-        model=model,
+    settings = LipsyncSettings(
         fps=p.fps,
         max_px_per_frame=p.max_px,
         sampling=p.lipsync["sampling"],
         max_slowdown=p.lipsync["max_slowdown"],
-        lipsync_model=p.lipsync["model"],
+        model=p.lipsync["model"],
         trajectory=p.lipsync["trajectory"],
+    )
+    say(
+        p.text,
+        snakemake.output.video,
+        model=model,
+        settings=settings,
         table=VisemeTable(grouping=p.grouping),
         background=resolve_background(p.get("background", "still"), model),
     )

@@ -35,13 +35,13 @@ _LONG_WORK = 300
 def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
     from miketalk.cli.common import festival_backend, has_text, read_text, seconds_since
-    from miketalk.cli.say import check_lipsync_model
+    from miketalk.cli.say import check_lipsync_model, lipsync_settings
     from miketalk.composite.background import background_from_video, check_video
     from miketalk.composite.background_files import has_background, model_stabilizer
     from miketalk.lipsync.settings import check_fps
     from miketalk.model.parts import default_model_dir
     from miketalk.talk.output import check_output
-    from miketalk.talk.say import open_model
+    from miketalk.talk.say import Recorded, open_model, say
 
     started = time.perf_counter()
     text = read_text(args) if has_text(args) else None
@@ -65,6 +65,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
         check_fps(fps)
     except MiketalkError as err:
         raise MiketalkError(f"{args.video}: its frame rate: {err}") from None
+    settings = lipsync_settings(args, args.sampling, max_px, fps=fps)
     long_work = len(frames) > _LONG_WORK and sys.stderr.isatty()
     progress = args.progress or long_work
 
@@ -74,29 +75,21 @@ def cmd_dub(args: argparse.Namespace) -> int:
         )
 
     if args.audio is not None:
-        from miketalk.talk.recorded import say_recorded
-
         with open_model(model_dir) as model:
             background = register()
-            said = say_recorded(
-                args.audio, output, model=model, text=text, timings=args.timings, fps=fps,
-                max_px_per_frame=max_px, sampling=args.sampling,
-                lipsync_model=args.lipsync_model, trajectory=args.trajectory,
-                progress=progress, overwrite=args.force,
+            said = say(
+                Recorded(args.audio, text=text, timings=args.timings), output, model=model,
+                settings=settings, progress=progress, overwrite=args.force,
                 background=background,
             )  # fmt: skip
-        motion, seconds, trajectory = said.motion, said.audio_seconds, said.trajectory
+        motion, seconds, trajectory = said.motion, said.duration, said.trajectory
     else:
-        from miketalk.talk.say import speak
-
         # Festival works while the video registers
         with festival_backend(args).start(text) as speech, open_model(model_dir) as model:
             background = register()
-            spoken = speak(
-                speech, output, model=model, fps=fps, max_px_per_frame=max_px,
-                sampling=args.sampling, lipsync_model=args.lipsync_model,
-                trajectory=args.trajectory,
-                progress=progress, overwrite=args.force, background=background,
+            spoken = say(
+                speech, output, model=model, settings=settings, progress=progress,
+                overwrite=args.force, background=background,
             )  # fmt: skip
         motion, seconds, trajectory = spoken.motion, spoken.motion.duration, None
     timeline = output.with_suffix(".json")

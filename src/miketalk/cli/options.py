@@ -6,14 +6,10 @@ import argparse
 from collections.abc import Callable
 
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.settings import LIPSYNC_MODELS, SAMPLINGS, TRAJECTORIES
+from miketalk.speech.festival.voices import VOICES
 
-SAMPLINGS = ("blur", "paper", "none")
-
-
-LIPSYNC_MODELS = ("paper", "learned", "trained")
-
-
-VOICES = ("kal", "ked", "slt")
+__all__ = ["LIPSYNC_MODELS", "SAMPLINGS", "TRAJECTORIES", "VOICES"]
 
 
 def checked(check: Callable[[object], object]) -> Callable[[str], float]:
@@ -54,7 +50,7 @@ def max_slowdown_value(value: object) -> object:
 def voice_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--voice",
-        choices=VOICES,
+        choices=tuple(VOICES),
         default=None,
         help="Festival's voice: kal (male diphone, default; festvox-kallpc16k), ked (male "
         "diphone; festvox-kdlpc16k), slt (female HTS, the most natural; festvox-us-slt-hts)",
@@ -62,8 +58,6 @@ def voice_option(parser: argparse.ArgumentParser) -> None:
 
 
 def trajectory_option(parser: argparse.ArgumentParser) -> None:
-    from miketalk.draw.trained.trajectory import TRAJECTORIES
-
     parser.add_argument(
         "--trajectory",
         choices=TRAJECTORIES,

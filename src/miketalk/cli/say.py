@@ -7,10 +7,14 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from miketalk import defaults
 from miketalk.cli.common import festival_backend, has_text, log, read_text, seconds_since
 from miketalk.errors import MiketalkError
+
+if TYPE_CHECKING:
+    from miketalk.lipsync.settings import LipsyncSettings
 
 
 def _sampling(args: argparse.Namespace) -> tuple[str, float | None]:
@@ -58,10 +62,11 @@ def cmd_say(args: argparse.Namespace) -> int:
     text = read_text(args)
     output = check_output(args.output, overwrite=args.force)
     check_lipsync_model(args)
+    settings = lipsync_settings(args, sampling, max_px)
     # Festival starts first and analyses the text while the rest loads
     with festival_backend(args).start(text) as speech:
         log.info("Festival started (%s voice)", voice.name)
-        from miketalk.talk.say import open_model, speak
+        from miketalk.talk.say import open_model, say
 
         with open_model(args.model) as model:
             log.info("model %s opened, %.2f s after start", model.directory, seconds_since(started))
@@ -69,16 +74,11 @@ def cmd_say(args: argparse.Namespace) -> int:
 
             background = resolve_background(args.background, model, progress=args.progress)
             long_text = len(text.split()) > 40
-            spoken = speak(
+            spoken = say(
                 speech,
                 output,
                 model=model,
-                fps=args.fps,
-                max_px_per_frame=max_px,
-                sampling=sampling,
-                max_slowdown=args.max_slowdown,
-                lipsync_model=args.lipsync_model,
-                trajectory=args.trajectory,
+                settings=settings,
                 progress=args.progress or (long_text and sys.stderr.isatty()),
                 overwrite=args.force,
                 background=background,
@@ -118,46 +118,38 @@ def drawn_words(motion) -> str:
 
 
 def check_lipsync_model(args: argparse.Namespace) -> None:
-    """Settle ``args.lipsync_model`` and check it against the model, in one line if it fails.
+    """Settle ``args.lipsync_model`` and check it against the model, in one line if it fails
+    (:func:`~miketalk.draw.registry.choose_lipsync_model`: not given, it is ``trained`` when a
+    ``--trajectory`` is asked for, else the model's own)."""
+    from miketalk.draw.registry import choose_lipsync_model
+    from miketalk.model.parts import default_model_dir
 
-    Not given, it is ``trained`` when a ``--trajectory`` is asked for, else the model's own
-    (:func:`~miketalk.model.parts.default_lipsync_model`: for a model built from clips,
-    ``learned`` for typed text and ``trained`` for a recording). ``learned`` needs a model
-    with learned coarticulation, ``trained`` a trained face with the ``--trajectory`` asked for.
-    """
-    from miketalk.lipsync.settings import check_trajectory
-    from miketalk.model.parts import (
-        default_lipsync_model,
-        default_model_dir,
-        trained_trajectories,
-    )
-
-    trajectory = getattr(args, "trajectory", None)
     recorded = args.audio is not None
     directory = args.model if args.model is not None else default_model_dir()
-    if args.lipsync_model is None:
-        args.lipsync_model = (
-            "trained" if trajectory is not None
-            else default_lipsync_model(directory, recorded=recorded)
-        )  # fmt: skip
+    asked = args.lipsync_model
+    args.lipsync_model = choose_lipsync_model(
+        directory, asked, trajectory=getattr(args, "trajectory", None), recorded=recorded
+    ).value
+    if asked is None:
         log.info("lip-sync model %s (the model's own for %s)", args.lipsync_model,
                  "a recording" if recorded else "typed text")  # fmt: skip
-    check_trajectory(trajectory, lipsync_model=args.lipsync_model, recorded=recorded)
-    if args.lipsync_model == "learned":
-        from miketalk.draw.coarticulation import read_params
 
-        read_params(directory)
-    elif args.lipsync_model == "trained":
-        from miketalk.draw.trained.build import read_trained
 
-        kinds = trained_trajectories(directory)
-        if not kinds:
-            read_trained(directory)  # raises the one-line error
-        if trajectory is not None and trajectory not in kinds:
-            raise MiketalkError(
-                f"the trained face in {directory} has no {trajectory} trajectory (fitted "
-                "before it existed: rebuild the model)"
-            )
+def lipsync_settings(
+    args: argparse.Namespace, sampling: str, max_px: float | None, fps: float | None = None
+) -> LipsyncSettings:
+    """The one :class:`~miketalk.lipsync.settings.LipsyncSettings` of the command's options
+    (``fps``: a video's own frame rate, for ``dub``)."""
+    from miketalk.lipsync.settings import LipsyncSettings
+
+    return LipsyncSettings(
+        fps=args.fps if fps is None else fps,
+        max_px_per_frame=max_px,
+        sampling=sampling,
+        max_slowdown=getattr(args, "max_slowdown", None),
+        model=args.lipsync_model,
+        trajectory=args.trajectory,
+    )
 
 
 def _say_recorded(
@@ -176,23 +168,17 @@ def _say_recorded(
     text = read_text(args) if has_text(args) else None
     check_output(args.output, overwrite=args.force)
     check_lipsync_model(args)
+    settings = lipsync_settings(args, sampling, max_px)
     from miketalk.composite.background_files import resolve_background
-    from miketalk.talk.recorded import say_recorded
-    from miketalk.talk.say import open_model
+    from miketalk.talk.say import Recorded, open_model, say
 
     with open_model(args.model) as model:
         background = resolve_background(args.background, model, progress=args.progress)
-        said = say_recorded(
-            args.audio,
+        said = say(
+            Recorded(args.audio, text=text, timings=args.timings),
             args.output,
             model=model,
-            text=text,
-            timings=args.timings,
-            fps=args.fps,
-            max_px_per_frame=max_px,
-            sampling=sampling,
-            lipsync_model=args.lipsync_model,
-            trajectory=args.trajectory,
+            settings=settings,
             progress=args.progress,
             overwrite=args.force,
             background=background,
@@ -215,7 +201,7 @@ def _say_recorded(
         drawn = f", {said.trajectory} trajectory" if said.trajectory else ""
         print(
             f"{args.output}: {motion.frames} frames at {args.fps:g} fps, "
-            f"{said.audio_seconds:.2f} s of recorded audio, {drawn_words(motion)} "
+            f"{said.duration:.2f} s of recorded audio, {drawn_words(motion)} "
             f"({sampling}, {args.lipsync_model} lip-sync{drawn})",
             file=args.out,
         )

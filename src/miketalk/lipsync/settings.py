@@ -1,25 +1,67 @@
-"""The settings of ``say`` and their ranges, checked with the standard library only.
+"""The lip-sync settings: their closed vocabularies, ranges, defaults and checks, in one home.
 
-``miketalk say`` checks its options before it starts Festival, and Festival
-starts before numpy loads; so these checks live apart from
-:mod:`miketalk.lipsync.timeline`, which re-exports them.
+Each closed vocabulary is an enum defined here once (:class:`LipsyncModel`,
+:class:`Sampling`, :class:`Trajectory`); the command line's choices, the workflow's
+config schema and the library take them from here (``tests/test_vocabulary.py``
+compares them). :class:`LipsyncSettings` holds one utterance's settings, checked
+when made. Standard library only: ``miketalk say`` checks its options before it
+starts Festival, and Festival starts before numpy loads.
 """
 
 from __future__ import annotations
 
 import numbers
-from typing import Literal, get_args
+from collections.abc import Collection
+from dataclasses import dataclass
+from enum import StrEnum
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
 
-#: How transitions too fast for ``max_px_per_frame`` are sampled
-#: (see :mod:`miketalk.lipsync.timeline`).
-Sampling = Literal["blur", "paper", "none"]
-SAMPLINGS: tuple[str, ...] = get_args(Sampling)
 
-#: How the mouth moves between visemes (:data:`miketalk.defaults.LIPSYNC_MODEL`).
-LipsyncModel = Literal["paper", "learned", "trained"]
-LIPSYNC_MODELS: tuple[str, ...] = get_args(LipsyncModel)
+class Sampling(StrEnum):
+    """How transitions too fast for ``max_px_per_frame`` are sampled
+    (:mod:`miketalk.lipsync.sampling`)."""
+
+    BLUR = "blur"  #: the speech keeps its duration; each frame averages its exposure's morphs
+    PAPER = "paper"  #: the speech is lengthened until no step is over the limit (paper §7)
+    NONE = "none"  #: one morph per frame
+
+
+class LipsyncModel(StrEnum):
+    """How the mouth moves between visemes."""
+
+    #: each transition from one viseme all the way to the next (paper §7)
+    PAPER = "paper"
+    #: the model's fitted coarticulation (:mod:`miketalk.draw.coarticulation`)
+    LEARNED = "learned"
+    #: the person's own frames along a trajectory (:mod:`miketalk.draw.trained`)
+    TRAINED = "trained"
+
+
+class Trajectory(StrEnum):
+    """The trained face's trajectory models (:mod:`miketalk.draw.trained.trajectory`)."""
+
+    WINDOW = "window"  #: a ridge over the phone context
+    REGULARIZED = "regularized"  #: MMM's per-phone targets
+    HEARD = "heard"  #: the phones and the recording (a recording only)
+
+
+#: The vocabularies' values, in their order, as plain strings (command-line choices).
+SAMPLINGS: tuple[str, ...] = tuple(s.value for s in Sampling)
+LIPSYNC_MODELS: tuple[str, ...] = tuple(m.value for m in LipsyncModel)
+TRAJECTORIES: tuple[str, ...] = tuple(t.value for t in Trajectory)
+
+#: The lip-sync model an utterance uses when none is asked for: the first of these the model
+#: has, for typed text and for a recording (:func:`resolve_lipsync_model`). On s1's 40
+#: held-out bench clips (docs/results.md), typed text through ``learned`` follows his lip
+#: opening better (r 0.641) than through ``trained`` from the phones alone (0.622) or
+#: ``paper`` (0.602); his recording through ``trained``, which hears it, best of all (0.698,
+#: and the least mouth LMD). A synthetic face's model has only ``paper``.
+PREFERRED_LIPSYNC_MODELS: dict[str, tuple[LipsyncModel, ...]] = {
+    "text": (LipsyncModel.LEARNED, LipsyncModel.TRAINED, LipsyncModel.PAPER),
+    "recording": (LipsyncModel.TRAINED, LipsyncModel.LEARNED, LipsyncModel.PAPER),
+}
 
 #: The frame rates ``say`` accepts, frames per second (inclusive).
 FPS_RANGE = (1.0, 240.0)
@@ -49,7 +91,7 @@ def check_sampling(sampling: object) -> Sampling:
     """``sampling`` checked to be one of :data:`SAMPLINGS`."""
     if sampling not in SAMPLINGS:
         raise MiketalkError(f"sampling must be one of {', '.join(SAMPLINGS)}, not {sampling!r}")
-    return sampling  # type: ignore[return-value]
+    return Sampling(sampling)
 
 
 def check_lipsync_model(lipsync_model: object) -> LipsyncModel:
@@ -58,7 +100,18 @@ def check_lipsync_model(lipsync_model: object) -> LipsyncModel:
         raise MiketalkError(
             f"lipsync model must be one of {', '.join(LIPSYNC_MODELS)}, not {lipsync_model!r}"
         )
-    return lipsync_model  # type: ignore[return-value]
+    return LipsyncModel(lipsync_model)
+
+
+def check_trajectory_name(trajectory: object) -> Trajectory | None:
+    """``trajectory`` (None: the face's own) checked to be one of :data:`TRAJECTORIES`."""
+    if trajectory is None:
+        return None
+    if trajectory not in TRAJECTORIES:
+        raise MiketalkError(
+            f"trajectory model must be one of {', '.join(TRAJECTORIES)}, not {trajectory!r}"
+        )
+    return Trajectory(trajectory)
 
 
 def check_max_slowdown(max_slowdown: object) -> float | None:
@@ -108,31 +161,88 @@ def check_trajectory(trajectory: str | None, *, lipsync_model: str, recorded: bo
         )
 
 
-def check_settings(
+def resolve_lipsync_model(
+    requested: str | None,
     *,
-    fps: float,
-    max_px_per_frame: float | None,
-    sampling: Sampling,
-    max_slowdown: float | None,
-    lipsync_model: LipsyncModel,
-) -> None:
-    """Check ``say``'s settings together, before anything runs.
+    available: Collection[str],
+    trajectory: str | None = None,
+    recorded: bool,
+) -> LipsyncModel:
+    """The lip-sync model an utterance is drawn with: ``requested``, else ``trained`` when a
+    ``trajectory`` is asked for, else the first of :data:`PREFERRED_LIPSYNC_MODELS` (for a
+    recording with ``recorded``, else for typed text) among those the model has
+    (``available``: :func:`miketalk.model.parts.lipsync_models_in`, or what a workflow's face
+    will have). The trajectory and the model are then checked together
+    (:func:`check_trajectory`).
 
     Raises
     ------
     MiketalkError
-        An fps or ``max_px_per_frame`` outside its range (the range is in the
-        message), an unknown sampling or lipsync model, a ``max_slowdown``
-        below 1 or given without ``sampling="paper"``.
+        In one line: an unknown model or trajectory, a trajectory without ``trained``, the
+        heard trajectory without a recording. Whether the model has a ``requested`` model is
+        for what draws it to say (:func:`miketalk.draw.registry.open_drawing`).
     """
-    check_fps(fps)
-    check_lipsync_model(lipsync_model)
-    if max_px_per_frame is not None:
-        check_max_px(max_px_per_frame)
-    check_sampling(sampling)
-    check_max_slowdown(max_slowdown)
-    if max_slowdown is not None and sampling != "paper":
-        raise MiketalkError(
-            "max_slowdown caps the paper mode's lengthening of the speech: it goes with "
-            f"sampling 'paper', not {sampling!r}"
-        )
+    trajectory = check_trajectory_name(trajectory)
+    if requested is None:
+        if trajectory is not None:
+            model = LipsyncModel.TRAINED
+        else:
+            choices = PREFERRED_LIPSYNC_MODELS["recording" if recorded else "text"]
+            model = next(name for name in choices if name in available)
+    else:
+        model = check_lipsync_model(requested)
+    check_trajectory(trajectory, lipsync_model=model, recorded=recorded)
+    return model
+
+
+@dataclass(frozen=True)
+class LipsyncSettings:
+    """One utterance's lip-sync settings, checked when made.
+
+    Attributes
+    ----------
+    fps : float
+        Frame rate, in :data:`FPS_RANGE`.
+    max_px_per_frame : float or None
+        The largest step between consecutive morphs, in :data:`MAX_PX_RANGE`; None: no limit
+        (as ``sampling="none"``).
+    sampling : Sampling
+        How transitions too fast for the limit are sampled.
+    max_slowdown : float or None
+        With ``sampling="paper"``: the speech may become at most this many times longer
+        than the engine's own timing. None: no cap, as in the paper.
+    model : LipsyncModel or None
+        How the mouth moves; None: the model's own (:func:`resolve_lipsync_model`).
+    trajectory : Trajectory or None
+        With ``trained``: its trajectory model; None: ``heard`` for a recording when the
+        face has it, else the face's default.
+    """
+
+    fps: float = defaults.FPS
+    max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME
+    sampling: Sampling = Sampling.BLUR
+    max_slowdown: float | None = None
+    model: LipsyncModel | None = None
+    trajectory: Trajectory | None = None
+
+    def __post_init__(self) -> None:
+        check_fps(self.fps)
+        if self.max_px_per_frame is not None:
+            check_max_px(self.max_px_per_frame)
+        object.__setattr__(self, "sampling", check_sampling(self.sampling))
+        check_max_slowdown(self.max_slowdown)
+        if self.max_slowdown is not None and self.sampling != Sampling.PAPER:
+            raise MiketalkError(
+                "max_slowdown caps the paper mode's lengthening of the speech: it goes with "
+                f"sampling 'paper', not '{self.sampling}'"
+            )
+        if self.model is not None:
+            object.__setattr__(self, "model", check_lipsync_model(self.model))
+        object.__setattr__(self, "trajectory", check_trajectory_name(self.trajectory))
+        if self.trajectory is not None and self.model not in (None, LipsyncModel.TRAINED):
+            raise MiketalkError("--trajectory goes with --lipsync-model trained")
+
+    @property
+    def limited(self) -> bool:
+        """Whether a step limit applies (``max_px_per_frame`` set and sampling not none)."""
+        return self.max_px_per_frame is not None and self.sampling != Sampling.NONE

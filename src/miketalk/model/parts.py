@@ -69,11 +69,12 @@ def lipsync_models_in(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
 
 def default_lipsync_model(model_dir: str | os.PathLike[str], *, recorded: bool) -> str:
     """The lip-sync model for an utterance when none is asked for: the first of
-    :data:`miketalk.defaults.PREFERRED_LIPSYNC_MODELS` (for a recording with ``recorded``,
-    else for typed text) that the model in ``model_dir`` has."""
+    :data:`miketalk.lipsync.settings.PREFERRED_LIPSYNC_MODELS` (for a recording with
+    ``recorded``, else for typed text) that the model in ``model_dir`` has."""
+    from miketalk.lipsync.settings import resolve_lipsync_model
+
     present = lipsync_models_in(model_dir)
-    choices = defaults.PREFERRED_LIPSYNC_MODELS["recording" if recorded else "text"]
-    return next(name for name in choices if name in present)
+    return resolve_lipsync_model(None, available=present, recorded=recorded).value
 
 
 __all__ = [

@@ -1,9 +1,9 @@
 """Recorded speech in: a face speaking a recording, its phones found by forced alignment.
 
-Where :func:`miketalk.talk.say.say` makes the sound with Festival, here the
-sound is given (a wav, or any media file with an audio stream) together with
-what is said, as text or as word timings (GRID ``.align``, Praat ``.TextGrid``).
-The phones are placed in the recording by
+Where :func:`miketalk.talk.say.say` has Festival make the sound of a text, a
+:class:`Recorded` recording's sound is given (a wav, or any media file with an audio
+stream) together with what is said, as text or as word timings (GRID ``.align``, Praat
+``.TextGrid``). The phones are placed in the recording by
 :func:`miketalk.speech.align.align_phones` and the video follows them
 (paper §7: one keyframe per phone, the morph rate from the phone timing).
 
@@ -21,22 +21,23 @@ import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
-from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk.lipsync.motion import Motion
 from miketalk.lipsync.sampling import motion_blur
-from miketalk.lipsync.settings import LipsyncModel
-from miketalk.lipsync.timeline import Sampling, Timeline, plan
+from miketalk.lipsync.settings import LipsyncSettings, Sampling
+from miketalk.lipsync.timeline import plan
 from miketalk.model.face import Model
 from miketalk.speech.types import Phone
-from miketalk.visemes import VisemeTable, default_table
+from miketalk.talk.utterance import Spoken
+from miketalk.visemes import VisemeTable
 
 if TYPE_CHECKING:
     import numpy as np
 
     from miketalk.composite.background import Background
+    from miketalk.draw.registry import Drawing
     from miketalk.speech.coverage import SpeechCoverage
 
 log = logging.getLogger(__name__)
@@ -48,15 +49,23 @@ _TOKEN = re.compile(r"[a-z0-9']+(?:[.\-][a-z0-9']+)*")
 
 
 @dataclass(frozen=True)
-class RecordedSpeech:
-    """What :func:`say_recorded` made: the words, the timeline, and the measures of its motion."""
+class Recorded:
+    """A recording for :func:`miketalk.talk.say.say` to speak, and what it says.
 
-    words: tuple[str, ...]
-    timeline: Timeline
-    largest_step_px: float | None  # None: the trained face drew the person's own frames
-    audio_seconds: float
-    motion: Motion
-    trajectory: str | None = None  # the trained face's trajectory model (None: another model)
+    Attributes
+    ----------
+    audio : path-like
+        The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
+    text : str or None
+        What is said. Needed unless ``timings`` is given.
+    timings : path-like or None
+        Word timings of the recording (``.align`` or ``.TextGrid``); see
+        :func:`align_recording`.
+    """
+
+    audio: str | os.PathLike[str]
+    text: str | None = None
+    timings: str | os.PathLike[str] | None = None
 
 
 @dataclass(frozen=True)
@@ -173,91 +182,36 @@ def warn_unexplained(audio: object, coverage: SpeechCoverage, words: Sequence[st
     )  # fmt: skip
 
 
-def say_recorded(
-    audio: str | os.PathLike[str],
-    output: str | os.PathLike[str],
+def say_recording(
+    recorded: Recorded,
+    output: Path,
     *,
     model: Model,
-    text: str | None = None,
-    timings: str | os.PathLike[str] | None = None,
-    fps: float = defaults.FPS,
-    max_px_per_frame: float | None = defaults.MAX_PX_PER_FRAME,
-    sampling: Sampling = "blur",
-    lipsync_model: LipsyncModel = defaults.LIPSYNC_MODEL,
-    trajectory: str | None = None,
-    table: VisemeTable | None = None,
+    settings: LipsyncSettings,
+    drawing: Drawing,
+    table: VisemeTable,
     progress: bool = False,
     overwrite: bool = False,
     background: Background | None = None,
-) -> RecordedSpeech:
-    """Make the model's face speak a recording: an mp4 at ``output``, its timeline JSON beside it.
-
-    Parameters
-    ----------
-    audio : path-like
-        The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
-    output : path-like
-        The ``.mp4`` to write (with its JSON, together or not at all; see
-        :mod:`miketalk.talk.say`).
-    model : Model
-        The face.
-    text, timings
-        What is said (see :func:`align_recording`).
-    fps : float
-        Frame rate of the video.
-    max_px_per_frame : float or None
-        The largest step between consecutive morphs (None: no limit).
-    sampling : {"blur", "none"}
-        ``"blur"`` renders more morphs than frames where the mouth moves fast;
-        ``"paper"`` is refused (a recording cannot be lengthened).
-    lipsync_model : {"paper", "learned", "trained"}
-        The paper's transitions, the model's learned coarticulation or its trained face (see
-        :func:`miketalk.talk.say.speak`).
-    trajectory : str, optional
-        With ``"trained"``: its trajectory model (default ``heard``, which listens to the
-        recording as well as its phones, when the face has it; else the face's default).
-    table : VisemeTable, optional
-        Phone -> viseme (default: the paper's).
-    progress : bool
-        Draw a progress bar on stderr.
-    overwrite : bool
-        Replace a ``NAME.json`` that is not a miketalk timeline.
-    background : Background, optional
-        Frames of the person the mouth is composited into
-        (:mod:`miketalk.composite.background`); None: the model's still face.
+) -> Spoken:
+    """:func:`miketalk.talk.say.say` of a recording, once its settings and output are checked:
+    the recording aligned to what it says, the frames drawn along its phones at its own
+    timing (motion blur keeps the steps under ``max_px_per_frame``; the paper's
+    lengthening cannot apply), with its own sound.
 
     Raises
     ------
     MiketalkError
-        A bad setting or output name (before the recording is read), and the
-        errors of :func:`align_recording`.
+        The errors of :func:`align_recording`.
     """
     from miketalk.composite.background import background_doc
-    from miketalk.draw.trained import read_trained
-    from miketalk.lipsync.settings import check_settings, check_trajectory
     from miketalk.speech.acoustic import Recording
-    from miketalk.talk.output import check_output
-    from miketalk.talk.say import learned_coarticulation
     from miketalk.talk.utterance import write_utterance
 
-    if sampling == "paper":
-        raise MiketalkError(
-            "sampling 'paper' lengthens the speech, and a recording cannot be lengthened: "
-            "use blur (the default) or none"
-        )
-    check_settings(
-        fps=fps, max_px_per_frame=max_px_per_frame, sampling=sampling, max_slowdown=None,
-        lipsync_model=lipsync_model,
-    )  # fmt: skip
-    coarticulation = learned_coarticulation(model) if lipsync_model == "learned" else None
-    trained = read_trained(model.directory) if lipsync_model == "trained" else None
-    if trained is not None:
-        trajectory = trained.kind_for(trajectory, recorded=True)
-    check_trajectory(trajectory, lipsync_model=lipsync_model, recorded=True)
-    output = check_output(output, overwrite=overwrite)
-    aligned = align_recording(audio, text=text, timings=timings)
-    timeline = plan(aligned.phones, table or default_table(), fps=fps, duration=aligned.duration)
-    if max_px_per_frame is not None and sampling == "blur":
+    max_px_per_frame = settings.max_px_per_frame
+    aligned = align_recording(recorded.audio, text=recorded.text, timings=recorded.timings)
+    timeline = plan(aligned.phones, table, fps=settings.fps, duration=aligned.duration)
+    if max_px_per_frame is not None and settings.sampling == Sampling.BLUR:
         timeline = motion_blur(
             timeline, displacement=model.displacement, max_px_per_frame=max_px_per_frame
         )
@@ -270,23 +224,22 @@ def say_recorded(
         natural_duration=aligned.duration,
         extra={
             "text": " ".join(aligned.words),
-            "audio": str(audio),
-            "sampling": sampling if max_px_per_frame is not None else "none",
+            "audio": str(recorded.audio),
+            "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
             "max_px_per_frame": max_px_per_frame,
             "max_slowdown": None,
-            "lipsync_model": lipsync_model,
+            "lipsync_model": drawing.lipsync_model.value,
         }
-        | ({"trajectory": trajectory} if trained is not None else {})
+        | ({"trajectory": drawing.trajectory} if drawing.own_frames else {})
         | background_doc(background),
-        coarticulation=coarticulation,
-        trained=trained,
-        trajectory=trajectory,
+        drawing=drawing,
         recording=Recording(aligned.samples, aligned.rate),
         progress=progress,
         overwrite=overwrite,
         background=background,
     )
-    return RecordedSpeech(
-        aligned.words, timeline, motion.largest_step_px, aligned.duration, motion,
-        trajectory if trained is not None else None,
+    return Spoken(
+        timeline, motion, output, output.with_suffix(".json"), words=aligned.words,
+        duration=aligned.duration, lipsync_model=drawing.lipsync_model.value,
+        trajectory=drawing.trajectory,
     )  # fmt: skip

@@ -25,8 +25,7 @@ if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     import numpy as np
 
     from miketalk.composite.background import Background
-    from miketalk.draw.coarticulation import CoarticulationParams
-    from miketalk.draw.trained import TrainedFace
+    from miketalk.draw.registry import Drawing
     from miketalk.speech.acoustic import Recording
 
 log = logging.getLogger(__name__)
@@ -34,25 +33,38 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Spoken:
-    """What :func:`speak` made.
+    """What :func:`miketalk.talk.say.say` made.
 
     Attributes
     ----------
-    utterance : Utterance
-        The audio as spoken (lengthened if the paper's mode lengthened phones).
     timeline : Timeline
         The timeline of the mp4's frames.
     motion : Motion
         The measures of its motion.
     video, timeline_json : Path
         The two files written.
+    words : tuple of str
+        What was said (a synthesized text's normalized words; a recording's transcript).
+    duration : float
+        Seconds of sound in the mp4.
+    lipsync_model : str
+        The lip-sync model that drew the mouth.
+    trajectory : str or None
+        The trained face's trajectory model (None: another lip-sync model).
+    utterance : Utterance or None
+        Synthesized speech as spoken (lengthened if the paper's mode lengthened phones);
+        None when a recording spoke.
     """
 
-    utterance: Utterance
     timeline: Timeline
     motion: Motion
     video: Path
     timeline_json: Path
+    words: tuple[str, ...]
+    duration: float
+    lipsync_model: str
+    trajectory: str | None = None
+    utterance: Utterance | None = None
 
 
 def write_utterance(
@@ -64,9 +76,7 @@ def write_utterance(
     rate: int,
     natural_duration: float,
     extra: dict,
-    coarticulation: CoarticulationParams | None = None,
-    trained: TrainedFace | None = None,
-    trajectory: str | None = None,
+    drawing: Drawing,
     recording: Recording | None = None,
     progress: bool = False,
     overwrite: bool = False,
@@ -81,16 +91,10 @@ def write_utterance(
 
     Parameters
     ----------
-    coarticulation : CoarticulationParams, optional
-        Draw the frames with this learned coarticulation
-        (:func:`miketalk.draw.learned.render_learned`) instead of the paper's
-        transitions; the motion is then measured on its weights.
-    trained : TrainedFace, optional
-        Draw the frames from the person's own with this trained face
-        (:func:`miketalk.draw.trained.draw.render_trained`).
-    trajectory : str, optional
-        The trained face's trajectory model (default: ``heard`` with a ``recording`` when
-        the face has it, else the face's default).
+    drawing : Drawing
+        What draws the frames (:mod:`miketalk.draw.registry`): the paper's transitions,
+        the learned coarticulation (the motion is then measured on its weights) or the
+        trained face.
     recording : Recording, optional
         The recording of the speech the frames follow (``say --audio``, ``dub``): the
         trained face's ``heard`` trajectory listens to it. None for synthesized speech.
@@ -110,21 +114,7 @@ def write_utterance(
         model.displacement(t.source, t.target)
     started = time.perf_counter()
     jerk = JerkMeter()
-    weights = None
-    if trained is not None:
-        from miketalk.draw.trained.draw import render_trained
-
-        rendered = render_trained(
-            model, timeline, trained=trained, kind=trajectory, recording=recording
-        )
-    elif coarticulation is None:
-        rendered = model.render(timeline)
-    else:
-        from miketalk.draw.coarticulation import frame_weights
-        from miketalk.draw.learned import render_learned
-
-        weights = frame_weights(timeline, coarticulation)
-        rendered = render_learned(model, timeline, coarticulation, weights=weights)
+    rendered, weights = drawing.frames(model, timeline, recording=recording)
     frames = jerk.watch(rendered)
     if background is not None:
         from miketalk.composite.background_files import composite_renders
@@ -142,7 +132,7 @@ def write_utterance(
         )  # fmt: skip
         motion = measure(
             timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,
-            weights=weights, own_frames=trained is not None,
+            weights=weights, own_frames=drawing.own_frames,
         )  # fmt: skip
         doc = (
             {"format": TIMELINE_FORMAT}

@@ -21,6 +21,7 @@ import pandas as pd
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.settings import LipsyncModel, Trajectory, check_lipsync_model
 
 log = logging.getLogger(__name__)
 
@@ -28,19 +29,29 @@ log = logging.getLogger(__name__)
 DUB_RENDERERS = ("morph", "learned", "trained", "trained_heard")
 
 
+#: The held-out renderer of each lip-sync model (:class:`~miketalk.lipsync.settings.LipsyncModel`).
+RENDERER_OF = {
+    LipsyncModel.PAPER: "morph",
+    LipsyncModel.LEARNED: "learned",
+    LipsyncModel.TRAINED: "trained",
+}
+
+
 def dub_renderer(lipsync_model: str, model_dir: str | Path) -> str:
-    """The renderer a face's lip-sync model dubs with: ``paper`` the morph, ``learned`` the
-    learned coarticulation, ``trained`` the trained face hearing the clip's own recording
-    (``trained_heard``) when it has that trajectory, else from the phones (``trained``)."""
+    """The renderer a face's lip-sync model dubs with (:data:`RENDERER_OF`); the trained face
+    hears the clip's own recording (``trained_heard``) when it has that trajectory, as
+    ``miketalk dub --audio`` does (:meth:`~miketalk.draw.trained.TrainedFace.kind_for`).
+
+    Raises
+    ------
+    MiketalkError
+        For an unknown lip-sync model, naming the known ones.
+    """
     from miketalk.model.parts import trained_trajectories
 
-    if lipsync_model == "paper":
-        return "morph"
-    if lipsync_model == "trained":
-        return "trained_heard" if "heard" in trained_trajectories(model_dir) else "trained"
-    if lipsync_model == "learned":
-        return "learned"
-    raise MiketalkError(f"unknown lip-sync model {lipsync_model!r} (paper, learned, trained)")
+    model = check_lipsync_model(lipsync_model)
+    hears = model == LipsyncModel.TRAINED and Trajectory.HEARD in trained_trajectories(model_dir)
+    return f"{RENDERER_OF[model]}_heard" if hears else RENDERER_OF[model]
 
 
 def dub_heldout(

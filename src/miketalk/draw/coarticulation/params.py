@@ -21,10 +21,6 @@ FILENAME = COARTICULATION
 FORMAT = "miketalk-coarticulation/1"
 
 
-#: The ``lipsync.model`` settings: the paper's transitions, or the learned dominance blend.
-LIPSYNC_MODELS = ("paper", "learned")
-
-
 #: Default rate of the prior (1/s): a dominance falls to 1/e in 1/12 s (about 2 frames at 25 fps).
 PRIOR_RATE = 12.0
 

@@ -39,12 +39,10 @@ import numpy as np
 
 from miketalk.draw.trained.training import TrainingSet
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.settings import TRAJECTORIES
 from miketalk.speech.acoustic import Recording, heard_features
 from miketalk.speech.types import Phone
 from miketalk.visemes import SILENCE, VisemeTable
-
-#: The trajectory models, the default first; ``heard`` needs the utterance's recording.
-TRAJECTORIES = ("window", "regularized", "heard")
 
 #: The ``heard`` model's window of the recording: half-width (steps) and step (s).
 HEARD_HALF, HEARD_STEP = 6, 0.02

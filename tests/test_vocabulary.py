@@ -1,0 +1,119 @@
+"""Each closed vocabulary is spelled once, in the library; the workflow's config schema and the
+command line agree with it, and so do their defaults.
+
+The vocabularies: lip-sync models, trajectories and samplings
+(:mod:`miketalk.lipsync.settings`), flow estimators (:mod:`miketalk.flow.registry`) and flow
+strategies (:mod:`miketalk.flow.strategies`), voices (:mod:`miketalk.speech.festival.voices`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+from pathlib import Path
+
+import pytest
+import yaml
+
+from miketalk import defaults
+from miketalk.flow.registry import ESTIMATORS
+from miketalk.flow.strategies import STRATEGY_NAMES
+from miketalk.lipsync.settings import (
+    LIPSYNC_MODELS,
+    SAMPLINGS,
+    TRAJECTORIES,
+    LipsyncModel,
+    LipsyncSettings,
+    Sampling,
+    Trajectory,
+)
+from miketalk.speech.festival.voices import VOICES
+
+ROOT = Path(__file__).resolve().parents[1]
+SCHEMA = yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
+
+
+def _schema(*path: str) -> dict:
+    node = SCHEMA
+    for key in path:
+        node = node["properties"][key] if "properties" in node else node[key]
+    return node
+
+
+def _choices(parser: argparse.ArgumentParser, command: str, option: str) -> argparse.Action:
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return next(a for a in sub.choices[command]._actions if option in a.option_strings)
+
+
+@pytest.fixture(scope="module")
+def parser() -> argparse.ArgumentParser:
+    from miketalk.cli.parser import build_parser
+
+    return build_parser()
+
+
+def test_the_enums_are_the_vocabularies() -> None:
+    assert LIPSYNC_MODELS == ("paper", "learned", "trained") == tuple(LipsyncModel)
+    assert SAMPLINGS == ("blur", "paper", "none") == tuple(Sampling)
+    assert TRAJECTORIES == ("window", "regularized", "heard") == tuple(Trajectory)
+
+
+def test_schema_lipsync_vocabularies_are_the_library_s() -> None:
+    typed = [t for t in TRAJECTORIES if t != Trajectory.HEARD]  # a recording only
+    face = _schema("faces")["additionalProperties"]["properties"]
+    for props in (_schema("lipsync")["properties"], face["lipsync"]["properties"]):
+        assert [m for m in props["model"]["enum"] if m is not None] == list(LIPSYNC_MODELS)
+        assert props["recording_model"]["enum"] == [*LIPSYNC_MODELS, None]
+        assert props["trajectory"]["enum"] == [*typed, None]
+    assert _schema("lipsync", "sampling")["enum"] == list(SAMPLINGS)
+    assert set(_schema("sweeps", "sampling")["items"]["enum"]) <= set(SAMPLINGS)
+
+
+def test_schema_defaults_are_the_library_s() -> None:
+    settings = LipsyncSettings()
+    assert _schema("lipsync", "fps")["default"] == settings.fps == defaults.FPS
+    assert _schema("lipsync", "max_px_per_frame")["default"] == settings.max_px_per_frame
+    assert _schema("lipsync", "sampling")["default"] == settings.sampling
+    assert _schema("lipsync", "max_slowdown")["default"] == settings.max_slowdown
+    assert _schema("lipsync", "model")["default"] == settings.model  # None: the model's own
+    assert _schema("lipsync", "trajectory")["default"] == settings.trajectory
+
+
+def test_schema_flow_vocabularies_are_the_library_s() -> None:
+    assert _schema("flow", "strategy")["enum"] == list(STRATEGY_NAMES)
+    face_flow = _schema("faces")["additionalProperties"]["properties"]["flow"]["properties"]
+    assert face_flow["strategy"]["enum"] == list(STRATEGY_NAMES)
+    method = _schema("flow", "methods")["additionalProperties"]["properties"]
+    assert method["estimator"]["enum"] == list(ESTIMATORS)
+    assert _schema("sweeps", "level_estimators")["items"]["enum"] == list(ESTIMATORS)
+
+
+def test_command_line_choices_and_defaults_are_the_library_s(
+    parser: argparse.ArgumentParser,
+) -> None:
+    for command in ("say", "dub"):
+        assert tuple(_choices(parser, command, "--lipsync-model").choices) == LIPSYNC_MODELS
+        assert _choices(parser, command, "--lipsync-model").default is None  # the model's own
+        assert tuple(_choices(parser, command, "--trajectory").choices) == TRAJECTORIES
+        assert tuple(_choices(parser, command, "--voice").choices) == tuple(VOICES)
+    assert tuple(_choices(parser, "say", "--sampling").choices) == SAMPLINGS
+    assert _choices(parser, "say", "--fps").default == LipsyncSettings().fps
+
+
+def _spelled(names: tuple[str, ...]) -> list[str]:
+    """Where the library's code spells a vocabulary as a tuple or list of its string values,
+    outside its one home."""
+    found = []
+    for path in sorted((ROOT / "src").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Tuple | ast.List) and len(node.elts) >= 2:
+                values = [e.value for e in node.elts if isinstance(e, ast.Constant)]
+                if len(values) == len(node.elts) and set(values) <= set(names):
+                    if len(set(values)) == len(names):
+                        found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    return found
+
+
+@pytest.mark.parametrize("names", [LIPSYNC_MODELS, SAMPLINGS, TRAJECTORIES], ids=str)
+def test_no_vocabulary_is_spelled_twice(names: tuple[str, ...]) -> None:
+    assert _spelled(names) == []
