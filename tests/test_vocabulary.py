@@ -117,3 +117,43 @@ def _spelled(names: tuple[str, ...]) -> list[str]:
 @pytest.mark.parametrize("names", [LIPSYNC_MODELS, SAMPLINGS, TRAJECTORIES], ids=str)
 def test_no_vocabulary_is_spelled_twice(names: tuple[str, ...]) -> None:
     assert _spelled(names) == []
+
+
+def test_morph_settings_defaults_are_the_morpher_s_and_the_schema_s() -> None:
+    import inspect
+
+    from miketalk.render.morph import Morpher, MorphSettings
+
+    settings = MorphSettings().to_dict()
+    signature = inspect.signature(Morpher).parameters
+    assert {name: signature[name].default for name in settings} == settings
+    schema = _schema("morph")["properties"]
+    assert {name: node["default"] for name, node in schema.items()} == {
+        name: settings[name] for name in schema
+    }
+    face = _schema("faces")["additionalProperties"]["properties"]["morph"]["properties"]
+    assert set(face) == set(schema)
+    assert _schema("morph", "splat")["enum"] == face["splat"]["enum"] == ["nearest", "bilinear"]
+
+
+def test_an_unknown_morph_setting_is_one_line() -> None:
+    from miketalk.errors import MiketalkError
+    from miketalk.render.morph import MorphSettings
+
+    with pytest.raises(MiketalkError, match="unknown morph setting smooth"):
+        MorphSettings.of({"smooth": True})
+    with pytest.raises(MiketalkError):
+        MorphSettings.of({"splat": "cubic"})
+
+
+def test_one_video_defaults_are_the_library_s(parser: argparse.ArgumentParser) -> None:
+    import inspect
+
+    from miketalk.corpus.one_video import check_video_inputs, segment_video
+
+    corpus = _schema("faces")["additionalProperties"]["properties"]["corpus"]["properties"]
+    assert corpus["heldout_seconds"]["default"] == defaults.HELDOUT_SECONDS
+    assert _choices(parser, "build", "--heldout-seconds").default == defaults.HELDOUT_SECONDS
+    for function in (segment_video, check_video_inputs):
+        default = inspect.signature(function).parameters["heldout_seconds"].default
+        assert default == defaults.HELDOUT_SECONDS

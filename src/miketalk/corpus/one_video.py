@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from miketalk import defaults
 from miketalk.corpus.clip_sources import RATE, Clip
 from miketalk.corpus.script import read_script
 from miketalk.errors import MiketalkError
@@ -63,7 +64,7 @@ def segment_video(
     *,
     transcript: str | Path | None = None,
     subtitles: str | Path | None = None,
-    heldout_seconds: float = 0.0,
+    heldout_seconds: float = defaults.HELDOUT_SECONDS,
     checked: VideoInputs | None = None,
 ) -> dict:
     """Align a video's words and cut it into utterances; write ``segments.json`` (``out``).
@@ -179,7 +180,7 @@ def check_video_inputs(
     *,
     transcript: str | Path | None = None,
     subtitles: str | Path | None = None,
-    heldout_seconds: float = 0.0,
+    heldout_seconds: float = defaults.HELDOUT_SECONDS,
 ) -> VideoInputs:
     """Read and check a video and its script before any work (see :func:`segment_video`).
 

@@ -37,7 +37,7 @@ from miketalk.flow import FlowDatabase
 from miketalk.lipsync.timeline import FrameSample, Timeline
 from miketalk.media.images import read_image
 from miketalk.model.manifest import check_complete, inside, read_manifest
-from miketalk.render.morph import Morpher
+from miketalk.render.morph import Morpher, MorphSettings
 
 if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
     pass
@@ -58,8 +58,8 @@ class Model:
     cache_size : int
         How many transitions' morphers to keep ready.
     morph_options : dict, optional
-        Keyword flags for :class:`miketalk.render.morph.Morpher` (``hole_aware_blend``,
-        ``fill_holes``, ``median``).
+        Some of :class:`miketalk.render.morph.MorphSettings` by name, checked here (an
+        unknown one is a one-line error).
 
     Raises
     ------
@@ -76,6 +76,7 @@ class Model:
         morph_options: dict | None = None,
     ) -> None:
         self.directory = Path(directory)
+        MorphSettings.of(morph_options)  # checked before anything is read
         self.morph_options = dict(morph_options or {})
         manifest = read_manifest(self.directory)
         self.manifest = manifest
