@@ -49,7 +49,7 @@ def s1_built(s1_joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The model ``miketalk build`` makes of the joined video with its plain transcript, its
     last 6 s (the two held-out clips) held out, with the .test workflow's flow settings (so
     that it compares with the .test face s1); its corpus kept beside it (``corpus/``)."""
-    from miketalk.cli.build import build_model_from_video
+    from miketalk.building.from_video import build_model_from_video
 
     config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["flow"]
     where = tmp_path_factory.mktemp("s1_built")
