@@ -53,7 +53,7 @@ test: setup lint
 	MIKETALK_NO_SKIP=1 $(BIN)/pytest -q
 
 bench: run
-	$(BIN)/python -m miketalk_lab.bench --out results/bench
+	$(BIN)/python -m miketalk_lab.bench --out results/bench --results-doc docs/results.md
 
 clean:
 	rm -rf results .snakemake .test/results .test/.snakemake

@@ -3,7 +3,9 @@
 Each benchmark module has ``run(out_dir) -> dict[str, float]``; this runs them in
 turn, each in its own process (so one core-pinned benchmark does not affect the
 next), and writes ``summary.json`` and ``summary.md`` to ``DIR`` so a regression
-shows in a diff.
+shows in a diff. At the end it rewrites ``docs/results.md`` from every table measured
+(:func:`miketalk_lab.bench.results_doc.write_results_doc`; ``--results-doc PATH`` writes it
+elsewhere, ``--no-results-doc`` not at all).
 """
 
 from __future__ import annotations
@@ -18,6 +20,9 @@ from pathlib import Path
 from miketalk import defaults
 from miketalk.media.atomic import write_text_atomic
 
+#: The project's root (``docs/results.md`` is under it).
+ROOT = Path(__file__).resolve().parents[3]
+
 MODULES = ("synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "one_video")
 
 
@@ -25,6 +30,11 @@ def main() -> int:
     """Run the benchmarks named on the command line (default: all)."""
     parser = argparse.ArgumentParser(prog="python -m miketalk_lab.bench")
     parser.add_argument("--out", type=Path, default=defaults.RESULTS / "bench")
+    parser.add_argument(
+        "--results-doc", type=Path, default=ROOT / "docs" / "results.md",
+        help="the page of measured tables rewritten at the end (default docs/results.md)",
+    )  # fmt: skip
+    parser.add_argument("--no-results-doc", action="store_true", help="leave it as it is")
     parser.add_argument("only", nargs="*", help=f"benchmarks to run, of: {' '.join(MODULES)}")
     args = parser.parse_args()
     unknown = sorted(set(args.only) - set(MODULES))
@@ -56,6 +66,11 @@ def main() -> int:
     table = "\n".join(lines) + "\n"
     write_text_atomic(args.out / "summary.md", table)
     print(table)
+    if not args.no_results_doc:
+        from miketalk_lab.bench.results_doc import write_results_doc
+
+        page = write_results_doc(args.results_doc, defaults.RESULTS, args.out)
+        print(f"wrote {page}")
     return 0
 
 
