@@ -24,4 +24,4 @@ include: "workflow/rules/figures.smk"
 rule all:
     default_target: True
     input:
-        all_outputs(),
+        targets.all_outputs(experiment),

@@ -4,49 +4,49 @@
 
 rule corpus:
     output:
-        frames=directory(f"{CORPUS}/frames"),
-        audio=f"{CORPUS}/audio.wav",
-        words=f"{CORPUS}/words.json",
-        table=f"{CORPUS}/frames.tsv",
-        truth=f"{CORPUS}/truth.tsv",
-        video=f"{CORPUS}/corpus.mp4",
+        frames=directory(paths.CORPUS_FRAMES),
+        audio=paths.CORPUS_AUDIO,
+        words=paths.CORPUS_WORDS,
+        table=paths.CORPUS_TABLE,
+        truth=paths.CORPUS_TRUTH,
+        video=paths.CORPUS_VIDEO,
     log:
-        "results/logs/corpus/{face}.log",
+        paths.log("corpus/{face}"),
     benchmark:
-        "results/benchmarks/corpus/{face}.tsv"
+        paths.benchmark("corpus/{face}")
     wildcard_constraints:
-        face=one_of(CORPUS_WORD_FACES),
+        face=paths.one_of(experiment.corpus_word_faces),
     conda:
         "../envs/miketalk.yaml"
     resources:
         mem_mb=4000,
         runtime=30,
     params:
-        corpus=lambda wildcards: corpus_settings(wildcards.face),
-        grouping=canonical(config["visemes"]["grouping"]),
+        corpus=lambda wildcards: experiment.corpus_settings(wildcards.face),
+        grouping=experiment.grouping,
     script:
         "../scripts/corpus.py"
 
 
 rule segment_video:
     input:
-        unpack(video_script),
+        unpack(inputs.video_script),
     output:
-        SEGMENTS,
+        paths.SEGMENTS,
     log:
-        "results/logs/segment_video/{face}.log",
+        paths.log("segment_video/{face}"),
     benchmark:
-        "results/benchmarks/segment_video/{face}.tsv"
+        paths.benchmark("segment_video/{face}")
     wildcard_constraints:
-        face=one_of(VIDEO_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.video_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     resources:
         mem_mb=2000,
         runtime=30,
     params:
-        heldout_seconds=lambda wildcards: FACES[wildcards.face]["corpus"][
+        heldout_seconds=lambda wildcards: experiment.faces[wildcards.face]["corpus"][
             "heldout_seconds"
         ],
     script:
@@ -55,30 +55,30 @@ rule segment_video:
 
 rule corpus_clips:
     input:
-        unpack(clip_inputs("train")),
+        unpack(inputs.clip_inputs("train")),
     output:
-        frames=directory(f"{CORPUS}/frames"),
-        audio=f"{CORPUS}/audio.wav",
-        words=f"{CORPUS}/words.json",
-        table=f"{CORPUS}/frames.tsv",
-        truth=f"{CORPUS}/truth.tsv",
-        video=f"{CORPUS}/corpus.mp4",
-        clips=f"{CORPUS}/clips.tsv",
-        phones=f"{CORPUS}/phones.tsv",
-        stabilization=f"{CORPUS}/stabilization.tsv",
-        skipped=f"{CORPUS}/skipped.tsv",
-        regions=f"{CORPUS}/regions.json",
-        reference=f"{CORPUS}/reference.png",
-        registration_mask=f"{CORPUS}/registration_mask.png",
-        face_mask=f"{CORPUS}/face_mask.png",
-        mouth_mask=f"{CORPUS}/mouth_mask.png",
+        frames=directory(paths.CORPUS_FRAMES),
+        audio=paths.CORPUS_AUDIO,
+        words=paths.CORPUS_WORDS,
+        table=paths.CORPUS_TABLE,
+        truth=paths.CORPUS_TRUTH,
+        video=paths.CORPUS_VIDEO,
+        clips=paths.CORPUS_CLIPS,
+        phones=paths.CORPUS_PHONES,
+        stabilization=paths.CORPUS_STABILIZATION,
+        skipped=paths.CORPUS_SKIPPED,
+        regions=paths.CORPUS_REGIONS,
+        reference=paths.CORPUS_REFERENCE,
+        registration_mask=paths.CORPUS_REGISTRATION_MASK,
+        face_mask=paths.CORPUS_FACE_MASK,
+        mouth_mask=paths.CORPUS_MOUTH_MASK,
     log:
-        "results/logs/corpus/{face}.log",
+        paths.log("corpus/{face}"),
     benchmark:
-        "results/benchmarks/corpus/{face}.tsv"
+        paths.benchmark("corpus/{face}")
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.clip_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     threads: 2
@@ -86,6 +86,6 @@ rule corpus_clips:
         mem_mb=4000,
         runtime=30,
     params:
-        corpus=lambda wildcards: corpus_settings(wildcards.face),
+        corpus=lambda wildcards: experiment.corpus_settings(wildcards.face),
     script:
         "../scripts/corpus_clips.py"

@@ -6,18 +6,18 @@ rule model_variant:
     input:
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
-        flows=f"{FLOWS}/{{method}}/{{strategy}}",
+        flows=paths.FLOW_DATABASE,
     output:
-        directory(f"{VARIANTS}/{{method}}/{{strategy}}"),
+        directory(paths.VARIANT),
     log:
-        "results/logs/model_variant/{face}/{method}/{strategy}.log",
+        paths.log("model_variant/{face}/{method}/{strategy}"),
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.clip_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
-        spec=method_spec,
+        spec=inputs.method_spec,
         strategy=lambda wildcards: wildcards.strategy,
     script:
         "../scripts/model.py"
@@ -25,89 +25,89 @@ rule model_variant:
 
 rule heldout:
     input:
-        unpack(heldout_models),
-        unpack(clip_inputs("test")),
+        unpack(inputs.heldout_models),
+        unpack(inputs.clip_inputs("test")),
         words=rules.corpus_clips.output.words,
         regions=rules.corpus_clips.output.regions,
         reference=rules.corpus_clips.output.reference,
         registration_mask=rules.corpus_clips.output.registration_mask,
         eigenlips=rules.eigenlips.output[0],
     output:
-        frames=f"{METRICS}/heldout/{{face}}/frames.csv",
-        clips=f"{METRICS}/heldout/{{face}}/clips.csv",
+        frames=paths.HELDOUT_FRAMES,
+        clips=paths.HELDOUT_CLIPS,
         summary=report(
-            f"{METRICS}/heldout/{{face}}/summary.csv",
+            paths.HELDOUT_SUMMARY,
             caption="../report/heldout.rst",
             category="Real person",
         ),
-        videos=directory("results/heldout/{face}"),
+        videos=directory(paths.HELDOUT_VIDEOS),
     log:
-        "results/logs/heldout/{face}.log",
+        paths.log("heldout/{face}"),
     benchmark:
-        "results/benchmarks/heldout/{face}.tsv"
+        paths.benchmark("heldout/{face}")
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.clip_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
-        corpus=lambda wildcards: corpus_settings(wildcards.face),
-        default_model=lambda wildcards: "/".join(model_flow(wildcards.face)),
-        grouping=canonical(config["visemes"]["grouping"]),
-        morph=lambda wildcards: morph_options(wildcards.face),
+        corpus=lambda wildcards: experiment.corpus_settings(wildcards.face),
+        default_model=lambda wildcards: "/".join(experiment.model_flow(wildcards.face)),
+        grouping=experiment.grouping,
+        morph=lambda wildcards: experiment.morph_options(wildcards.face),
     script:
         "../scripts/heldout.py"
 
 
 rule dub_heldout:
     input:
-        unpack(clip_inputs("test")),
+        unpack(inputs.clip_inputs("test")),
         model=rules.model.output[0],
         words=rules.corpus_clips.output.words,
         regions=rules.corpus_clips.output.regions,
         eigenlips=rules.eigenlips.output[0],
     output:
-        clips=f"{METRICS}/dub/{{face}}/clips.csv",
+        clips=paths.DUB_CLIPS,
         summary=report(
-            f"{METRICS}/dub/{{face}}/summary.csv",
+            paths.DUB_SUMMARY,
             caption="../report/dub.rst",
             category="Real person",
         ),
         strip=report(
-            f"{FIGURES}/dub/{{face}}/strip.png",
+            paths.DUB_STRIP_FIGURE,
             caption="../report/dub.rst",
             category="Real person",
         ),
-        videos=directory("results/dub/{face}"),
+        videos=directory(paths.DUB_VIDEOS),
     log:
-        "results/logs/dub_heldout/{face}.log",
+        paths.log("dub_heldout/{face}"),
     benchmark:
-        "results/benchmarks/dub_heldout/{face}.tsv"
+        paths.benchmark("dub_heldout/{face}")
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
+        face=paths.one_of(experiment.clip_faces),
     conda:
         "../envs/miketalk.yaml"
     params:
-        corpus=lambda wildcards: corpus_settings(wildcards.face),
-        lipsync_model=lambda wildcards: recording_model(wildcards.face),
-        morph=lambda wildcards: morph_options(wildcards.face),
+        corpus=lambda wildcards: experiment.corpus_settings(wildcards.face),
+        lipsync_model=lambda wildcards: experiment.recording_model(wildcards.face),
+        morph=lambda wildcards: experiment.morph_options(wildcards.face),
     script:
         "../scripts/dub_heldout.py"
 
 
 rule training_clips_table:
     input:
-        training_clip_summaries,
+        inputs.training_clip_summaries,
     output:
-        f"{METRICS}/heldout/{{face}}/training_clips.csv",
+        paths.TRAINING_CLIPS_TABLE,
     log:
-        "results/logs/training_clips_table/{face}.log",
+        paths.log("training_clips_table/{face}"),
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
+        face=paths.one_of(experiment.clip_faces),
     conda:
         "../envs/miketalk.yaml"
     params:
-        training_clips=lambda wildcards: list(sweep_of(wildcards.face)),
+        training_clips=lambda wildcards: list(experiment.sweep_of(wildcards.face)),
     script:
         "../scripts/training_clips_table.py"
 
@@ -119,30 +119,30 @@ rule figure_heldout:
         regions=rules.corpus_clips.output.regions,
     output:
         trajectory=report(
-            f"{FIGURES}/heldout/{{face}}/trajectory.png",
+            paths.HELDOUT_TRAJECTORY_FIGURE,
             caption="../report/heldout_trajectory.rst",
             category="Real person",
         ),
         psnr=report(
-            f"{FIGURES}/heldout/{{face}}/psnr.png",
+            paths.HELDOUT_PSNR_FIGURE,
             caption="../report/heldout_psnr.rst",
             category="Real person",
         ),
         strip=report(
-            f"{FIGURES}/heldout/{{face}}/strip.png",
+            paths.HELDOUT_STRIP_FIGURE,
             caption="../report/heldout_strip.rst",
             category="Real person",
         ),
     log:
-        "results/logs/figures/heldout/{face}.log",
+        paths.log("figures/heldout/{face}"),
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.clip_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
-        clip=lambda wildcards: first_test_clip(wildcards.face),
-        model=lambda wildcards: "/".join(model_flow(wildcards.face)),
+        clip=lambda wildcards: experiment.first_test_clip(wildcards.face),
+        model=lambda wildcards: "/".join(experiment.model_flow(wildcards.face)),
     script:
         "../scripts/heldout_figures.py"
 
@@ -152,14 +152,14 @@ rule figure_training_clips:
         sweep_csv=rules.training_clips_table.output[0],
     output:
         report(
-            f"{FIGURES}/heldout/{{face}}/training_clips.png",
+            paths.TRAINING_CLIPS_FIGURE,
             caption="../report/training_clips.rst",
             category="Real person",
         ),
     log:
-        "results/logs/figures/training_clips/{face}.log",
+        paths.log("figures/training_clips/{face}"),
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
+        face=paths.one_of(experiment.clip_faces),
     conda:
         "../envs/miketalk.yaml"
     params:

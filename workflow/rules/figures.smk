@@ -6,12 +6,12 @@ rule figure_epe_vs_levels:
         flow_epe_csv=rules.flow_epe_table.output.table,
     output:
         report(
-            f"{FIGURES}/epe_vs_levels.png",
+            paths.EPE_VS_LEVELS_FIGURE,
             caption="../report/epe_vs_levels.rst",
             category="Optical flow",
         ),
     log:
-        "results/logs/figures/epe_vs_levels.log",
+        paths.log("figures/epe_vs_levels"),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -25,12 +25,12 @@ rule figure_morph_psnr:
         morph_csv=rules.morph_fidelity.output.table,
     output:
         report(
-            f"{FIGURES}/morph_psnr_vs_alpha.png",
+            paths.MORPH_PSNR_FIGURE,
             caption="../report/morph_psnr_vs_alpha.rst",
             category="Morphing",
         ),
     log:
-        "results/logs/figures/morph_psnr_vs_alpha.log",
+        paths.log("figures/morph_psnr_vs_alpha"),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -44,12 +44,12 @@ rule figure_sync_sweep:
         summary_csv=rules.sync_sweep_table.output.summary,
     output:
         report(
-            f"{FIGURES}/sync_vs_max_px.png",
+            paths.SYNC_VS_MAX_PX_FIGURE,
             caption="../report/sync_vs_max_px.rst",
             category="Lip-sync",
         ),
     log:
-        "results/logs/figures/sync_vs_max_px.log",
+        paths.log("figures/sync_vs_max_px"),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -60,15 +60,15 @@ rule figure_sync_sweep:
 
 rule figure_lipsync_diagram:
     input:
-        model_dir=at(rules.model.output[0], FIGURE_FACE),
+        model_dir=paths.at(rules.model.output[0], experiment.figure_face),
     output:
         report(
-            f"{FIGURES}/lipsync_diagram.png",
+            paths.LIPSYNC_DIAGRAM_FIGURE,
             caption="../report/lipsync_diagram.rst",
             category="Lip-sync",
         ),
     log:
-        "results/logs/figures/lipsync_diagram.log",
+        paths.log("figures/lipsync_diagram"),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -82,15 +82,15 @@ rule figure_lipsync_diagram:
 
 rule figure_morph_strip:
     input:
-        model_dir=at(rules.model.output[0], FIGURE_FACE),
+        model_dir=paths.at(rules.model.output[0], experiment.figure_face),
     output:
         report(
-            f"{FIGURES}/morph_strip.png",
+            paths.MORPH_STRIP_FIGURE,
             caption="../report/morph_strip.rst",
             category="Morphing",
         ),
     log:
-        "results/logs/figures/morph_strip.log",
+        paths.log("figures/morph_strip"),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -107,12 +107,12 @@ rule figure_sampling_modes:
         summary_csv=rules.sync_sweep_table.output.summary,
     output:
         report(
-            f"{FIGURES}/sampling_vs_max_px.png",
+            paths.SAMPLING_VS_MAX_PX_FIGURE,
             caption="../report/sampling_vs_max_px.rst",
             category="Lip-sync",
         ),
     log:
-        "results/logs/figures/sampling_vs_max_px.log",
+        paths.log("figures/sampling_vs_max_px"),
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -124,21 +124,21 @@ rule figure_sampling_modes:
 
 rule figure_sampling_strip:
     input:
-        model_dir=at(rules.model.output[0], FIGURE_FACE),
-        timelines=sampling_strip_timelines(),
+        model_dir=paths.at(rules.model.output[0], experiment.figure_face),
+        timelines=targets.sampling_strip_timelines(experiment),
     output:
         report(
-            f"{FIGURES}/sampling_strip.png",
+            paths.SAMPLING_STRIP_FIGURE,
             caption="../report/sampling_strip.rst",
             category="Lip-sync",
         ),
     log:
-        "results/logs/figures/sampling_strip.log",
+        paths.log("figures/sampling_strip"),
     conda:
         "../envs/miketalk.yaml"
     params:
         figure="sampling_strip",
-        morph=morph_options(FIGURE_FACE),
+        morph=experiment.morph_options(experiment.figure_face),
         columns=8,
     script:
         "../scripts/figures.py"

@@ -4,22 +4,22 @@
 
 rule flows:
     input:
-        unpack(mixed_flows),
-        unpack(clip_regions),
+        unpack(inputs.mixed_flows),
+        unpack(inputs.clip_regions),
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
         frames=rules.corpus.output.frames,
     output:
-        flows=directory(f"{FLOWS}/{{method}}/{{strategy}}"),
-        choices=f"{FLOWS}/{{method}}/{{strategy}}.tsv",
+        flows=directory(paths.FLOW_DATABASE),
+        choices=paths.FLOW_CHOICES,
     log:
-        "results/logs/flows/{face}/{method}/{strategy}.log",
+        paths.log("flows/{face}/{method}/{strategy}"),
     benchmark:
-        "results/benchmarks/flows/{face}/{method}/{strategy}.tsv"
+        paths.benchmark("flows/{face}/{method}/{strategy}")
     wildcard_constraints:
-        strategy="|".join(STRATEGIES),
-        face=one_of(FACES),
-    priority: clip_chain_first
+        strategy=paths.one_of(vocabulary.STRATEGY_NAMES),
+        face=paths.one_of(experiment.faces),
+    priority: inputs.clip_chain_first
     conda:
         "../envs/miketalk.yaml"
     threads: config["flow"]["workers"]
@@ -27,7 +27,7 @@ rule flows:
         mem_mb=6000,
         runtime=60,
     params:
-        spec=method_spec,
+        spec=inputs.method_spec,
         window=config["flow"]["mixed_window"],
     script:
         "../scripts/flows.py"
@@ -35,54 +35,54 @@ rule flows:
 
 rule true_flows:
     input:
-        visemes=at(rules.visemes.output.visemes, TRUTH_FACE or "none"),
-        table=at(rules.corpus.output.table, TRUTH_FACE or "none"),
+        visemes=paths.at(rules.visemes.output.visemes, experiment.truth),
+        table=paths.at(rules.corpus.output.table, experiment.truth),
     output:
-        flows=directory(f"{TRUTH}/flows"),
-        mouth=f"{TRUTH}/mouth_mask.png",
+        flows=directory(paths.at(paths.TRUE_FLOWS, experiment.truth)),
+        mouth=paths.at(paths.TRUE_MOUTH, experiment.truth),
     log:
-        f"results/logs/true_flows/{TRUTH_FACE}.log",
+        paths.log("true_flows/{face}", face=experiment.truth),
     benchmark:
-        f"results/benchmarks/true_flows/{TRUTH_FACE}.tsv"
+        paths.benchmark("true_flows/{face}", face=experiment.truth)
     conda:
         "../envs/miketalk.yaml"
     params:
-        size=FACES[TRUTH_FACE]["corpus"]["size"] if TRUTH_FACE else None,
+        size=experiment.truth_size,
     script:
         "../scripts/true_flows.py"
 
 
 rule flow_epe:
     input:
-        flows=f"{at(FLOWS, TRUTH_FACE or 'none')}/{{method}}/{{strategy}}",
+        flows=paths.at(paths.FLOW_DATABASE, experiment.truth),
         truth=rules.true_flows.output.flows,
         mouth=rules.true_flows.output.mouth,
     output:
-        f"{METRICS}/epe/{TRUTH_FACE}/{{method}}/{{strategy}}.csv",
+        paths.at(paths.EPE, experiment.truth),
     log:
-        f"results/logs/flow_epe/{TRUTH_FACE}/{{method}}/{{strategy}}.log",
+        paths.log("flow_epe/{face}/{method}/{strategy}", face=experiment.truth),
     benchmark:
-        f"results/benchmarks/flow_epe/{TRUTH_FACE}/{{method}}/{{strategy}}.tsv"
+        paths.benchmark("flow_epe/{face}/{method}/{strategy}", face=experiment.truth)
     conda:
         "../envs/miketalk.yaml"
     params:
-        spec=method_spec,
+        spec=inputs.method_spec,
     script:
         "../scripts/flow_epe.py"
 
 
 rule flow_epe_table:
     input:
-        epe_tables(),
+        targets.epe_tables(experiment),
     output:
         table=report(
-            f"{METRICS}/flow_epe.csv",
+            paths.EPE_TABLE,
             caption="../report/flow_epe.rst",
             category="Optical flow",
         ),
-        summary=f"{METRICS}/flow_epe_summary.csv",
+        summary=paths.EPE_SUMMARY,
     log:
-        "results/logs/flow_epe_table.log",
+        paths.log("flow_epe_table"),
     conda:
         "../envs/miketalk.yaml"
     script:
@@ -92,14 +92,14 @@ rule flow_epe_table:
 rule motorcycle:
     output:
         report(
-            f"{METRICS}/motorcycle_epe.csv",
+            paths.MOTORCYCLE_EPE,
             caption="../report/motorcycle.rst",
             category="Optical flow",
         ),
     log:
-        "results/logs/motorcycle.log",
+        paths.log("motorcycle"),
     benchmark:
-        "results/benchmarks/motorcycle.tsv"
+        paths.benchmark("motorcycle")
     conda:
         "../envs/miketalk.yaml"
     params:

@@ -3,23 +3,23 @@
 
 rule morph_fidelity:
     input:
-        visemes=at(rules.visemes.output.visemes, TRUTH_FACE or "none"),
-        images=at(rules.visemes.output.images, TRUTH_FACE or "none"),
-        flows=model_flows(SimpleNamespace(face=TRUTH_FACE or "none")),
+        visemes=paths.at(rules.visemes.output.visemes, experiment.truth),
+        images=paths.at(rules.visemes.output.images, experiment.truth),
+        flows=experiment.model_flows(experiment.truth),
         truth=rules.true_flows.output.flows,
         mouth=rules.true_flows.output.mouth,
-        table=at(rules.corpus.output.table, TRUTH_FACE or "none"),
+        table=paths.at(rules.corpus.output.table, experiment.truth),
     output:
         table=report(
-            f"{METRICS}/morph_fidelity.csv",
+            paths.MORPH_FIDELITY_TABLE,
             caption="../report/morph_fidelity.rst",
             category="Morphing",
         ),
-        summary=f"{METRICS}/morph_fidelity_summary.csv",
+        summary=paths.MORPH_FIDELITY_SUMMARY,
     log:
-        f"results/logs/morph_fidelity/{TRUTH_FACE}.log",
+        paths.log("morph_fidelity/{face}", face=experiment.truth),
     benchmark:
-        f"results/benchmarks/morph_fidelity/{TRUTH_FACE}.tsv"
+        paths.benchmark("morph_fidelity/{face}", face=experiment.truth)
     conda:
         "../envs/miketalk.yaml"
     params:
@@ -31,62 +31,64 @@ rule morph_fidelity:
 
 rule sync:
     input:
-        model=at(rules.model.output[0], TRUTH_FACE or "none"),
+        model=paths.at(rules.model.output[0], experiment.truth),
         mouth=rules.true_flows.output.mouth,
-        video=at(rules.utterance.output.video, TRUTH_FACE or "none"),
-        timeline=at(rules.utterance.output.timeline, TRUTH_FACE or "none"),
+        video=paths.at(rules.utterance.output.video, experiment.truth),
+        timeline=paths.at(rules.utterance.output.timeline, experiment.truth),
     output:
-        f"{METRICS}/sync/{TRUTH_FACE}/{{sentence}}.csv",
+        paths.at(paths.SYNC, experiment.truth),
     log:
-        f"results/logs/sync/{TRUTH_FACE}/{{sentence}}.log",
+        paths.log("sync/{face}/{sentence}", face=experiment.truth),
     benchmark:
-        f"results/benchmarks/sync/{TRUTH_FACE}/{{sentence}}.tsv"
+        paths.benchmark("sync/{face}/{sentence}", face=experiment.truth)
     conda:
         "../envs/miketalk.yaml"
     params:
         name=lambda wildcards: wildcards.sentence,
-        morph=morph_options(TRUTH_FACE or "none"),
-        grouping=canonical(config["visemes"]["grouping"]),
+        morph=experiment.morph_options(experiment.truth),
+        grouping=experiment.grouping,
     script:
         "../scripts/sync.py"
 
 
 rule sync_sweep_point:
     input:
-        model=at(rules.model.output[0], TRUTH_FACE or "none"),
+        model=paths.at(rules.model.output[0], experiment.truth),
         mouth=rules.true_flows.output.mouth,
-        video=at(rules.sweep_utterance.output.video, TRUTH_FACE or "none"),
-        timeline=at(rules.sweep_utterance.output.timeline, TRUTH_FACE or "none"),
+        video=paths.at(rules.sweep_utterance.output.video, experiment.truth),
+        timeline=paths.at(rules.sweep_utterance.output.timeline, experiment.truth),
     output:
-        f"{METRICS}/sync_sweep/{TRUTH_FACE}/{{sampling}}/px{{px}}_fps{{fps}}.csv",
+        paths.at(paths.SYNC_SWEEP, experiment.truth),
     log:
-        f"results/logs/sync_sweep/{TRUTH_FACE}/{{sampling}}/px{{px}}_fps{{fps}}.log",
+        paths.log("sync_sweep/{face}/{sampling}/px{px}_fps{fps}", face=experiment.truth),
     benchmark:
-        f"results/benchmarks/sync_sweep/{TRUTH_FACE}/{{sampling}}/px{{px}}_fps{{fps}}.tsv"
+        paths.benchmark(
+            "sync_sweep/{face}/{sampling}/px{px}_fps{fps}", face=experiment.truth
+        )
     wildcard_constraints:
-        sampling=one_of(SAMPLINGS),
-        px=NUMBER,
-        fps=NUMBER,
+        sampling=paths.one_of(vocabulary.SAMPLINGS),
+        px=paths.NUMBER,
+        fps=paths.NUMBER,
     conda:
         "../envs/miketalk.yaml"
     params:
         name=config["sweeps"]["sentence"],
-        morph=morph_options(TRUTH_FACE or "none"),
-        grouping=canonical(config["visemes"]["grouping"]),
+        morph=experiment.morph_options(experiment.truth),
+        grouping=experiment.grouping,
     script:
         "../scripts/sync.py"
 
 
 rule sync_table:
     input:
-        sync_tables(),
+        targets.sync_tables(experiment),
     output:
         table=report(
-            f"{METRICS}/sync.csv", caption="../report/sync.rst", category="Lip-sync"
+            paths.SYNC_TABLE, caption="../report/sync.rst", category="Lip-sync"
         ),
-        summary=f"{METRICS}/sync_summary.csv",
+        summary=paths.SYNC_SUMMARY,
     log:
-        "results/logs/sync_table.log",
+        paths.log("sync_table"),
     conda:
         "../envs/miketalk.yaml"
     script:
@@ -95,16 +97,16 @@ rule sync_table:
 
 rule sync_sweep_table:
     input:
-        sync_sweep_tables(),
+        targets.sync_sweep_tables(experiment),
     output:
-        table=f"{METRICS}/sync_sweep.csv",
+        table=paths.SYNC_SWEEP_TABLE,
         summary=report(
-            f"{METRICS}/sync_sweep_summary.csv",
+            paths.SYNC_SWEEP_SUMMARY,
             caption="../report/sync_sweep.rst",
             category="Lip-sync",
         ),
     log:
-        "results/logs/sync_sweep_table.log",
+        paths.log("sync_sweep_table"),
     conda:
         "../envs/miketalk.yaml"
     script:
@@ -113,9 +115,9 @@ rule sync_sweep_table:
 
 rule truth_note:
     output:
-        f"{METRICS}/SKIPPED.txt",
+        paths.TRUTH_SKIPPED,
     log:
-        "results/logs/truth_note.log",
+        paths.log("truth_note"),
     conda:
         "../envs/miketalk.yaml"
     script:

@@ -6,14 +6,14 @@ rule eigenlips:
         frames=rules.corpus_clips.output.frames,
         regions=rules.corpus_clips.output.regions,
     output:
-        f"{CORPUS}/eigenlips.npz",
+        paths.EIGENLIPS,
     log:
-        "results/logs/eigenlips/{face}.log",
+        paths.log("eigenlips/{face}"),
     benchmark:
-        "results/benchmarks/eigenlips/{face}.tsv"
+        paths.benchmark("eigenlips/{face}")
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.clip_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     script:
@@ -22,23 +22,25 @@ rule eigenlips:
 
 rule model:
     input:
-        unpack(clip_corpus),
+        unpack(inputs.clip_corpus),
         visemes=rules.visemes.output.visemes,
         images=rules.visemes.output.images,
-        flows=model_flows,
+        flows=inputs.model_flows,
     output:
-        directory(MODEL),
+        directory(paths.MODEL),
     log:
-        "results/logs/model/{face}.log",
+        paths.log("model/{face}"),
     wildcard_constraints:
-        face=one_of(FACES),
-    priority: clip_chain_first
+        face=paths.one_of(experiment.faces),
+    priority: inputs.clip_chain_first
     conda:
         "../envs/miketalk.yaml"
     params:
-        spec=lambda wildcards: method_json(model_flow(wildcards.face)[0]),
-        strategy=lambda wildcards: model_flow(wildcards.face)[1],
-        grouping=canonical(config["visemes"]["grouping"]),
-        media=lambda wildcards: corpus_settings(wildcards.face).get("media"),
+        spec=lambda wildcards: experiment.method_json(
+            experiment.model_flow(wildcards.face)[0]
+        ),
+        strategy=lambda wildcards: experiment.model_flow(wildcards.face)[1],
+        grouping=experiment.grouping,
+        media=lambda wildcards: experiment.corpus_settings(wildcards.face).get("media"),
     script:
         "../scripts/model.py"

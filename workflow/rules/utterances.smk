@@ -8,28 +8,28 @@ rule utterance:
         model=rules.model.output[0],
     output:
         video=report(
-            f"{UTTERANCES}/{{sentence}}.mp4",
+            paths.UTTERANCE_VIDEO,
             caption="../report/utterance.rst",
             category="Utterances",
         ),
-        timeline=f"{UTTERANCES}/{{sentence}}.json",
+        timeline=paths.UTTERANCE_TIMELINE,
     log:
-        "results/logs/utterances/{face}/{sentence}.log",
+        paths.log("utterances/{face}/{sentence}"),
     benchmark:
-        "results/benchmarks/utterances/{face}/{sentence}.tsv"
+        paths.benchmark("utterances/{face}/{sentence}")
     wildcard_constraints:
         sentence="[^/]+",
-        face=one_of(FACES),
+        face=paths.one_of(experiment.faces),
     conda:
         "../envs/miketalk.yaml"
     params:
         text=lambda wildcards: config["sentences"][wildcards.sentence],
         fps=config["lipsync"]["fps"],
         max_px=config["lipsync"]["max_px_per_frame"],
-        lipsync=lambda wildcards: lipsync_options(wildcards.face),
-        morph=lambda wildcards: morph_options(wildcards.face),
-        grouping=canonical(config["visemes"]["grouping"]),
-        background=lambda wildcards: face_background(wildcards.face),
+        lipsync=lambda wildcards: experiment.lipsync_options(wildcards.face),
+        morph=lambda wildcards: experiment.morph_options(wildcards.face),
+        grouping=experiment.grouping,
+        background=lambda wildcards: experiment.face_background(wildcards.face),
     script:
         "../scripts/utterance.py"
 
@@ -38,25 +38,27 @@ rule sweep_utterance:
     input:
         model=rules.model.output[0],
     output:
-        video=f"{UTTERANCES}/sweep/{{sampling}}/px{{px}}_fps{{fps}}.mp4",
-        timeline=f"{UTTERANCES}/sweep/{{sampling}}/px{{px}}_fps{{fps}}.json",
+        video=paths.SWEEP_VIDEO,
+        timeline=paths.SWEEP_TIMELINE,
     log:
-        "results/logs/utterances/{face}/sweep/{sampling}/px{px}_fps{fps}.log",
+        paths.log("utterances/{face}/sweep/{sampling}/px{px}_fps{fps}"),
     benchmark:
-        "results/benchmarks/utterances/{face}/sweep/{sampling}/px{px}_fps{fps}.tsv"
+        paths.benchmark("utterances/{face}/sweep/{sampling}/px{px}_fps{fps}")
     wildcard_constraints:
-        face=one_of(FACES),
-        sampling=one_of(SAMPLINGS),
-        px=NUMBER,
-        fps=NUMBER,
+        face=paths.one_of(experiment.faces),
+        sampling=paths.one_of(vocabulary.SAMPLINGS),
+        px=paths.NUMBER,
+        fps=paths.NUMBER,
     conda:
         "../envs/miketalk.yaml"
     params:
         text=config["sentences"][config["sweeps"]["sentence"]],
         fps=lambda wildcards: float(wildcards.fps),
         max_px=lambda wildcards: float(wildcards.px),
-        lipsync=lambda wildcards: sweep_lipsync(wildcards.face, wildcards.sampling),
-        morph=lambda wildcards: morph_options(wildcards.face),
-        grouping=canonical(config["visemes"]["grouping"]),
+        lipsync=lambda wildcards: experiment.sweep_lipsync(
+            wildcards.face, wildcards.sampling
+        ),
+        morph=lambda wildcards: experiment.morph_options(wildcards.face),
+        grouping=experiment.grouping,
     script:
         "../scripts/utterance.py"

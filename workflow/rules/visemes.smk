@@ -10,33 +10,33 @@ rule visemes:
         truth=rules.corpus.output.truth,
     output:
         targets=report(
-            f"{VISEMES}/targets.tsv",
+            paths.VISEME_TARGETS,
             caption="../report/targets.rst",
             category="Visemes",
         ),
-        visemes=f"{VISEMES}/visemes.tsv",
-        images=directory(f"{VISEMES}/images"),
+        visemes=paths.VISEME_TABLE,
+        images=directory(paths.VISEME_IMAGES),
         sheet=report(
-            f"{VISEMES}/contact_sheet.png",
+            paths.CONTACT_SHEET,
             caption="../report/contact_sheet.rst",
             category="Visemes",
         ),
         strip=report(
-            f"{VISEMES}/word_strip.png",
+            paths.WORD_STRIP,
             caption="../report/word_strip.rst",
             category="Visemes",
         ),
     log:
-        "results/logs/visemes/{face}.log",
+        paths.log("visemes/{face}"),
     benchmark:
-        "results/benchmarks/visemes/{face}.tsv"
+        paths.benchmark("visemes/{face}")
     wildcard_constraints:
-        face=one_of(CORPUS_WORD_FACES),
+        face=paths.one_of(experiment.corpus_word_faces),
     conda:
         "../envs/miketalk.yaml"
     params:
-        grouping=canonical(config["visemes"]["grouping"]),
-        frames_table=project_path(config["visemes"]["frames_table"]),
+        grouping=experiment.grouping,
+        frames_table=experiment.project_path(config["visemes"]["frames_table"]),
     script:
         "../scripts/visemes.py"
 
@@ -50,27 +50,27 @@ rule visemes_clips:
         regions=rules.corpus_clips.output.regions,
     output:
         targets=report(
-            f"{VISEMES}/candidates.tsv",
+            paths.VISEME_CANDIDATES,
             caption="../report/candidates.rst",
             category="Visemes",
         ),
-        visemes=f"{VISEMES}/visemes.tsv",
-        images=directory(f"{VISEMES}/images"),
+        visemes=paths.VISEME_TABLE,
+        images=directory(paths.VISEME_IMAGES),
         sheet=report(
-            f"{VISEMES}/contact_sheet.png",
+            paths.CONTACT_SHEET,
             caption="../report/contact_sheet.rst",
             category="Visemes",
         ),
     log:
-        "results/logs/visemes/{face}.log",
+        paths.log("visemes/{face}"),
     benchmark:
-        "results/benchmarks/visemes/{face}.tsv"
+        paths.benchmark("visemes/{face}")
     wildcard_constraints:
-        face=one_of(CLIP_FACES),
-    priority: CLIP_CHAIN
+        face=paths.one_of(experiment.clip_faces),
+    priority: inputs.CLIP_CHAIN
     conda:
         "../envs/miketalk.yaml"
     params:
-        grouping=canonical(config["visemes"]["grouping"]),
+        grouping=experiment.grouping,
     script:
         "../scripts/visemes_clips.py"
