@@ -13,6 +13,7 @@ from pathlib import Path
 
 from miketalk_lab.workflow import checks, faces, paths, sweeps
 from miketalk_lab.workflow.config import SCHEMA, canonical, project_path, validate_config
+from miketalk_lab.workflow.vocabulary import PAPER
 
 #: What a face's utterances may play under the mouth besides a video of the person (the
 #: schema's ``faces.NAME.background``).
@@ -191,16 +192,37 @@ class Experiment:
         own = self.faces[face].get("morph", {}) if face in self.faces else {}
         return canonical({**self.config["morph"], **own})
 
-    def lipsync_options(self, face: str) -> dict:
-        """The lip-sync settings of a face: ``lipsync``, with the face's own overrides."""
+    def _configured_lipsync(self, face: str) -> dict:
         own = self.faces[face].get("lipsync", {}) if face in self.faces else {}
-        return canonical({**self.config["lipsync"], **own})
+        return {**self.config["lipsync"], **own}
+
+    def own_lipsync_model(self, face: str, *, recorded: bool) -> str:
+        """The face's own lip-sync model, where the config names none: the library's choice
+        (:func:`miketalk.lipsync.settings.resolve_lipsync_model`) among the models the face's
+        model will have (the fitted ones only for a face from clips)."""
+        from miketalk.lipsync.settings import LIPSYNC_MODELS, resolve_lipsync_model
+
+        available = LIPSYNC_MODELS if face in self.clip_faces else (PAPER,)
+        return resolve_lipsync_model(None, available=available, recorded=recorded).value
+
+    def lipsync_options(self, face: str) -> dict:
+        """The lip-sync settings of a face: ``lipsync``, with the face's own overrides; a
+        ``model`` of null is the face's own for typed text (:meth:`own_lipsync_model`)."""
+        options = self._configured_lipsync(face)
+        if options["model"] is None:
+            options["model"] = self.own_lipsync_model(face, recorded=False)
+        return canonical(options)
 
     def recording_model(self, face: str) -> str:
         """The lip-sync model of a face's utterances driven by a recording (the held-out
-        dubs): its recording_model, else its model."""
-        options = self.lipsync_options(face)
-        return options["recording_model"] or options["model"]
+        dubs): its recording_model, else its configured model, else the face's own for a
+        recording."""
+        options = self._configured_lipsync(face)
+        if options["recording_model"] is not None:
+            return options["recording_model"]
+        if options["model"] is not None:
+            return options["model"]
+        return self.own_lipsync_model(face, recorded=True)
 
     def face_background(self, face: str) -> str | None:
         """What a face's utterances play under the mouth: auto, still or a video (absolute)."""
