@@ -11,7 +11,13 @@ from miketalk.errors import MiketalkError
 
 def cmd_cues(args: argparse.Namespace) -> int:
     """Write mouth cues (Rhubarb JSON/TSV) and timed phones and visemes (Praat TextGrid)."""
-    from miketalk.lipsync.cues import check_extended, format_of, render_cues, write_cues
+    from miketalk.lipsync.cues import (
+        CUE_KINDS,
+        check_extended,
+        format_of,
+        render_cues,
+        write_cues,
+    )
     from miketalk.visemes import default_table
 
     extended = check_extended(args.extended_shapes)
@@ -30,10 +36,16 @@ def cmd_cues(args: argparse.Namespace) -> int:
         raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
     if args.wav is not None and Path(args.wav).suffix.lower() != ".wav":
         raise MiketalkError(f"--wav must name a .wav file, not {Path(args.wav).name!r}")
+    from miketalk.cli.say import cli_inputs
     from miketalk.media.atomic import check_writable
+    from miketalk.media.ownership import Kind, check_replaceable
 
-    for path in [*outputs, *([Path(args.wav)] if args.wav is not None else [])]:
-        check_writable(path)  # before Festival runs
+    inputs = cli_inputs(args)
+    kinds = [(p, CUE_KINDS[format_of(p)]) for p in outputs]
+    kinds += [(Path(args.wav), Kind.WAV)] if args.wav is not None else []
+    for path, kind in kinds:  # before Festival runs
+        check_replaceable(path, kind, inputs=inputs, force=args.force)
+        check_writable(path)
     table = default_table()
     if args.audio is not None:
         from miketalk.talk.recorded import align_recording
@@ -49,7 +61,12 @@ def cmd_cues(args: argparse.Namespace) -> int:
         if args.wav is not None:
             from miketalk.media.audio import write_wav
 
-            write_wav(args.wav, utterance.samples, utterance.rate)
+            write_wav(
+                args.wav, utterance.samples, utterance.rate, software=True,
+                guard=lambda: check_replaceable(
+                    args.wav, Kind.WAV, inputs=inputs, force=args.force, option="--wav"
+                ),
+            )  # fmt: skip
             sound_file = str(Path(args.wav).resolve())
     if outputs:
         write_cues(
@@ -59,6 +76,9 @@ def cmd_cues(args: argparse.Namespace) -> int:
             duration=duration,
             sound_file=sound_file,
             extended=extended,
+            guard=lambda: [
+                check_replaceable(p, kind, inputs=inputs, force=args.force) for p, kind in kinds
+            ],
         )
         for path in outputs:
             log.info("wrote %s", path)

@@ -35,7 +35,7 @@ _LONG_WORK = 300
 def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
     from miketalk.cli.common import festival_backend, has_text, read_text, seconds_since
-    from miketalk.cli.say import check_lipsync_model, lipsync_settings
+    from miketalk.cli.say import check_lipsync_model, cli_inputs, lipsync_settings
     from miketalk.composite.background import background_from_video, check_video
     from miketalk.composite.background_files import has_background, model_stabilizer
     from miketalk.lipsync.settings import check_fps
@@ -52,7 +52,8 @@ def cmd_dub(args: argparse.Namespace) -> int:
     if args.audio is not None and args.voice_given:
         raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
     max_px = None if args.sampling == "none" else args.max_px_per_frame
-    output = check_output(args.output, overwrite=args.force)
+    inputs = cli_inputs(args)
+    output = check_output(args.output, overwrite=args.force, inputs=inputs)
     check_lipsync_model(args)
     model_dir = Path(args.model) if args.model is not None else default_model_dir()
     if (model_dir / "manifest.json").exists() and not has_background(model_dir):
@@ -80,7 +81,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
             said = say(
                 Recorded(args.audio, text=text, timings=args.timings), output, model=model,
                 settings=settings, progress=progress, overwrite=args.force,
-                background=background,
+                background=background, inputs=inputs,
             )  # fmt: skip
         motion, seconds, trajectory = said.motion, said.duration, said.trajectory
     else:
@@ -89,7 +90,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
             background = register()
             spoken = say(
                 speech, output, model=model, settings=settings, progress=progress,
-                overwrite=args.force, background=background,
+                overwrite=args.force, background=background, inputs=inputs,
             )  # fmt: skip
         motion, seconds, trajectory = spoken.motion, spoken.motion.duration, None
     timeline = output.with_suffix(".json")
@@ -163,7 +164,9 @@ def add_dub_parser(sub) -> None:
     )
     trajectory_option(dub)
     voice_option(dub)
-    dub.add_argument("--force", action="store_true", help="overwrite a .json not by miketalk")
+    dub.add_argument(
+        "--force", action="store_true", help="replace an mp4 or .json miketalk did not write"
+    )
     dub.add_argument("--json", action="store_true", help="print the result as JSON")
     dub.add_argument("--progress", action="store_true", help="always show progress bars")
     verbose_option(dub)

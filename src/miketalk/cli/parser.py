@@ -36,8 +36,9 @@ _SAY_HELP = """\
 Speak a text as a talking-face video. Writes two files: OUTPUT (an .mp4, H.264 video
 and AAC audio) and, beside it, OUTPUT with the suffix .json: the timeline of the
 frames (phones, keyframes, transitions, each frame's morphs) and the measures of
-its motion. The two replace an older pair together or not at all; a .json that
-miketalk did not write is not overwritten without --force.
+its motion. The two replace an older pair together or not at all; a file
+miketalk did not write (an mp4 without the .json that names it, another .json)
+is not replaced without --force, and an input never is.
 
 Sampling: a transition that moves more than --max-px-per-frame pixels per frame
 is, with --sampling blur (the default), rendered as several morphs averaged into
@@ -131,7 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument(
         "--force",
         action="store_true",
-        help="overwrite a .json that miketalk did not write",
+        help="replace an mp4 or a .json that miketalk did not write (never an input)",
     )
     say.add_argument("--json", action="store_true", help="print the result as JSON")
     say.add_argument("--progress", action="store_true", help="always show a progress bar")
@@ -186,6 +187,11 @@ def build_parser() -> argparse.ArgumentParser:
         "fall back to B, C, A)",
     )
     cues.add_argument("--audio", help="time this recording instead of Festival's speech")
+    cues.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an output that miketalk did not write (never an input)",
+    )
     cues.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
     voice_option(cues)
     verbose_option(cues)

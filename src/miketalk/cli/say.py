@@ -60,7 +60,7 @@ def cmd_say(args: argparse.Namespace) -> int:
             "lengthen them: use --sampling blur (the default) or --voice kal or ked"
         )
     text = read_text(args)
-    output = check_output(args.output, overwrite=args.force)
+    output = check_output(args.output, overwrite=args.force, inputs=cli_inputs(args))
     check_lipsync_model(args)
     settings = lipsync_settings(args, sampling, max_px)
     # Festival starts first and analyses the text while the rest loads
@@ -82,6 +82,7 @@ def cmd_say(args: argparse.Namespace) -> int:
                 progress=args.progress or (long_text and sys.stderr.isatty()),
                 overwrite=args.force,
                 background=background,
+                inputs=cli_inputs(args),
             )
     motion = spoken.motion
     if args.json:
@@ -107,6 +108,13 @@ def cmd_say(args: argparse.Namespace) -> int:
         )
     log.info("say took %.2f s", seconds_since(started))
     return 0
+
+
+def cli_inputs(args: argparse.Namespace) -> list[str]:
+    """The files a command's options name to read (never written over,
+    :mod:`miketalk.media.ownership`)."""
+    names = ("file", "audio", "timings", "video", "background", "transcript", "subtitles")
+    return [str(v) for v in (getattr(args, n, None) for n in names) if isinstance(v, str)]
 
 
 def drawn_words(motion) -> str:
@@ -166,7 +174,7 @@ def _say_recorded(
     if args.voice_given:
         raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
     text = read_text(args) if has_text(args) else None
-    check_output(args.output, overwrite=args.force)
+    check_output(args.output, overwrite=args.force, inputs=cli_inputs(args))
     check_lipsync_model(args)
     settings = lipsync_settings(args, sampling, max_px)
     from miketalk.composite.background_files import resolve_background
@@ -182,6 +190,7 @@ def _say_recorded(
             progress=args.progress,
             overwrite=args.force,
             background=background,
+            inputs=cli_inputs(args),
         )
     motion = said.motion
     if args.json:

@@ -28,7 +28,7 @@ import csv
 import json
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from importlib import resources
@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_paths
+from miketalk.media.ownership import Kind
 from miketalk.media.scratch import scratch_dir
 from miketalk.speech.types import Phone
 from miketalk.visemes import VisemeTable
@@ -50,6 +51,8 @@ SHAPES = ("A", "B", "C", "D", "E", "F", "G", "H", "X")
 BASIC = {"G": "B", "H": "C", "X": "A"}
 #: The formats :func:`write_cues` writes, by file suffix.
 FORMATS = {".json": "json", ".tsv": "tsv", ".textgrid": "textgrid"}
+#: What each format's file is, for :func:`miketalk.media.ownership.check_replaceable`.
+CUE_KINDS = {"json": Kind.CUES_JSON, "tsv": Kind.CUES_TSV, "textgrid": Kind.TEXTGRID}
 
 _COMMENT = re.compile(r"#( |$)")
 _NUCLEI = {1: (0.0, 1.0), 2: (0.0, 0.5, 1.0)}  # a diphthong's halves, one per nucleus
@@ -297,11 +300,13 @@ def write_cues(
     duration: float,
     sound_file: str = "",
     extended: str = "GHX",
+    guard: Callable[[], object] | None = None,
 ) -> list[Path]:
     """Write each of ``paths`` in the format its suffix names.
 
     Everything is made before anything is written; then the files of each
-    directory replace older ones together, or not at all.
+    directory replace older ones together, or not at all. ``guard`` runs just before
+    they are published, under the output's lock (:func:`~miketalk.media.atomic.atomic_paths`).
 
     Raises
     ------
@@ -324,7 +329,7 @@ def write_cues(
     for i, path in enumerate(finals):
         by_dir.setdefault(path.parent.resolve(), []).append(i)
     for indices in by_dir.values():
-        with atomic_paths([finals[i] for i in indices]) as temps:
+        with atomic_paths([finals[i] for i in indices], guard=guard) as temps:
             for tmp, i in zip(temps, indices, strict=True):
                 tmp.write_text(texts[i], encoding="utf-8")
     return finals

@@ -6,12 +6,14 @@ import numbers
 import os
 import struct
 import wave
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.media.atomic import atomic_path
+from miketalk.media.atomic import atomic_paths
+from miketalk.media.ownership import WAV_SOFTWARE
 
 _SAMPLE_WIDTH = 2  # bytes: int16
 
@@ -43,7 +45,14 @@ def check_rate(rate: object, name: str = "rate") -> int:
     return int(rate)
 
 
-def write_wav(path: str | os.PathLike[str], samples: np.ndarray, rate: int) -> None:
+def write_wav(
+    path: str | os.PathLike[str],
+    samples: np.ndarray,
+    rate: int,
+    *,
+    software: bool = False,
+    guard: Callable[[], object] | None = None,
+) -> None:
     """Write mono int16 ``samples`` at ``rate`` Hz to a PCM wav file, atomically.
 
     Parameters
@@ -54,6 +63,13 @@ def write_wav(path: str | os.PathLike[str], samples: np.ndarray, rate: int) -> N
         The audio.
     rate : int
         Sample rate in Hz.
+    software : bool
+        Name miketalk as the file's software (a RIFF ``LIST``/``INFO`` chunk with ``ISFT``
+        after the data): what tells a later run it may replace the file
+        (:mod:`miketalk.media.ownership`).
+    guard : callable, optional
+        Run just before the file is published, under its lock
+        (:func:`~miketalk.media.atomic.atomic_paths`).
 
     Raises
     ------
@@ -66,13 +82,18 @@ def write_wav(path: str | os.PathLike[str], samples: np.ndarray, rate: int) -> N
     # the 44-byte RIFF/WAVE header of mono 16-bit PCM, written with the data in one call
     # (the wave module's writer, interrupted by a signal while it opens, complains from
     # its __del__ on stderr)
+    tail = b""
+    if software:
+        name = WAV_SOFTWARE + b"\0"
+        info = b"INFO" + b"ISFT" + struct.pack("<I", len(name)) + name
+        tail = (b"\0" if len(data) % 2 else b"") + b"LIST" + struct.pack("<I", len(info)) + info
     header = struct.pack(
         "<4sI4s4sIHHIIHH4sI",
-        b"RIFF", 36 + len(data), b"WAVE", b"fmt ", 16, 1, 1, rate,
+        b"RIFF", 36 + len(data) + len(tail), b"WAVE", b"fmt ", 16, 1, 1, rate,
         rate * _SAMPLE_WIDTH, _SAMPLE_WIDTH, 8 * _SAMPLE_WIDTH, b"data", len(data),
     )  # fmt: skip
-    with atomic_path(path) as tmp:
-        Path(tmp).write_bytes(header + data)
+    with atomic_paths([path], guard=guard) as (tmp,):
+        Path(tmp).write_bytes(header + data + tail)
 
 
 def read_wav(path: str | os.PathLike[str]) -> tuple[np.ndarray, int]:

@@ -4,67 +4,62 @@ checks it before Festival starts, and Festival starts before numpy loads).
 
 from __future__ import annotations
 
-import json
 import os
+from collections.abc import Iterable
 from pathlib import Path
 
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import check_writable
+from miketalk.media.ownership import (
+    TIMELINE_FORMAT,
+    Kind,
+    check_replaceable,
+    written_by_miketalk,
+)
 
-#: The ``format`` of the timeline JSON :func:`miketalk.talk.say.say` writes.
-TIMELINE_FORMAT = "miketalk-timeline/1"
+__all__ = ["TIMELINE_FORMAT", "check_output", "is_timeline"]
 
 
 def is_timeline(path: Path) -> bool:
     """Whether ``path`` holds a timeline JSON miketalk wrote (any version)."""
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
-        return False
-    if not isinstance(doc, dict):
-        return False
-    return doc.get("format") == TIMELINE_FORMAT or {"fps", "frames", "transitions"} <= set(doc)
+    return written_by_miketalk(path, Kind.TIMELINE)
 
 
-def check_output(output: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+def check_output(
+    output: str | os.PathLike[str],
+    *,
+    overwrite: bool = False,
+    inputs: Iterable[str | os.PathLike[str] | None] = (),
+) -> Path:
     """Check that ``output`` and its JSON can be written, before any work; return it.
 
-    The directory is created if needed and a file is made (and removed)
-    there, so a directory that cannot be written in is found now, not after
-    the render.
+    The rule of :func:`miketalk.media.ownership.check_replaceable`: an existing mp4 is
+    replaced only when the timeline JSON beside it names it (miketalk wrote the pair), an
+    existing JSON only when it is a miketalk timeline, and neither may be an input. The
+    directory is created if needed and a file is made (and removed) there, so a directory
+    that cannot be written in is found now, not after the render.
 
     Parameters
     ----------
     output : path-like
         The ``.mp4`` to write; ``NAME.json`` is written beside it.
     overwrite : bool
-        Replace a ``NAME.json`` that miketalk did not write.
+        Replace an mp4 or a ``NAME.json`` that miketalk did not write (``--force``).
+    inputs : iterable of path-like
+        What the utterance reads (a recording, a text file, a video): never written over.
 
     Raises
     ------
     MiketalkError
-        Not an ``.mp4`` name; the mp4 or the JSON name is a directory; a
-        ``NAME.json`` that is not a miketalk timeline (unless ``overwrite``);
-        a directory that cannot be created or written in.
+        Not an ``.mp4`` name; the mp4 or the JSON name is a directory; a file miketalk
+        did not write (unless ``overwrite``) or an input; a directory that cannot be
+        created or written in.
     """
     output = Path(output)
     if output.suffix.lower() != ".mp4":
         raise MiketalkError(f"output must be an .mp4 file, not {output.name!r}")
-    timeline = output.with_suffix(".json")
-    for path, what in ((output, "the video"), (timeline, "the timeline")):
-        if path.is_dir():
-            raise MiketalkError(
-                f"{path} is a directory; say writes {what} there: give another -o "
-                "(or move the directory)"
-            )
-        if path.exists() and not path.is_file():
-            raise MiketalkError(f"{path} is not a regular file; say writes {what} there")
-    if timeline.is_file() and not overwrite and not is_timeline(timeline):
-        raise MiketalkError(
-            f"{timeline} exists and is not a miketalk timeline; say writes the timeline of "
-            f"{output.name} there: move it, give another -o, or overwrite it with --force"
-        )
     if output.parent.exists() and not output.parent.is_dir():
         raise MiketalkError(f"cannot write {output}: {output.parent} is not a directory")
+    check_replaceable(output, Kind.VIDEO, inputs=inputs, force=overwrite)
     check_writable(output)
     return output

@@ -193,6 +193,7 @@ def say_recording(
     progress: bool = False,
     overwrite: bool = False,
     background: Background | None = None,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> Spoken:
     """:func:`miketalk.talk.say.say` of a recording, once its settings and output are checked:
     the recording aligned to what it says, the frames drawn along its phones at its own
@@ -237,6 +238,7 @@ def say_recording(
         progress=progress,
         overwrite=overwrite,
         background=background,
+        inputs=inputs,
     )
     return Spoken(
         timeline, motion, output, output.with_suffix(".json"), words=aligned.words,

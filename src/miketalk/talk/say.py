@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import asdict
 from itertools import pairwise
 from pathlib import Path
@@ -66,6 +67,7 @@ def say(
     progress: bool = False,
     overwrite: bool = False,
     background: Background | None = None,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> Spoken:
     """Make the face say ``speech``: an mp4 at ``output``, its timeline JSON beside it.
 
@@ -101,10 +103,14 @@ def say(
     progress : bool
         Draw a progress bar on stderr.
     overwrite : bool
-        Replace a ``NAME.json`` that is not a miketalk timeline.
+        Replace an mp4 or a ``NAME.json`` that miketalk did not write
+        (:mod:`miketalk.media.ownership`; never an input).
     background : Background, optional
         Frames of the person the mouth is composited into
         (:mod:`miketalk.composite.background`); None: the model's still face.
+    inputs : sequence of path-like
+        Files the caller read for this utterance (a text file, a video), never written
+        over; a recording's audio and timings are added.
 
     Returns
     -------
@@ -130,12 +136,13 @@ def say(
         drawing = open_drawing(
             model.directory, settings.model, trajectory=settings.trajectory, recorded=recorded
         )
-        output = check_output(output, overwrite=overwrite)
+        inputs = (*inputs, *((speech.audio, speech.timings) if recorded else ()))
+        output = check_output(output, overwrite=overwrite, inputs=inputs)
         if recorded:
             return say_recording(
                 speech, output, model=model, settings=settings, drawing=drawing,
                 table=table or default_table(), progress=progress, overwrite=overwrite,
-                background=background,
+                background=background, inputs=inputs,
             )  # fmt: skip
         if pending is None:
             pending = (backend or get_backend("festival")).start(str(speech))
@@ -146,7 +153,7 @@ def say(
     return _say_text(
         pending, output, model=model, settings=settings, drawing=drawing,
         table=table or default_table(), progress=progress, overwrite=overwrite,
-        background=background,
+        background=background, inputs=inputs,
     )  # fmt: skip
 
 
@@ -161,6 +168,7 @@ def _say_text(
     progress: bool,
     overwrite: bool,
     background: Background | None,
+    inputs: Sequence[str | os.PathLike[str] | None],
 ) -> Spoken:
     """:func:`say` of synthesized speech, once its settings and output are checked."""
     from miketalk.composite.background import background_doc
@@ -220,6 +228,7 @@ def _say_text(
         progress=progress,
         overwrite=overwrite,
         background=background,
+        inputs=inputs,
     )
     log.info("say took %.2f s", time.perf_counter() - started)
     return Spoken(

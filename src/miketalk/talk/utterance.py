@@ -6,6 +6,7 @@ import json
 import logging
 import os
 import time
+from collections.abc import Sequence
 from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +16,7 @@ from miketalk.errors import MiketalkError
 from miketalk.lipsync.motion import JerkMeter, Motion, measure
 from miketalk.lipsync.timeline import Timeline
 from miketalk.media.atomic import atomic_paths, sweep_beside
+from miketalk.media.ownership import file_record
 from miketalk.media.video import write_mp4
 from miketalk.model.face import Model
 from miketalk.model.manifest import strict_json
@@ -81,13 +83,17 @@ def write_utterance(
     progress: bool = False,
     overwrite: bool = False,
     background: Background | None = None,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> Motion:
     """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
 
     The JSON is :meth:`Timeline.to_dict` plus ``format``, ``extra``,
-    ``largest_step_px`` and ``motion``. The two files replace any older pair
-    together or not at all (see the module docstring); what killed runs left
-    beside ``output`` is tidied first.
+    ``largest_step_px``, ``motion`` and ``mp4`` (the mp4's name, size and SHA-256: what
+    tells a later run that miketalk wrote it, :mod:`miketalk.media.ownership`). The two
+    files are published as one unit (:func:`miketalk.media.atomic.atomic_paths`: the old
+    pair or the new, never one of each, and another process writing the same output
+    waits); what killed runs left beside ``output`` is settled first, and the output is
+    checked again, under its lock, just before it is replaced.
 
     Parameters
     ----------
@@ -102,13 +108,15 @@ def write_utterance(
         Frames of the person to composite each rendered mouth into
         (:func:`miketalk.composite.background.composited`); the video then has the
         background's size. None: the model's frames as they are (a still face).
+    inputs : sequence of path-like
+        What the utterance reads: never written over (:func:`check_output`).
 
     Returns
     -------
     Motion
         The measures of the utterance's motion.
     """
-    output = check_output(output, overwrite=overwrite)
+    output = check_output(output, overwrite=overwrite, inputs=inputs)
     sweep_beside(output)
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
@@ -125,7 +133,14 @@ def write_utterance(
 
         frames = tqdm(frames, total=len(timeline.frames), desc="rendering", unit="frame")
     json_path = output.with_suffix(".json")
-    with closing(rendered), atomic_paths([output, json_path]) as (video_tmp, json_tmp):
+
+    def guard() -> None:  # what the output is now, under its lock, before it is replaced
+        check_output(output, overwrite=overwrite, inputs=inputs)
+
+    with (
+        closing(rendered),
+        atomic_paths([output, json_path], guard=guard) as (video_tmp, json_tmp),
+    ):
         write_mp4(
             video_tmp, frames, fps=timeline.fps, audio=samples, rate=rate,
             n_frames=len(timeline.frames),
@@ -139,6 +154,7 @@ def write_utterance(
             | timeline.to_dict()
             | extra
             | {"largest_step_px": motion.largest_step_px, "motion": motion.to_dict()}
+            | {"mp4": file_record(video_tmp) | {"name": output.name}}
         )
         try:
             text = json.dumps(doc, indent=1, allow_nan=False)

@@ -1,0 +1,355 @@
+"""Issue 40: output that never destroys a user's file, the mp4 and its JSON as one unit.
+
+The library's rules are tested directly (:mod:`miketalk.media.ownership`,
+:mod:`miketalk.media.atomic`): every failure point of publishing a pair (a rename refused
+at the first or the second file, a read-only JSON, a directory in the JSON's place, a kill
+between the renames, two processes at once) leaves the old pair or the new pair.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.media import atomic
+from miketalk.media.atomic import atomic_paths, lock_path, output_lock, sweep_beside
+from miketalk.media.ownership import (
+    TIMELINE_FORMAT,
+    Kind,
+    check_replaceable,
+    file_record,
+    written_by_miketalk,
+)
+
+OLD = {"v.mp4": b"old video", "v.json": b"old json"}
+NEW = {"v.mp4": b"new video", "v.json": b"new json"}
+
+
+def files(directory: Path) -> dict[str, bytes]:
+    """Every file in ``directory`` (hidden ones included) and its bytes."""
+    return {p.name: p.read_bytes() for p in sorted(directory.iterdir()) if p.is_file()}
+
+
+def old_pair(directory: Path) -> None:
+    for name, data in OLD.items():
+        (directory / name).write_bytes(data)
+
+
+def publish_new(directory: Path, **options) -> None:
+    with atomic_paths([directory / "v.mp4", directory / "v.json"], **options) as (video, doc):
+        video.write_bytes(NEW["v.mp4"])
+        doc.write_bytes(NEW["v.json"])
+
+
+def failing_replace(monkeypatch: pytest.MonkeyPatch, nth: int, error: BaseException) -> None:
+    """``os.replace`` in atomic fails at its ``nth`` call onto a final name (1 = the mp4)."""
+    real = os.replace
+    calls = {"n": 0}
+
+    def replace(src, dst, *args, **kwargs):
+        if Path(dst).name in NEW and not Path(src).name.endswith(".old"):
+            calls["n"] += 1
+            if calls["n"] == nth:
+                raise error
+        return real(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(atomic.os, "replace", replace)
+
+
+# ---------------------------------------------------------------------------
+# the pair as one unit
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("nth", [1, 2])
+def test_a_rename_that_fails_leaves_the_old_pair(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, nth: int
+) -> None:
+    old_pair(tmp_path)
+    failing_replace(monkeypatch, nth, OSError(28, "No space left on device"))
+    with pytest.raises(MiketalkError, match="No space left.*left as they were"):
+        publish_new(tmp_path)
+    assert files(tmp_path) == OLD  # no temporary, backup, journal or lock left
+
+
+def test_a_rename_that_fails_with_no_old_pair_leaves_nothing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    failing_replace(monkeypatch, 2, OSError(13, "Permission denied"))
+    with pytest.raises(MiketalkError):
+        publish_new(tmp_path)
+    assert files(tmp_path) == {}
+
+
+def test_a_directory_in_the_jsons_place_at_publication_leaves_the_old_mp4(tmp_path: Path) -> None:
+    (tmp_path / "v.mp4").write_bytes(b"old video")
+
+    def guard() -> None:  # the directory appears after the checks, before the renames
+        (tmp_path / "v.json").mkdir(exist_ok=True)
+
+    with pytest.raises(MiketalkError, match="v.json"):
+        publish_new(tmp_path, guard=guard)
+    assert files(tmp_path) == {"v.mp4": b"old video"}
+    assert (tmp_path / "v.json").is_dir()
+
+
+def test_a_read_only_json_is_refused_and_the_pair_kept(tmp_path: Path) -> None:
+    old_pair(tmp_path)
+    (tmp_path / "v.json").write_text(json.dumps({"format": TIMELINE_FORMAT}))
+    (tmp_path / "v.json").chmod(0o444)
+    kept = files(tmp_path)
+    with pytest.raises(MiketalkError, match="v.json is read-only"):
+        check_replaceable(tmp_path / "v.mp4", Kind.VIDEO)
+    with pytest.raises(MiketalkError, match="read-only"):
+        publish_new(tmp_path, guard=lambda: check_replaceable(tmp_path / "v.mp4", Kind.VIDEO))
+    assert files(tmp_path) == kept
+
+
+def test_an_exception_between_the_renames_rolls_back(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A kill between the renames, simulated by an exception (KeyboardInterrupt: what
+    SIGTERM raises) after the mp4 is in place."""
+    old_pair(tmp_path)
+    failing_replace(monkeypatch, 2, KeyboardInterrupt())
+    with pytest.raises(KeyboardInterrupt):
+        publish_new(tmp_path)
+    assert files(tmp_path) == OLD
+
+
+def _killed_between_renames(directory: Path) -> None:
+    """A child that publishes a pair and is killed (SIGKILL) after the first rename."""
+    real = os.replace
+
+    def replace(src, dst, *args, **kwargs):
+        real(src, dst, *args, **kwargs)
+        if Path(dst).name == "v.mp4":
+            os.kill(os.getpid(), 9)
+
+    atomic.os.replace = replace
+    publish_new(directory)
+
+
+def _kill_between_renames(directory: Path) -> None:
+    child = multiprocessing.get_context("fork").Process(
+        target=_killed_between_renames, args=(directory,)
+    )
+    child.start()
+    child.join(30)
+    assert child.exitcode == -9
+
+
+def test_a_kill_between_the_renames_is_rolled_forward_by_the_next_run(tmp_path: Path) -> None:
+    old_pair(tmp_path)
+    _kill_between_renames(tmp_path)
+    left = files(tmp_path)
+    assert left["v.mp4"] == NEW["v.mp4"] and left["v.json"] == OLD["v.json"]  # half done
+    assert any(n.endswith(".commit") for n in left)  # and its journal says so
+    sweep_beside(tmp_path / "v.mp4")
+    assert files(tmp_path) == NEW
+
+
+def test_a_kill_between_the_renames_whose_new_json_is_lost_is_rolled_back(
+    tmp_path: Path,
+) -> None:
+    old_pair(tmp_path)
+    _kill_between_renames(tmp_path)
+    for name in os.listdir(tmp_path):  # the new JSON is gone (a disk tidied by hand)
+        if name.startswith(".v.json.miketalk-") and name.endswith(".json"):
+            (tmp_path / name).unlink()
+    sweep_beside(tmp_path / "v.mp4")
+    assert files(tmp_path) == OLD
+
+
+def test_the_next_publication_settles_a_killed_unit_first(tmp_path: Path) -> None:
+    old_pair(tmp_path)
+    _kill_between_renames(tmp_path)
+    with atomic_paths([tmp_path / "v.mp4", tmp_path / "v.json"]) as (video, doc):
+        video.write_bytes(b"third video")
+        doc.write_bytes(b"third json")
+    left = files(tmp_path)
+    assert {k: left[k] for k in NEW} == {"v.mp4": b"third video", "v.json": b"third json"}
+    assert not any(n.endswith(".commit") for n in left)
+
+
+def _publisher(directory: str, tag: str, start, rounds: int) -> None:
+    start.wait()
+    for _ in range(rounds):
+        with atomic_paths([Path(directory) / "v.mp4", Path(directory) / "v.json"]) as (v, d):
+            v.write_bytes(tag.encode() * 1000)
+            d.write_bytes(tag.encode())
+
+
+def test_two_processes_writing_one_output_never_mix(tmp_path: Path) -> None:
+    context = multiprocessing.get_context("fork")
+    start = context.Event()
+    children = [
+        context.Process(target=_publisher, args=(str(tmp_path), tag, start, 40)) for tag in "AB"
+    ]
+    for child in children:
+        child.start()
+    start.set()
+    seen = set()
+    while any(c.is_alive() for c in children):
+        with output_lock(tmp_path / "v.mp4"):
+            if (tmp_path / "v.mp4").exists():
+                pair = ((tmp_path / "v.mp4").read_bytes()[:1], (tmp_path / "v.json").read_bytes())
+                assert pair[0] == pair[1], pair  # never one process's mp4 and the other's JSON
+                seen.add(pair[1])
+    for child in children:
+        child.join()
+        assert child.exitcode == 0
+    video, doc = (tmp_path / "v.mp4").read_bytes()[:1], (tmp_path / "v.json").read_bytes()
+    assert video == doc
+    assert not lock_path(tmp_path / "v.mp4").exists()
+
+
+def test_the_lock_waits_for_its_holder(tmp_path: Path) -> None:
+    code = (
+        "import sys, time; from pathlib import Path; "
+        "from miketalk.media.atomic import output_lock\n"
+        "with output_lock(Path(sys.argv[1])):\n"
+        "    print('held', flush=True); time.sleep(1.0)\n"
+    )
+    holder = subprocess.Popen(
+        [sys.executable, "-c", code, str(tmp_path / "v.mp4")], stdout=subprocess.PIPE, text=True
+    )
+    assert holder.stdout.readline().strip() == "held"
+    import time
+
+    started = time.monotonic()
+    with output_lock(tmp_path / "v.mp4"):
+        waited = time.monotonic() - started
+    holder.wait(10)
+    assert waited > 0.5
+    assert not lock_path(tmp_path / "v.mp4").exists()
+
+
+# ---------------------------------------------------------------------------
+# never over what miketalk did not write, never over an input
+# ---------------------------------------------------------------------------
+
+
+def ours(directory: Path, name: str = "v") -> Path:
+    """A pair as miketalk writes it: the JSON names the mp4."""
+    video = directory / f"{name}.mp4"
+    video.write_bytes(b"\x00\x00\x00\x18ftypisom video")
+    doc = {"format": TIMELINE_FORMAT, "mp4": file_record(video)}
+    (directory / f"{name}.json").write_text(json.dumps(doc))
+    return video
+
+
+def test_a_pair_miketalk_wrote_is_replaced(tmp_path: Path) -> None:
+    video = ours(tmp_path)
+    assert check_replaceable(video, Kind.VIDEO) == video
+
+
+def test_a_users_mp4_is_refused_unless_forced(tmp_path: Path) -> None:
+    video = tmp_path / "mine.mp4"
+    video.write_bytes(b"the user's holiday")
+    with pytest.raises(MiketalkError, match="miketalk did not write it.*--force"):
+        check_replaceable(video, Kind.VIDEO)
+    assert check_replaceable(video, Kind.VIDEO, force=True) == video
+
+
+def test_an_mp4_changed_since_miketalk_wrote_it_is_refused(tmp_path: Path) -> None:
+    video = ours(tmp_path)
+    video.write_bytes(b"\x00\x00\x00\x18ftypisom edited by the user")
+    with pytest.raises(MiketalkError, match="did not write it"):
+        check_replaceable(video, Kind.VIDEO)
+
+
+def test_a_timeline_from_before_the_mp4_was_recorded_still_counts(tmp_path: Path) -> None:
+    (tmp_path / "v.mp4").write_bytes(b"video")
+    (tmp_path / "v.json").write_text(json.dumps({"fps": 25, "frames": [], "transitions": []}))
+    check_replaceable(tmp_path / "v.mp4", Kind.VIDEO)
+
+
+@pytest.mark.parametrize("link", ["same", "symlink", "hardlink"])
+def test_an_output_that_is_an_input_is_refused_even_forced(tmp_path: Path, link: str) -> None:
+    talk = tmp_path / "talk.mp4"
+    talk.write_bytes(b"recording")
+    output = {"same": talk, "symlink": tmp_path / "s.mp4", "hardlink": tmp_path / "h.mp4"}[link]
+    if link == "symlink":
+        output.symlink_to(talk)
+    elif link == "hardlink":
+        os.link(talk, output)
+    with pytest.raises(MiketalkError, match="is also an input"):
+        check_replaceable(output, Kind.VIDEO, inputs=[talk], force=True)
+
+
+def test_the_json_beside_the_output_that_is_an_input_is_refused(tmp_path: Path) -> None:
+    text = tmp_path / "v.json"
+    text.write_text("the text to say")
+    with pytest.raises(MiketalkError, match="v.json is also an input"):
+        check_replaceable(tmp_path / "v.mp4", Kind.VIDEO, inputs=[text], force=True)
+
+
+@pytest.mark.parametrize(
+    ("kind", "name", "ours_text", "theirs_text"),
+    [
+        (
+            Kind.CUES_JSON,
+            "c.json",
+            '{"metadata": {"soundFile": "", "duration": 1.0}, "mouthCues": '
+            '[{"start": 0.0, "end": 1.0, "value": "X"}]}',
+            '{"notes": "my own notes"}',
+        ),
+        (Kind.CUES_TSV, "c.tsv", "0.00\tX\n0.50\tB\n1.00\tX\n", "name\tvalue\nmine\t1\n"),
+        (
+            Kind.TEXTGRID,
+            "c.TextGrid",
+            'File type = "ooTextFile"\nitem [1]:\n name = "phones"\n name = "visemes"\n'
+            ' name = "keyframes"\n',
+            'File type = "ooTextFile"\n name = "words"\n',
+        ),
+        (Kind.TIMELINE, "t.json", json.dumps({"format": TIMELINE_FORMAT}), "{}"),
+    ],
+)
+def test_each_kind_of_output_is_recognised(
+    tmp_path: Path, kind: Kind, name: str, ours_text: str, theirs_text: str
+) -> None:
+    path = tmp_path / name
+    path.write_text(ours_text)
+    assert written_by_miketalk(path, kind)
+    check_replaceable(path, kind)
+    path.write_text(theirs_text)
+    assert not written_by_miketalk(path, kind)
+    with pytest.raises(MiketalkError, match="exists and is not"):
+        check_replaceable(path, kind)
+
+
+def test_a_wav_is_recognised_by_the_software_miketalk_names_in_it(tmp_path: Path) -> None:
+    import numpy as np
+
+    from miketalk.media.audio import read_wav, write_wav
+
+    samples = np.arange(101, dtype=np.int16)  # odd: the chunk after the data is padded
+    write_wav(tmp_path / "ours.wav", samples, 16000, software=True)
+    write_wav(tmp_path / "theirs.wav", samples, 16000)
+    assert written_by_miketalk(tmp_path / "ours.wav", Kind.WAV)
+    assert not written_by_miketalk(tmp_path / "theirs.wav", Kind.WAV)
+    back, rate = read_wav(tmp_path / "ours.wav")
+    assert rate == 16000 and np.array_equal(back, samples)
+
+
+def test_a_model_directory_holding_an_input_is_refused(tmp_path: Path) -> None:
+    model = tmp_path / "model"
+    model.mkdir()
+    (model / "manifest.json").write_text(json.dumps({"format": "miketalk-model/1"}))
+    (model / "talk.mp4").write_bytes(b"the video")
+    with pytest.raises(MiketalkError, match="holds an input"):
+        check_replaceable(model, Kind.MODEL, inputs=[model / "talk.mp4"], force=True)
+    with pytest.raises(MiketalkError, match="holds a model.*--force"):
+        check_replaceable(model, Kind.MODEL)
+    check_replaceable(model, Kind.MODEL, force=True)
+    (model / "manifest.json").unlink()
+    with pytest.raises(MiketalkError, match="something else"):
+        check_replaceable(model, Kind.MODEL, force=True)
