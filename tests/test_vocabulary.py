@@ -97,6 +97,7 @@ def test_command_line_choices_and_defaults_are_the_library_s(
         assert tuple(_choices(parser, command, "--trajectory").choices) == TRAJECTORIES
         assert tuple(_choices(parser, command, "--voice").choices) == tuple(VOICES)
     assert tuple(_choices(parser, "say", "--sampling").choices) == SAMPLINGS
+    assert list(_choices(parser, "dub", "--sampling").choices) == ["blur", "none"]
     assert _choices(parser, "say", "--fps").default == LipsyncSettings().fps
 
 

@@ -128,6 +128,7 @@ def add_dub_parser(sub) -> None:
     """Add ``dub`` to the CLI's sub-commands."""
     from miketalk.cli.options import (
         LIPSYNC_MODELS,
+        SAMPLINGS,
         checked,
         max_px_value,
         text_options,
@@ -135,6 +136,7 @@ def add_dub_parser(sub) -> None:
         verbose_option,
         voice_option,
     )
+    from miketalk.lipsync.settings import Sampling
 
     dub = sub.add_parser(
         "dub",
@@ -148,7 +150,11 @@ def add_dub_parser(sub) -> None:
     dub.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
     dub.add_argument("-o", "--output", required=True, help="the .mp4 to write (and its .json)")
     dub.add_argument("--model", help="a model built from clips of the person in the video")
-    dub.add_argument("--sampling", choices=("blur", "none"), default="blur")
+    dub.add_argument(
+        "--sampling",
+        choices=[s for s in SAMPLINGS if s != Sampling.PAPER],  # a video cannot be lengthened
+        default=Sampling.BLUR.value,
+    )
     dub.add_argument(
         "--max-px-per-frame",
         type=checked(max_px_value),
