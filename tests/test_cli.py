@@ -207,8 +207,11 @@ def test_learned_lipsync_draws_the_models_coarticulation(
         timeline = json.loads((work / f"{name}.json").read_text())
         assert timeline["lipsync_model"] == option
     learned = outputs["l1"]["motion"]
-    # one state between visemes a frame, at the speech's own speed
-    assert learned["morphs"] == learned["frames"] == outputs["p"]["motion"]["frames"]
+    # at the speech's own speed; the frames that move too fast are blurred (several states
+    # averaged), so that consecutive states keep the step limit (issue 40)
+    assert learned["frames"] == outputs["p"]["motion"]["frames"]
+    assert learned["morphs"] > learned["frames"]
+    assert learned["largest_step_px"] <= 2.5 + 1e-6 < learned["largest_frame_motion_px"]
     assert abs(learned["duration_ratio"] - 1.0) <= 0.1
     # the learned path undershoots: it moves less per frame than the paper's full transitions
     paper = outputs["p"]["motion"]

@@ -353,3 +353,54 @@ def test_a_model_directory_holding_an_input_is_refused(tmp_path: Path) -> None:
     (model / "manifest.json").unlink()
     with pytest.raises(MiketalkError, match="something else"):
         check_replaceable(model, Kind.MODEL, force=True)
+
+
+# ---------------------------------------------------------------------------
+# every lip-sync model keeps the step limit
+# ---------------------------------------------------------------------------
+
+
+def _learned_timeline():
+    from miketalk.lipsync.timeline import plan
+    from miketalk.speech.types import Phone
+    from miketalk.visemes import VisemeTable
+
+    table = VisemeTable()
+    names = ["pau", "hh", "ax", "l", "ow", "w", "er", "l", "d", "pau"]
+    t, phones = 0.0, []
+    for i, name in enumerate(names):
+        duration = 0.3 if name == "pau" else 0.05 + 0.02 * (i % 3)
+        phones.append(Phone(name, t, t + duration))
+        t += duration
+    return table, plan(phones, table, fps=25, duration=t)
+
+
+@pytest.mark.parametrize("limit", [1.0, 2.5])
+def test_the_learned_path_keeps_the_step_limit(limit: float) -> None:
+    from itertools import pairwise
+
+    from miketalk.draw.coarticulation import CoarticulationParams, frame_weights
+    from miketalk.draw.learned import drawn_states, learned_exposures
+    from miketalk.lipsync.motion import weights_step
+
+    table, timeline = _learned_timeline()
+    params = CoarticulationParams.prior(table.visemes, max_visemes=3, min_weight=0.1)
+
+    def displacement(a: str, b: str) -> float:
+        return 0.0 if a == b else 30.0
+
+    middles = frame_weights(timeline, params)
+    before = max(weights_step(a, b, displacement) for a, b in pairwise(middles))
+    assert before > 4 * limit  # without blur the path steps far past the limit
+    exposures = learned_exposures(
+        timeline, params, displacement=displacement, max_px_per_frame=limit
+    )
+    assert len(exposures) == len(timeline.frames)
+    for exposure in exposures:
+        assert sum(share for _, share in exposure) == pytest.approx(1.0)
+    states = drawn_states(exposures)
+    steps = [weights_step(a, b, displacement) for a, b in pairwise(states)]
+    assert max(steps) <= limit + 1e-6
+    # without a limit: the frames' middles, one state a frame (the output before issue 40)
+    plain = learned_exposures(timeline, params, displacement=displacement, max_px_per_frame=None)
+    assert [e[0][0] for e in plain] == middles and all(len(e) == 1 for e in plain)

@@ -121,7 +121,10 @@ def drawn_words(motion) -> str:
     """What the summary line says was drawn: the morphs and their largest step, or, when each
     frame is one of the person's own images (the trained face), how many."""
     if motion.largest_step_px is None:
-        return f"{motion.frames} of the person's own frames"
+        return (
+            f"{motion.frames} of the person's own frames (the step limit does not apply: they "
+            "are not morphs)"
+        )
     return f"{motion.morphs} morphs, largest step {motion.largest_step_px:.2f} px"
 
 

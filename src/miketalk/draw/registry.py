@@ -10,7 +10,7 @@ which :func:`miketalk.talk.utterance.write_utterance` asks for the frames.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 
     from miketalk.draw.coarticulation import CoarticulationParams
     from miketalk.draw.trained import TrainedFace
+    from miketalk.lipsync.motion import Weights
     from miketalk.lipsync.timeline import Timeline
     from miketalk.speech.acoustic import Recording
 
@@ -55,24 +56,37 @@ class Drawing:
         return self.trained is not None
 
     def frames(
-        self, model: Any, timeline: Timeline, *, recording: Recording | None = None
-    ) -> tuple[Iterator[np.ndarray], np.ndarray | None]:
-        """The rendered frames of ``timeline`` (a closable iterator), and the per-frame viseme
-        weights the motion is measured on (``learned``; else None)."""
+        self,
+        model: Any,
+        timeline: Timeline,
+        *,
+        recording: Recording | None = None,
+        max_px_per_frame: float | None = None,
+    ) -> tuple[Iterator[np.ndarray], Sequence[Weights] | None, Sequence[Weights] | None]:
+        """The rendered frames of ``timeline`` (a closable iterator); for ``learned``, the
+        viseme weights at each frame's middle and the states drawn, in order (several for a
+        frame blurred to keep consecutive states within ``max_px_per_frame``,
+        :func:`miketalk.draw.learned.learned_exposures`), which the motion is measured on;
+        else None and None."""
         if self.trained is not None:
             from miketalk.draw.trained.draw import render_trained
 
             rendered = render_trained(
                 model, timeline, trained=self.trained, kind=self.trajectory, recording=recording
             )
-            return rendered, None
+            return rendered, None, None
         if self.coarticulation is None:
-            return model.render(timeline), None
+            return model.render(timeline), None, None
         from miketalk.draw.coarticulation import frame_weights
-        from miketalk.draw.learned import render_learned
+        from miketalk.draw.learned import drawn_states, learned_exposures, render_learned
 
-        weights = frame_weights(timeline, self.coarticulation)
-        return render_learned(model, timeline, self.coarticulation, weights=weights), weights
+        middles = frame_weights(timeline, self.coarticulation)
+        exposures = learned_exposures(
+            timeline, self.coarticulation, displacement=model.displacement,
+            max_px_per_frame=max_px_per_frame, middles=middles,
+        )  # fmt: skip
+        rendered = render_learned(model, timeline, self.coarticulation, exposures=exposures)
+        return rendered, middles, drawn_states(exposures)
 
     def doc(self) -> dict:
         """What the utterance's JSON records of it."""

@@ -172,6 +172,7 @@ def measure(
     jerk: JerkMeter | None = None,
     weights: Sequence[Weights] | None = None,
     own_frames: bool = False,
+    states: Sequence[Weights] | None = None,
 ) -> Motion:
     """The :class:`Motion` of ``timeline`` (and of its frames, measured by ``jerk``).
 
@@ -192,6 +193,11 @@ def measure(
         Each frame was one of the person's own images (the trained face,
         :mod:`miketalk.draw.trained`), not a morph along the timeline: one a frame, and the
         step measures, which the visemes' flows give, are None.
+    states : sequence of Weights, optional
+        With ``weights``: the states drawn, in order, several for a frame averaged from
+        several (:func:`miketalk.draw.learned.learned_exposures`); the morphs and the
+        largest step are counted on them, the largest frame motion on ``weights`` (one
+        a frame). None: ``weights`` are the states drawn.
     """
     if own_frames:
         morphs, step, frame_motion = len(timeline.frames), None, None
@@ -200,9 +206,14 @@ def measure(
         step = largest_step(timeline, displacement)
         frame_motion = largest_frame_motion(timeline, displacement)
     else:
-        morphs = len(weights)
+        drawn = weights if states is None else states
+        morphs = len(drawn)
         steps = [weights_step(a, b, displacement) for a, b in pairwise(weights)]
-        step = frame_motion = max(steps, default=0.0)
+        frame_motion = max(steps, default=0.0)
+        if states is None:
+            step = frame_motion
+        else:
+            step = max((weights_step(a, b, displacement) for a, b in pairwise(states)), default=0.0)
     return Motion(
         natural_duration=natural_duration,
         duration=timeline.duration,

@@ -30,7 +30,7 @@ from miketalk.lipsync.settings import LipsyncSettings, Sampling
 from miketalk.lipsync.timeline import plan
 from miketalk.model.face import Model
 from miketalk.speech.types import Phone
-from miketalk.talk.utterance import Spoken
+from miketalk.talk.utterance import Spoken, own_frames_doc
 from miketalk.visemes import VisemeTable
 
 if TYPE_CHECKING:
@@ -231,7 +231,7 @@ def say_recording(
             "max_slowdown": None,
             "lipsync_model": drawing.lipsync_model.value,
         }
-        | ({"trajectory": drawing.trajectory} if drawing.own_frames else {})
+        | (own_frames_doc(drawing) if drawing.own_frames else {})
         | background_doc(background),
         drawing=drawing,
         recording=Recording(aligned.samples, aligned.rate),
@@ -239,6 +239,7 @@ def say_recording(
         overwrite=overwrite,
         background=background,
         inputs=inputs,
+        max_px_per_frame=max_px_per_frame,
     )
     return Spoken(
         timeline, motion, output, output.with_suffix(".json"), words=aligned.words,

@@ -33,7 +33,7 @@ from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone
 from miketalk.talk.output import check_output
 from miketalk.talk.recorded import Recorded, say_recording
-from miketalk.talk.utterance import Spoken, write_utterance
+from miketalk.talk.utterance import Spoken, own_frames_doc, write_utterance
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
@@ -222,13 +222,14 @@ def _say_text(
             # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
             "planned_duration": planned_duration,
         }
-        | ({"trajectory": drawing.trajectory} if drawing.own_frames else {})
+        | (own_frames_doc(drawing) if drawing.own_frames else {})
         | background_doc(background),
         drawing=drawing,
         progress=progress,
         overwrite=overwrite,
         background=background,
         inputs=inputs,
+        max_px_per_frame=max_px_per_frame,
     )
     log.info("say took %.2f s", time.perf_counter() - started)
     return Spoken(

@@ -84,6 +84,7 @@ def write_utterance(
     overwrite: bool = False,
     background: Background | None = None,
     inputs: Sequence[str | os.PathLike[str] | None] = (),
+    max_px_per_frame: float | None = None,
 ) -> Motion:
     """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
 
@@ -110,6 +111,9 @@ def write_utterance(
         background's size. None: the model's frames as they are (a still face).
     inputs : sequence of path-like
         What the utterance reads: never written over (:func:`check_output`).
+    max_px_per_frame : float, optional
+        The step limit the learned lip-sync keeps by blurring its path (the paper's is
+        blurred in ``timeline`` already); None: no limit.
 
     Returns
     -------
@@ -122,7 +126,9 @@ def write_utterance(
         model.displacement(t.source, t.target)
     started = time.perf_counter()
     jerk = JerkMeter()
-    rendered, weights = drawing.frames(model, timeline, recording=recording)
+    rendered, weights, states = drawing.frames(
+        model, timeline, recording=recording, max_px_per_frame=max_px_per_frame
+    )
     frames = jerk.watch(rendered)
     if background is not None:
         from miketalk.composite.background_files import composite_renders
@@ -147,7 +153,7 @@ def write_utterance(
         )  # fmt: skip
         motion = measure(
             timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,
-            weights=weights, own_frames=drawing.own_frames,
+            weights=weights, own_frames=drawing.own_frames, states=states,
         )  # fmt: skip
         doc = (
             {"format": TIMELINE_FORMAT}
@@ -168,6 +174,13 @@ def write_utterance(
         len(timeline.frames), motion.morphs, output, time.perf_counter() - started,
     )  # fmt: skip
     return motion
+
+
+def own_frames_doc(drawing: Drawing) -> dict:
+    """What the JSON of an utterance drawn with the person's own frames (the trained face)
+    says of them: the trajectory, and that the step limit does not apply (its frames are not
+    morphs between visemes, whose flows would measure a step)."""
+    return {"trajectory": drawing.trajectory, "max_px_per_frame_applies": False}
 
 
 @dataclass(frozen=True)

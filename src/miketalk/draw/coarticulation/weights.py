@@ -25,12 +25,41 @@ class _Pairs:
 def _pairs(
     centres: np.ndarray, viseme_index: np.ndarray, times: np.ndarray, window: float
 ) -> _Pairs:
-    """Every keyframe within ``window`` of each time, and always the nearest one."""
-    offset = times[:, None] - centres[None, :]
-    near = np.abs(offset) <= window
-    near[np.arange(len(times)), np.argmin(np.abs(offset), axis=1)] = True
-    t_idx, k_idx = np.nonzero(near)
-    return _Pairs(t_idx, viseme_index[k_idx], offset[t_idx, k_idx], len(times))
+    """Every keyframe within ``window`` of each time, and always the nearest one.
+
+    In time order, keyframe order within a time. Sorted keyframes (a timeline's) are
+    searched, so memory grows with the pairs, not with times x keyframes (an hour of
+    speech has some 10^5 frames and 10^4 keyframes).
+    """
+    if len(centres) < 2 or np.any(np.diff(centres) < 0):
+        offset = times[:, None] - centres[None, :]
+        near = np.abs(offset) <= window
+        near[np.arange(len(times)), np.argmin(np.abs(offset), axis=1)] = True
+        t_idx, k_idx = np.nonzero(near)
+        return _Pairs(t_idx, viseme_index[k_idx], offset[t_idx, k_idx], len(times))
+    n = len(times)
+    # the nearest keyframe: the first of the least distance, as argmin finds it
+    right = np.clip(np.searchsorted(centres, times, side="left"), 1, len(centres) - 1)
+    left = np.searchsorted(centres, centres[right - 1], side="left")
+    nearest = np.where(np.abs(times - centres[right]) < np.abs(times - centres[left]), right, left)
+    # the candidates within a widened window, then the exact test of the dense form
+    lo = np.searchsorted(centres, times - window - 1e-6, side="left")
+    hi = np.searchsorted(centres, times + window + 1e-6, side="right")
+    counts = hi - lo
+    t_idx = np.repeat(np.arange(n), counts)
+    k_idx = np.repeat(lo, counts) + (
+        np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    )
+    keep = (np.abs(times[t_idx] - centres[k_idx]) <= window) | (k_idx == nearest[t_idx])
+    t_idx, k_idx = t_idx[keep], k_idx[keep]
+    outside = (nearest < lo) | (nearest >= hi)
+    if outside.any():
+        t_idx = np.concatenate([t_idx, np.flatnonzero(outside)])
+        k_idx = np.concatenate([k_idx, nearest[outside]])
+        order = np.lexsort((k_idx, t_idx))
+        t_idx, k_idx = t_idx[order], k_idx[order]
+    offset = times[t_idx] - centres[k_idx]
+    return _Pairs(t_idx, viseme_index[k_idx], offset, n)
 
 
 def _weights_of_pairs(
@@ -110,9 +139,16 @@ def frame_weights(
     each viseme's most dominant keyframe (so that a frame of two visemes names
     them as the paper's transition would: source first). A frame's time is its
     middle (a motion-blurred frame's samples are not used: the learned path is
-    smooth).
+    blurred by :func:`miketalk.draw.learned.learned_exposures`, which samples it again).
     """
-    times = np.array([f.time for f in timeline.frames])
+    return weights_at(timeline, params, [f.time for f in timeline.frames])
+
+
+def weights_at(
+    timeline: Timeline, params: CoarticulationParams, times: Sequence[float] | np.ndarray
+) -> list[tuple[tuple[str, float], ...]]:
+    """The visemes and weights at each of ``times`` (seconds), as :func:`frame_weights`."""
+    times = np.asarray(times, float).reshape(-1)
     visemes, weights = dominance_weights(timeline.keyframes, times, params)
     kept = _truncate(weights, max_visemes=params.max_visemes, min_weight=params.min_weight)
     # order: by the centre of the keyframe nearest in time among each viseme's keyframes
