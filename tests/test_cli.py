@@ -528,7 +528,16 @@ def test_a_flow_file_of_another_size_is_named(
     mixed = tmp_path / "mixed"
     shutil.copytree(model, mixed)
     victim = pair_path(mixed / "flows", "p", "f")
+    victim.unlink()  # a hard link of the model's own file
     shutil.copyfile(pair_path(big_model / "flows", "p", "f"), victim)
+    # the manifest records each file's size: found when the model opens (issue 40)
+    line = _main_error(capsys, "say", "Bob feeds Pat.", "-o", str(tmp_path / "v.mp4"),
+                       "--model", str(mixed))  # fmt: skip
+    assert str(victim) in line and "the manifest says" in line
+    # a model written before the sizes were recorded: found when the flow is read
+    manifest = json.loads((mixed / "manifest.json").read_text())
+    del manifest["files"]
+    (mixed / "manifest.json").write_text(json.dumps(manifest))
     line = _main_error(capsys, "say", "Bob feeds Pat.", "-o", str(tmp_path / "v.mp4"),
                        "--model", str(mixed))  # fmt: skip
     assert str(victim) in line and "160x160" in line and "64x64" in line

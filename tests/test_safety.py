@@ -404,3 +404,96 @@ def test_the_learned_path_keeps_the_step_limit(limit: float) -> None:
     # without a limit: the frames' middles, one state a frame (the output before issue 40)
     plain = learned_exposures(timeline, params, displacement=displacement, max_px_per_frame=None)
     assert [e[0][0] for e in plain] == middles and all(len(e) == 1 for e in plain)
+
+
+# ---------------------------------------------------------------------------
+# a model is checked when it is opened
+# ---------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def small_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Three visemes of one texture shifted, with their exact flows."""
+    import numpy as np
+
+    from miketalk.flow import pair_path, write_flow_pair
+    from miketalk.media.images import write_png
+    from miketalk.model.write import build_model
+
+    root = tmp_path_factory.mktemp("small_model")
+    rng = np.random.default_rng(3)
+    base = (rng.random((48, 48, 3)) * 255).astype(np.uint8)
+    shift = {"p": 0, "aa": 4, "f": 8}
+    paths = {}
+    for viseme, dx in shift.items():
+        paths[viseme] = root / "src" / f"{viseme}.png"
+        paths[viseme].parent.mkdir(exist_ok=True)
+        write_png(paths[viseme], np.ascontiguousarray(np.roll(base, dx, axis=1)))
+    (root / "flows").mkdir()
+    names = list(shift)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            forward = np.zeros((48, 48, 2), np.float32)
+            forward[..., 0] = shift[b] - shift[a]
+            write_flow_pair(
+                pair_path(root / "flows", a, b), forward, -forward, source=a, target=b,
+                estimator="ground_truth", settings={},
+            )  # fmt: skip
+    return build_model(
+        root / "model", images=paths, flows_dir=root / "flows", estimator="ground_truth",
+        settings={},
+    )  # fmt: skip
+
+
+def _copy_model(model: Path, where: Path) -> Path:
+    import shutil
+
+    copy = where / "model"
+    shutil.copytree(model, copy)
+    return copy
+
+
+def test_a_model_records_the_size_and_checksum_of_its_files(small_model: Path) -> None:
+    from miketalk.model.face import Model
+
+    manifest = json.loads((small_model / "manifest.json").read_text())
+    assert sorted(manifest["files"]) == sorted(
+        [f"visemes/{p.name}" for p in (small_model / "visemes").iterdir()]
+        + [f"flows/{p.name}" for p in (small_model / "flows").iterdir()]
+    )
+    with Model(small_model) as model:
+        assert model.morpher("p", "f").frame(0.5).shape == (48, 48, 3)
+
+
+@pytest.mark.parametrize("listed", [True, False])
+def test_a_truncated_flow_file_is_named_when_the_model_opens(
+    small_model: Path, tmp_path: Path, listed: bool
+) -> None:
+    from miketalk.model.face import Model
+
+    model = _copy_model(small_model, tmp_path)
+    if not listed:  # a model written before checksums: its EXR's chunk table tells
+        manifest = json.loads((model / "manifest.json").read_text())
+        del manifest["files"]
+        (model / "manifest.json").write_text(json.dumps(manifest))
+    flow = sorted((model / "flows").iterdir())[1]
+    data = flow.read_bytes()
+    flow.unlink()  # a hard link of the original: write a new file
+    flow.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.raises(MiketalkError, match=f"{flow.name}.*(cut short|bytes, the manifest)"):
+        Model(model)
+
+
+def test_a_changed_flow_file_is_named_when_it_is_read(small_model: Path, tmp_path: Path) -> None:
+    from miketalk.model.face import Model
+
+    model = _copy_model(small_model, tmp_path)
+    flow = sorted((model / "flows").iterdir())[0]
+    data = bytearray(flow.read_bytes())
+    data[-5] ^= 0xFF  # one pixel's byte: the same size, a whole file
+    flow.unlink()
+    flow.write_bytes(bytes(data))
+    with Model(model) as opened:
+        with pytest.raises(MiketalkError, match=f"{flow.name} does not match its checksum"):
+            for a, b in (("p", "aa"), ("p", "f"), ("aa", "f")):
+                opened.morpher(a, b)

@@ -260,3 +260,75 @@ def read_flow_pair(path: str | os.PathLike[str]) -> FlowPair:
         valid_forward=None if masks["forward"] is None else masks["forward"] != 0,
         valid_backward=None if masks["backward"] is None else masks["backward"] != 0,
     )
+
+
+#: Scanlines per chunk of each OpenEXR compression (by its code in the header).
+_LINES_PER_CHUNK = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
+_EXR_MAGIC = 20000630
+
+
+def check_flow_file(path: str | os.PathLike[str]) -> None:
+    """Check, without decoding its pixels, that a flow file is a whole OpenEXR file.
+
+    Its header is parsed and, for a scanline file, its chunk table: every chunk must lie
+    inside the file, so a truncated file (a copy cut short, a full disk) is found when a
+    model is opened rather than when that transition is drawn. A few kB are read.
+
+    Raises
+    ------
+    MiketalkError
+        Naming the file: missing, not OpenEXR, or cut short.
+    """
+    import struct
+
+    path = Path(path)
+
+    def bad(why: str) -> MiketalkError:
+        return MiketalkError(f"flow file {path} {why}: the model is damaged; rebuild it")
+
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as f:
+            head = f.read(1 << 16)
+            if len(head) < 8 or struct.unpack("<i", head[:4])[0] != _EXR_MAGIC:
+                raise bad("is not an OpenEXR file")
+            if head[5] & 0x1E:  # tiled, deep or multi-part: the header alone is checked
+                return
+            at, attributes = 8, {}
+            while True:
+                end = head.index(b"\0", at)
+                name = head[at:end].decode("latin-1")
+                if not name:
+                    at = end + 1
+                    break
+                kind_end = head.index(b"\0", end + 1)
+                (length,) = struct.unpack("<i", head[kind_end + 1 : kind_end + 5])
+                attributes[name] = head[kind_end + 5 : kind_end + 5 + length]
+                at = kind_end + 5 + length
+                if at > len(head):
+                    raise ValueError("header past its block")
+            y_min, y_max = struct.unpack("<4i", attributes["dataWindow"])[1::2]
+            lines = _LINES_PER_CHUNK.get(attributes["compression"][0], 1)
+            chunks = -(-(y_max - y_min + 1) // lines)
+            f.seek(at)
+            table = f.read(8 * chunks)
+            if len(table) < 8 * chunks:
+                raise bad(f"is cut short ({size} bytes: its chunk table is incomplete)")
+            last = max(struct.unpack(f"<{chunks}Q", table))
+            f.seek(last)
+            chunk = f.read(8)
+            if len(chunk) < 8:
+                raise bad(f"is cut short ({size} bytes, its last chunk starts at {last})")
+            (length,) = struct.unpack("<i", chunk[4:])
+            if last + 8 + length > size:
+                raise bad(
+                    f"is cut short ({size} bytes, its last chunk ends at {last + 8 + length})"
+                )
+    except FileNotFoundError:
+        raise MiketalkError(
+            f"flow file {path} is missing: the model is damaged; rebuild it"
+        ) from None
+    except OSError as err:
+        raise bad(f"cannot be read ({err.strerror or err})") from None
+    except (ValueError, KeyError, IndexError, struct.error):
+        raise bad("has a malformed OpenEXR header") from None

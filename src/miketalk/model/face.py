@@ -11,8 +11,11 @@ The manifest is validated when the model is opened: strict JSON (no NaN), the
 structure of ``data/model_manifest.schema.json`` (JSON Schema), every viseme
 with an image and every ordered pair with a displacement, image paths inside
 the model directory, every image present and of the declared size, every flow
-file present. Flows are read lazily, each file checked as it is read (an error
-names the file), and morphers for recently used transitions are cached.
+file present and whole (its OpenEXR header and chunk table; the size the
+manifest's ``files`` records, for a model written with them:
+:func:`miketalk.model.manifest.check_files`). Flows are read lazily, each file
+checked as it is read (its SHA-256 against ``files``; an error names the file),
+and morphers for recently used transitions are cached.
 
 A timeline frame with several samples (motion blur,
 :func:`miketalk.lipsync.sampling.motion_blur`) is rendered as the weighted average
@@ -36,7 +39,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.lipsync.timeline import FrameSample, Timeline
 from miketalk.media.images import read_image
-from miketalk.model.manifest import check_complete, inside, read_manifest
+from miketalk.model.manifest import check_digest, check_files, inside, read_manifest
 from miketalk.render.morph import Morpher, MorphSettings
 
 if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
@@ -92,7 +95,7 @@ class Model:
                 )
             self._images[viseme] = image
         self.flows = FlowDatabase(self.directory / "flows")
-        check_complete(self.flows, self.visemes)
+        check_files(self.directory, manifest, self.flows, self.visemes)
         self._displacement = {
             tuple(k.split("|")): float(v) for k, v in manifest["max_displacement"].items()
         }
@@ -104,6 +107,7 @@ class Model:
         self._reader = ThreadPoolExecutor(1, thread_name_prefix="miketalk-flows")
         self._reads: dict[tuple[str, str], Future] = {}
         self._lock = threading.Lock()
+        self._verified: set[Path] = set()
 
     def close(self) -> None:
         """Wait for the flow reads under way and stop the reading thread (idempotent).
@@ -186,10 +190,16 @@ class Model:
             if key not in self._reads:
                 self._check(a)
                 self._check(b)
-                self._reads[key] = self._reader.submit(
-                    lambda: (self.flows.flow(a, b), self.flows.flow(b, a))
-                )
+                self._reads[key] = self._reader.submit(self._read_pair, a, b)
             return self._reads[key]
+
+    def _read_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
+        """Flows ``a -> b`` and ``b -> a``, their file's checksum checked (the reading thread)."""
+        path = self.flows.path_for(a, b)
+        if path not in self._verified:
+            check_digest(self.directory, self.manifest, path)
+            self._verified.add(path)
+        return self.flows.flow(a, b), self.flows.flow(b, a)
 
     def flow_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
         """Flows ``a -> b`` and ``b -> a`` (float32) through the model's one reading thread.

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from functools import cache
 from importlib import resources
 from itertools import combinations
@@ -97,3 +98,69 @@ def check_complete(flows: FlowDatabase, visemes: tuple[str, ...] | list[str]) ->
         path = flows.path_for(a, b)
         if not path.exists():
             raise MiketalkError(f"flow file {path} for visemes {a!r} and {b!r} is missing")
+
+
+def file_entry(path: str | os.PathLike[str]) -> dict:
+    """What a manifest's ``files`` records of a file: ``{"size", "sha256"}``."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return {"size": os.path.getsize(path), "sha256": digest.hexdigest()}
+
+
+def check_files(
+    directory: str | os.PathLike[str], manifest: dict, flows: FlowDatabase, visemes: Sequence[str]
+) -> None:
+    """Check, when a model is opened, that every file it needs is there and whole.
+
+    Every flow file of ``visemes`` exists, and is a whole OpenEXR file (its header and
+    chunk table, :func:`miketalk.flow.exr.check_flow_file`); every file the manifest's
+    ``files`` lists (a model written since checksums were recorded) has its size there.
+    The SHA-256 of a listed file is checked when it is read (:func:`check_digest`).
+
+    Raises
+    ------
+    MiketalkError
+        In one line naming the first bad file.
+    """
+    from miketalk.flow.exr import check_flow_file
+
+    check_complete(flows, list(visemes))
+    for relative, entry in sorted(manifest.get("files", {}).items()):
+        path = inside(directory, relative, "a file of the manifest")
+        try:
+            size = path.stat().st_size
+        except OSError:
+            raise MiketalkError(
+                f"model file {path} is missing: the model is damaged; rebuild it"
+            ) from None
+        if size != entry["size"]:
+            raise MiketalkError(
+                f"model file {path} is {size} bytes, the manifest says {entry['size']}: the "
+                "model is damaged; rebuild it"
+            )
+    for a, b in combinations(visemes, 2):
+        check_flow_file(flows.path_for(a, b))
+
+
+def check_digest(directory: str | os.PathLike[str], manifest: dict, path: Path) -> None:
+    """Check ``path``'s SHA-256 against the manifest's ``files`` (nothing when not listed).
+
+    Raises
+    ------
+    MiketalkError
+        In one line naming the file.
+    """
+    try:
+        relative = path.relative_to(directory).as_posix()
+    except ValueError:
+        return
+    entry = manifest.get("files", {}).get(relative)
+    if entry is not None and file_entry(path)["sha256"] != entry["sha256"]:
+        raise MiketalkError(
+            f"model file {path} does not match its checksum in the manifest: the model is "
+            "damaged; rebuild it"
+        )

@@ -15,7 +15,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
-from miketalk.model.manifest import FORMAT, check_complete
+from miketalk.model.manifest import FORMAT, check_complete, file_entry
 from miketalk.visemes import viseme_slug
 
 
@@ -43,7 +43,9 @@ def build_model(
     """Assemble a model directory from viseme images and a flow database.
 
     Images and flow files are hard-linked where possible (copied otherwise);
-    the manifest is written last, so a model without one is incomplete.
+    the manifest is written last, so a model without one is incomplete. The manifest
+    lists each image and flow file with its size and SHA-256 (``files``), which
+    :class:`~miketalk.model.face.Model` checks.
     ``fallbacks`` (viseme -> the class whose image it borrows, for a class the
     recording had no instance of) is listed in the manifest.
     """
@@ -81,6 +83,12 @@ def build_model(
     }
     if fallbacks:
         manifest["fallbacks"] = dict(sorted(fallbacks.items()))
+    # what tells a damaged model (a file cut short or changed) when it is opened and read
+    listed = [
+        *image_paths.values(),
+        *(f"flows/{p.name}" for p in sorted((out / "flows").iterdir())),
+    ]
+    manifest["files"] = {rel: file_entry(out / rel) for rel in sorted(listed)}
     write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
     return out
 
