@@ -497,3 +497,84 @@ def test_a_changed_flow_file_is_named_when_it_is_read(small_model: Path, tmp_pat
         with pytest.raises(MiketalkError, match=f"{flow.name} does not match its checksum"):
             for a, b in (("p", "aa"), ("p", "f"), ("aa", "f")):
                 opened.morpher(a, b)
+
+
+# ---------------------------------------------------------------------------
+# workers and signals
+# ---------------------------------------------------------------------------
+
+_POOL_SCRIPT = """
+import sys, time
+from miketalk.console import handle_termination
+from miketalk.workers import process_pool
+
+def job(i):
+    time.sleep(120)
+
+if __name__ == "__main__":
+    with handle_termination():
+        try:
+            with process_pool(2) as pool:
+                futures = [pool.submit(job, i) for i in range(20)]
+                while len(pool._processes) < 2:
+                    time.sleep(0.05)
+                print(" ".join(map(str, pool._processes)), flush=True)
+                for future in futures:
+                    future.result()
+        except KeyboardInterrupt:
+            print("stopped", flush=True)
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except FileNotFoundError:
+        return False
+    return stat[stat.rindex(")") + 2] != "Z"
+
+
+@pytest.mark.parametrize("signum", [2, 15, 9])
+def test_a_signal_ends_every_worker_within_two_seconds(signum: int) -> None:
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _POOL_SCRIPT], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        workers = [int(p) for p in proc.stdout.readline().split()]
+        assert len(workers) == 2
+        started = time.monotonic()
+        proc.send_signal(signum)
+        proc.wait(10)
+        while any(_alive(p) for p in workers) and time.monotonic() - started < 5:
+            time.sleep(0.02)
+        assert not any(_alive(p) for p in workers)  # none orphaned, SIGKILL included
+        assert time.monotonic() - started < 2.0
+        if signum != 9:
+            assert proc.stdout.read().strip() == "stopped"
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1000, 2.5, True])
+def test_a_worker_count_outside_the_cores_is_one_line(workers: object) -> None:
+    from miketalk.workers import available_cores, check_workers
+
+    with pytest.raises(MiketalkError, match=f"from 1 to {available_cores()}"):
+        check_workers(workers)
+    assert check_workers(1) == 1
+
+
+def test_build_checks_workers_and_its_folder_before_any_work(tmp_path: Path) -> None:
+    import time
+
+    from miketalk.building.from_video import build_model_from_video
+
+    started = time.monotonic()
+    with pytest.raises(MiketalkError, match="--workers must be"):
+        build_model_from_video(tmp_path / "none.mp4", tmp_path / "m", transcript="x", workers=0)
+    with pytest.raises(MiketalkError, match="cannot write /sys/m.*give another -o"):
+        build_model_from_video(tmp_path / "none.mp4", "/sys/m", transcript="x", workers=1)
+    assert time.monotonic() - started < 2.0

@@ -13,16 +13,21 @@ classes.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shutil
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.media.atomic import check_writable, output_lock
+from miketalk.media.ownership import Kind, check_replaceable
 from miketalk.media.scratch import scratch_dir
+from miketalk.workers import check_workers
 
-__all__ = ["KEPT", "build_model_from_video", "peak_mb"]
+__all__ = ["KEPT", "build_model_from_video", "peak_mb", "publish_directory"]
 
 #: What MODEL_DIR/build/ keeps of the work.
 KEPT = {"segments.json": "segments", "skipped.tsv": "corpus", "clips.tsv": "corpus"}
@@ -68,21 +73,19 @@ def build_model_from_video(
     from miketalk.corpus.viseme_choice import choose_visemes_stage
 
     model_dir = Path(model_dir)
-    if model_dir.exists():
-        if not force or not (model_dir / "manifest.json").is_file():
-            what = "a model" if (model_dir / "manifest.json").is_file() else "something else"
-            raise MiketalkError(
-                f"{model_dir} exists and holds {what}: give another -o"
-                + (" or --force to replace it" if what == "a model" else "")
-            )
+    workers = check_workers(workers)
+    inputs = [video, transcript, subtitles]
+    check_replaceable(model_dir, Kind.MODEL, inputs=inputs, force=force)
+    try:
+        check_writable(model_dir)  # its folder: before the work, not after it
+    except MiketalkError as err:
+        raise MiketalkError(f"{err}; give another -o") from None
     if keep_corpus is not None and Path(keep_corpus).exists():
         raise MiketalkError(f"{keep_corpus} exists: --keep-corpus needs a new folder")
     checked = check_video_inputs(  # before any work: one line for a bad video or script
         video, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
     )
-    model_dir.parent.mkdir(parents=True, exist_ok=True)
-    # the work folder beside the model (the model is renamed out of it), swept if killed
-    with scratch_dir("build", directory=model_dir.parent) as work:
+    with _work_folder(model_dir) as work:
         spec, strategy = flow or defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
         corpus, visemes, flows = work / "corpus", work / "visemes", work / "flows"
         segments = work / "segments" / "segments.json"
@@ -142,13 +145,68 @@ def build_model_from_video(
         kept.mkdir()
         for name, where in KEPT.items():
             shutil.copyfile(work / where / name, kept / name)
-        if model_dir.exists():  # --force: the old model is moved aside, removed with the work
-            model_dir.rename(work / "replaced")
-        (work / "model").rename(model_dir)
+        with output_lock(model_dir):
+            check_replaceable(model_dir, Kind.MODEL, inputs=inputs, force=force)
+            publish_directory(work / "model", model_dir)
         if keep_corpus is not None:
             Path(keep_corpus).parent.mkdir(parents=True, exist_ok=True)
             shutil.move(corpus, keep_corpus)
     return seconds
+
+
+@contextlib.contextmanager
+def _work_folder(model_dir: Path) -> Iterator[Path]:
+    """The work folder beside the model (the model is renamed out of it; swept if killed);
+    a folder that cannot be written in is one line."""
+    with contextlib.ExitStack() as stack:
+        try:
+            model_dir.parent.mkdir(parents=True, exist_ok=True)
+            work = stack.enter_context(scratch_dir("build", directory=model_dir.parent))
+        except OSError as err:
+            raise MiketalkError(
+                f"cannot write the model {model_dir}: {err.strerror or err} "
+                f"({model_dir.parent}); give another -o"
+            ) from None
+        yield work
+
+
+def publish_directory(new: Path, final: Path) -> None:
+    """Put the directory ``new`` at ``final`` in one step; an old ``final`` takes ``new``'s place.
+
+    Both in one file system. An old directory is exchanged with the new one atomically
+    (``renameat2`` with ``RENAME_EXCHANGE``, Linux 3.15 and later), so that ``final`` is the
+    old model or the new one at every moment; the old one is then at ``new`` (removed with
+    the work folder). Where the exchange is not possible, the old directory is renamed aside
+    first (a kill between the two renames leaves it there, beside ``final``).
+    """
+    if not final.exists():
+        new.rename(final)
+        return
+    if _exchange(new, final):
+        return
+    aside = new.with_name(new.name + ".replaced")
+    final.rename(aside)
+    try:
+        new.rename(final)
+    except BaseException:
+        aside.rename(final)
+        raise
+    aside.rename(new)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """``renameat2(a, b, RENAME_EXCHANGE)``; False where the system cannot."""
+    import ctypes
+    import os
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, exchange = -100, 2
+    done = renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), exchange)
+    return done == 0
 
 
 def peak_mb() -> float:

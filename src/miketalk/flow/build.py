@@ -14,7 +14,6 @@ import logging
 import os
 import tempfile
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from itertools import combinations
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from miketalk.flow.exr import write_flow_pair
 from miketalk.flow.registry import get_estimator, in_region
 from miketalk.flow.strategies import Pair, Recording, Strategy, get_strategy
 from miketalk.media.images import read_image
+from miketalk.workers import process_pool
 
 log = logging.getLogger(__name__)
 
@@ -191,8 +191,8 @@ def build_flow_database(
         threads = cv2.getNumThreads()
         cv2.setNumThreads(1)
         try:
-            with ProcessPoolExecutor(
-                max_workers=workers,
+            with process_pool(
+                workers,
                 initializer=_init_worker,
                 initargs=(
                     recording,

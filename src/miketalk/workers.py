@@ -1,0 +1,110 @@
+"""Worker processes: how many a command may start, and a pool that ends them all when stopped.
+
+:func:`check_workers` refuses a worker count outside 1 to the machine's cores (the cores
+this process may run on) in one line, before any work. :func:`process_pool` is a
+:class:`~concurrent.futures.ProcessPoolExecutor` whose workers ignore Ctrl-C (the parent
+decides), die with their parent (``PR_SET_PDEATHSIG``: a parent killed outright leaves no
+orphans), and are ended within a second when the body raises (Ctrl-C, SIGTERM, an error):
+the queued work is cancelled and every worker terminated, then killed, instead of the
+executor's default of finishing all that was queued.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+
+from miketalk.errors import MiketalkError
+
+__all__ = ["available_cores", "check_workers", "process_pool", "stop_pool"]
+
+
+def available_cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def check_workers(workers: object, *, option: str = "--workers") -> int:
+    """``workers`` as an int from 1 to :func:`available_cores`.
+
+    Raises
+    ------
+    MiketalkError
+        In one line, for anything else.
+    """
+    cores = available_cores()
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= cores:
+        raise MiketalkError(
+            f"{option} must be a whole number from 1 to {cores} (this machine's cores), "
+            f"not {workers!r}"
+        )
+    return workers
+
+
+def _die_with_parent() -> None:
+    """Ask the kernel to kill this process when its parent dies (Linux; elsewhere nothing)."""
+    with contextlib.suppress(Exception):
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
+
+
+def _start_worker(initializer: Callable[..., object] | None, initargs: tuple) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the
+    for name in ("SIGTERM", "SIGHUP"):  # parent stops the workers itself
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+    _die_with_parent()
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 1.0) -> None:
+    """Cancel what ``pool`` has queued and end its workers: SIGTERM, then SIGKILL after
+    ``grace`` seconds."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.terminate()
+    deadline = time.monotonic() + grace
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(max(0.0, deadline - time.monotonic()))
+    for process in processes:
+        with contextlib.suppress(Exception):
+            if process.is_alive():
+                process.kill()
+                process.join(0.5)
+
+
+@contextlib.contextmanager
+def process_pool(
+    workers: int,
+    *,
+    initializer: Callable[..., object] | None = None,
+    initargs: tuple = (),
+) -> Iterator[ProcessPoolExecutor]:
+    """A process pool of ``workers`` (see the module docstring).
+
+    On leaving normally the pool is shut down as usual (waiting for its work); on an
+    exception (:class:`KeyboardInterrupt` and the SIGTERM of
+    :func:`miketalk.console.handle_termination` included) :func:`stop_pool` ends it.
+    """
+    pool = ProcessPoolExecutor(
+        max_workers=workers, initializer=_start_worker, initargs=(initializer, initargs)
+    )
+    try:
+        yield pool
+    except BaseException:
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
