@@ -20,7 +20,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["available_cores", "check_workers", "process_pool", "stop_pool"]
+__all__ = ["available_cores", "check_workers", "default_workers", "process_pool", "stop_pool"]
 
 
 def available_cores() -> int:
@@ -29,6 +29,11 @@ def available_cores() -> int:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
         return os.cpu_count() or 1
+
+
+def default_workers() -> int:
+    """Two workers, or one on a machine of one core."""
+    return min(2, available_cores())
 
 
 def check_workers(workers: object, *, option: str = "--workers") -> int:

@@ -25,7 +25,7 @@ from miketalk.errors import MiketalkError
 from miketalk.media.atomic import check_writable, output_lock
 from miketalk.media.ownership import Kind, check_replaceable
 from miketalk.media.scratch import scratch_dir
-from miketalk.workers import check_workers
+from miketalk.workers import check_workers, default_workers
 
 __all__ = ["KEPT", "build_model_from_video", "peak_mb", "publish_directory"]
 
@@ -40,7 +40,7 @@ def build_model_from_video(
     transcript: str | Path | None = None,
     subtitles: str | Path | None = None,
     heldout_seconds: float = defaults.HELDOUT_SECONDS,
-    workers: int = 2,
+    workers: int | None = None,
     force: bool = False,
     progress: bool = True,
     report=None,
@@ -50,7 +50,8 @@ def build_model_from_video(
 ) -> dict:
     """Build a model from one video (see the module docstring); the seconds each stage took.
 
-    ``report(stage, seconds, peak_mb)`` is called after each stage (``peak_mb``: the
+    ``workers``: processes to use, 1 to the machine's cores (None: two, or one on a machine
+    of one core). ``report(stage, seconds, peak_mb)`` is called after each stage (``peak_mb``: the
     largest memory the build's process, or a process it started, has held so far).
     ``flow`` (the flow method's ``estimator`` and ``settings``) and ``mixed_window``
     default to the workflow's defaults; ``keep_corpus`` is where the corpus folder is moved at
@@ -73,7 +74,7 @@ def build_model_from_video(
     from miketalk.corpus.viseme_choice import choose_visemes_stage
 
     model_dir = Path(model_dir)
-    workers = check_workers(workers)
+    workers = default_workers() if workers is None else check_workers(workers)
     inputs = [video, transcript, subtitles]
     check_replaceable(model_dir, Kind.MODEL, inputs=inputs, force=force)
     try:

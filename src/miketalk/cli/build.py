@@ -99,7 +99,12 @@ def add_build_parser(sub) -> None:
         default=defaults.HELDOUT_SECONDS,
         help="leave the video's last seconds out of the model (default: none)",
     )
-    build.add_argument("--workers", type=int, default=2, help="cores to use (default 2)")
+    build.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="processes to use, 1 to the machine's cores (default 2, or 1 on one core)",
+    )
     build.add_argument("--force", action="store_true", help="replace an existing model")
     build.add_argument(
         "--keep-corpus",
