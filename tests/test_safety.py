@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -74,7 +75,7 @@ def test_a_rename_that_fails_leaves_the_old_pair(
 ) -> None:
     old_pair(tmp_path)
     failing_replace(monkeypatch, nth, OSError(28, "No space left on device"))
-    with pytest.raises(MiketalkError, match="No space left.*left as they were"):
+    with pytest.raises(MiketalkError, match=r"No space left.*left as they were"):
         publish_new(tmp_path)
     assert files(tmp_path) == OLD  # no temporary, backup, journal or lock left
 
@@ -94,7 +95,7 @@ def test_a_directory_in_the_jsons_place_at_publication_leaves_the_old_mp4(tmp_pa
     def guard() -> None:  # the directory appears after the checks, before the renames
         (tmp_path / "v.json").mkdir(exist_ok=True)
 
-    with pytest.raises(MiketalkError, match="v.json"):
+    with pytest.raises(MiketalkError, match=r"v.json"):
         publish_new(tmp_path, guard=guard)
     assert files(tmp_path) == {"v.mp4": b"old video"}
     assert (tmp_path / "v.json").is_dir()
@@ -105,9 +106,9 @@ def test_a_read_only_json_is_refused_and_the_pair_kept(tmp_path: Path) -> None:
     (tmp_path / "v.json").write_text(json.dumps({"format": TIMELINE_FORMAT}))
     (tmp_path / "v.json").chmod(0o444)
     kept = files(tmp_path)
-    with pytest.raises(MiketalkError, match="v.json is read-only"):
+    with pytest.raises(MiketalkError, match=r"v.json is read-only"):
         check_replaceable(tmp_path / "v.mp4", Kind.VIDEO)
-    with pytest.raises(MiketalkError, match="read-only"):
+    with pytest.raises(MiketalkError, match=r"read-only"):
         publish_new(tmp_path, guard=lambda: check_replaceable(tmp_path / "v.mp4", Kind.VIDEO))
     assert files(tmp_path) == kept
 
@@ -254,7 +255,7 @@ def test_a_pair_miketalk_wrote_is_replaced(tmp_path: Path) -> None:
 def test_a_users_mp4_is_refused_unless_forced(tmp_path: Path) -> None:
     video = tmp_path / "mine.mp4"
     video.write_bytes(b"the user's holiday")
-    with pytest.raises(MiketalkError, match="miketalk did not write it.*--force"):
+    with pytest.raises(MiketalkError, match=r"miketalk did not write it.*--force"):
         check_replaceable(video, Kind.VIDEO)
     assert check_replaceable(video, Kind.VIDEO, force=True) == video
 
@@ -262,7 +263,7 @@ def test_a_users_mp4_is_refused_unless_forced(tmp_path: Path) -> None:
 def test_an_mp4_changed_since_miketalk_wrote_it_is_refused(tmp_path: Path) -> None:
     video = ours(tmp_path)
     video.write_bytes(b"\x00\x00\x00\x18ftypisom edited by the user")
-    with pytest.raises(MiketalkError, match="did not write it"):
+    with pytest.raises(MiketalkError, match=r"did not write it"):
         check_replaceable(video, Kind.VIDEO)
 
 
@@ -281,14 +282,14 @@ def test_an_output_that_is_an_input_is_refused_even_forced(tmp_path: Path, link:
         output.symlink_to(talk)
     elif link == "hardlink":
         os.link(talk, output)
-    with pytest.raises(MiketalkError, match="is also an input"):
+    with pytest.raises(MiketalkError, match=r"is also an input"):
         check_replaceable(output, Kind.VIDEO, inputs=[talk], force=True)
 
 
 def test_the_json_beside_the_output_that_is_an_input_is_refused(tmp_path: Path) -> None:
     text = tmp_path / "v.json"
     text.write_text("the text to say")
-    with pytest.raises(MiketalkError, match="v.json is also an input"):
+    with pytest.raises(MiketalkError, match=r"v.json is also an input"):
         check_replaceable(tmp_path / "v.mp4", Kind.VIDEO, inputs=[text], force=True)
 
 
@@ -322,7 +323,7 @@ def test_each_kind_of_output_is_recognised(
     check_replaceable(path, kind)
     path.write_text(theirs_text)
     assert not written_by_miketalk(path, kind)
-    with pytest.raises(MiketalkError, match="exists and is not"):
+    with pytest.raises(MiketalkError, match=r"exists and is not"):
         check_replaceable(path, kind)
 
 
@@ -345,13 +346,13 @@ def test_a_model_directory_holding_an_input_is_refused(tmp_path: Path) -> None:
     model.mkdir()
     (model / "manifest.json").write_text(json.dumps({"format": "miketalk-model/1"}))
     (model / "talk.mp4").write_bytes(b"the video")
-    with pytest.raises(MiketalkError, match="holds an input"):
+    with pytest.raises(MiketalkError, match=r"holds an input"):
         check_replaceable(model, Kind.MODEL, inputs=[model / "talk.mp4"], force=True)
-    with pytest.raises(MiketalkError, match="holds a model.*--force"):
+    with pytest.raises(MiketalkError, match=r"holds a model.*--force"):
         check_replaceable(model, Kind.MODEL)
     check_replaceable(model, Kind.MODEL, force=True)
     (model / "manifest.json").unlink()
-    with pytest.raises(MiketalkError, match="something else"):
+    with pytest.raises(MiketalkError, match=r"something else"):
         check_replaceable(model, Kind.MODEL, force=True)
 
 
@@ -480,7 +481,7 @@ def test_a_truncated_flow_file_is_named_when_the_model_opens(
     data = flow.read_bytes()
     flow.unlink()  # a hard link of the original: write a new file
     flow.write_bytes(data[: len(data) * 2 // 3])
-    with pytest.raises(MiketalkError, match=f"{flow.name}.*(cut short|bytes, the manifest)"):
+    with pytest.raises(MiketalkError, match=rf"{flow.name}.*(cut short|bytes, the manifest)"):
         Model(model)
 
 
@@ -494,7 +495,7 @@ def test_a_changed_flow_file_is_named_when_it_is_read(small_model: Path, tmp_pat
     flow.unlink()
     flow.write_bytes(bytes(data))
     with Model(model) as opened:
-        with pytest.raises(MiketalkError, match=f"{flow.name} does not match its checksum"):
+        with pytest.raises(MiketalkError, match=rf"{flow.name} does not match its checksum"):
             for a, b in (("p", "aa"), ("p", "f"), ("aa", "f")):
                 opened.morpher(a, b)
 
@@ -538,9 +539,7 @@ def _alive(pid: int) -> bool:
 def test_a_signal_ends_every_worker_within_two_seconds(signum: int) -> None:
     import time
 
-    proc = subprocess.Popen(
-        [sys.executable, "-c", _POOL_SCRIPT], stdout=subprocess.PIPE, text=True
-    )
+    proc = subprocess.Popen([sys.executable, "-c", _POOL_SCRIPT], stdout=subprocess.PIPE, text=True)
     try:
         workers = [int(p) for p in proc.stdout.readline().split()]
         assert len(workers) == 2
@@ -562,7 +561,7 @@ def test_a_signal_ends_every_worker_within_two_seconds(signum: int) -> None:
 def test_a_worker_count_outside_the_cores_is_one_line(workers: object) -> None:
     from miketalk.workers import available_cores, check_workers
 
-    with pytest.raises(MiketalkError, match=f"from 1 to {available_cores()}"):
+    with pytest.raises(MiketalkError, match=rf"from 1 to {available_cores()}"):
         check_workers(workers)
     assert check_workers(1) == 1
 
@@ -573,8 +572,88 @@ def test_build_checks_workers_and_its_folder_before_any_work(tmp_path: Path) -> 
     from miketalk.building.from_video import build_model_from_video
 
     started = time.monotonic()
-    with pytest.raises(MiketalkError, match="--workers must be"):
+    with pytest.raises(MiketalkError, match=r"--workers must be"):
         build_model_from_video(tmp_path / "none.mp4", tmp_path / "m", transcript="x", workers=0)
-    with pytest.raises(MiketalkError, match="cannot write /sys/m.*give another -o"):
+    with pytest.raises(MiketalkError, match=r"cannot write /sys/m.*give another -o"):
         build_model_from_video(tmp_path / "none.mp4", "/sys/m", transcript="x", workers=1)
     assert time.monotonic() - started < 2.0
+
+
+# ---------------------------------------------------------------------------
+# faithful output
+# ---------------------------------------------------------------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+GRID = ROOT / "data" / "grid_s1" / "video"
+
+
+def _ffmpeg(*args: str) -> None:
+    from miketalk.media.video import ffmpeg_exe
+
+    subprocess.run([ffmpeg_exe(), "-loglevel", "error", "-y", *args], check=True)
+
+
+@pytest.mark.parametrize(("rate", "channels"), [(48000, 2), (44100, 2), (16000, 1)])
+def test_a_recordings_sound_keeps_its_rate_and_channels(
+    tmp_path: Path, rate: int, channels: int
+) -> None:
+    import numpy as np
+
+    from miketalk.media.video import audio_format, probe_durations, write_mp4
+
+    recording = tmp_path / "r.wav"
+    _ffmpeg("-i", str(GRID / "bbaf2n.mpg"), "-ar", str(rate), "-ac", str(channels), str(recording))
+    frames = [np.full((32, 32, 3), i, np.uint8) for i in range(70)]  # 2.8 s: the sound is cut
+    write_mp4(tmp_path / "v.mp4", frames, fps=25, audio_file=recording)
+    assert audio_format(tmp_path / "v.mp4") == (rate, channels)
+    video, audio = probe_durations(tmp_path / "v.mp4")
+    assert abs(video - 2.8) < 1e-6 and abs(audio - 2.8) < 1.5 / rate + 0.03  # AAC's last frame
+
+
+def test_a_variable_frame_rate_video_is_refused_in_one_line(tmp_path: Path) -> None:
+    from miketalk.media.timing import check_constant_rate
+
+    source = str(GRID / "bbaf2n.mpg")
+    # 50 frames: the first 25 two frames apart, the rest one: 3 s, stated as 25 fps
+    _ffmpeg("-i", source, "-frames:v", "50", "-vf", "setpts='if(lt(N,25),2*N,N+25)/(25*TB)'",
+            "-fps_mode", "passthrough", "-an", str(tmp_path / "vfr.mp4"))  # fmt: skip
+    _ffmpeg("-i", source, "-frames:v", "50", "-an", str(tmp_path / "cfr.mp4"))
+    check_constant_rate(tmp_path / "cfr.mp4", 25, 50)
+    check_constant_rate(source, 25, 75)
+    with pytest.raises(MiketalkError, match=r"variable frame rate: .*3\.00 s .*2\.00 s at its 25"):
+        check_constant_rate(tmp_path / "vfr.mp4", 25, 50)
+
+
+def test_another_clips_transcript_is_warned_about(caplog: pytest.LogCaptureFixture) -> None:
+    import logging
+
+    from miketalk.talk.recorded import align_recording
+
+    caplog.set_level(logging.WARNING)
+    align_recording(GRID / "lgwg2n.mpg", text="lay green with g two now")
+    assert "fit its sound badly" not in caplog.text
+    # the closest wrong transcript of the measure: same grammar, "two now" in both
+    align_recording(GRID / "lgwg2n.mpg", text="place blue at v two now")
+    assert "fit its sound badly" in caplog.text
+
+
+@pytest.mark.parametrize(
+    ("text", "script"),
+    [("Καλημέρα κόσμε", "Greek"), ("你好世界", "Chinese (CJK)"), ("Привет", "Cyrillic")],
+)
+def test_a_text_in_another_alphabet_is_said_to_be_not_english(text: str, script: str) -> None:
+    from miketalk.speech.text import normalize_text
+
+    pattern = rf"speak English.*no English word.*{re.escape(script)}"
+    with pytest.raises(MiketalkError, match=pattern):
+        normalize_text(text)
+    with pytest.raises(MiketalkError, match=r"no letters or digits"):
+        normalize_text("!!! ???")
+
+
+def test_the_summary_says_what_a_low_frame_rate_cuts() -> None:
+    from miketalk.cli.say import recorded_words
+
+    assert recorded_words(3.2, 6, 2.0).startswith("3.00 s of the recording's 3.20 s (its last 0.20")
+    assert recorded_words(2.98, 75, 25.0) == "2.98 s of recorded audio"
+    assert recorded_words(2.98, 74, 25.0) == "2.96 s of recorded audio"

@@ -99,7 +99,8 @@ def test_say_audio_warns_when_the_text_is_one_word_of_six(recording: Path, tmp_p
     proc = miketalk("say", "--audio", recording, "--text", "bin", "-o", "one.mp4",
                     "--model", model, cwd=tmp_path)  # fmt: skip
     assert proc.returncode == 0, proc.stderr  # a warning: the video is still made
-    (line,) = [ln for ln in proc.stderr.splitlines() if "WARNING" in ln]
+    # the unexplained audio's warning (one word of six also fits the sound badly: issue 40)
+    (line,) = [ln for ln in proc.stderr.splitlines() if "WARNING" in ln and WARNING.search(ln)]
     share, voiced, unexplained = WARNING.search(line).groups()
     assert int(share) > 100 * UNEXPLAINED_LIMIT
     assert float(unexplained) == pytest.approx(int(share) / 100 * float(voiced), abs=0.02)

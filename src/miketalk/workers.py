@@ -62,12 +62,14 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
 
 
-def _start_worker(initializer: Callable[..., object] | None, initargs: tuple) -> None:
+def _start_worker(initializer: Callable[..., object] | None, initargs: tuple, parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the
     for name in ("SIGTERM", "SIGHUP"):  # parent stops the workers itself
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), signal.SIG_DFL)
     _die_with_parent()
+    if os.getppid() != parent:  # the parent died before the kernel was asked
+        os._exit(1)
     if initializer is not None:
         initializer(*initargs)
 
@@ -105,7 +107,9 @@ def process_pool(
     :func:`miketalk.console.handle_termination` included) :func:`stop_pool` ends it.
     """
     pool = ProcessPoolExecutor(
-        max_workers=workers, initializer=_start_worker, initargs=(initializer, initargs)
+        max_workers=workers,
+        initializer=_start_worker,
+        initargs=(initializer, initargs, os.getpid()),
     )
     try:
         yield pool

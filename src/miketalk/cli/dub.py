@@ -10,9 +10,10 @@ backwards, forwards (no jump); shorter speech ends the video with it.
 
 The same promises as ``say``: a mistake is one line and exit status 2, found
 before the work where it can be (a model not built from a person, a video
-that cannot be read or lasts less than a second, then a video whose frames do
-not show the model's person); the mp4 and its timeline JSON replace an older
-pair together or not at all; the same inputs give byte-identical files.
+that cannot be read or lasts less than a second or has a variable frame rate,
+then a video whose frames do not show the model's person); the mp4 and its
+timeline JSON replace an older pair together or not at all; the same inputs give
+byte-identical files.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
     from miketalk.composite.background import background_from_video, check_video
     from miketalk.composite.background_files import has_background, model_stabilizer
     from miketalk.lipsync.settings import check_fps
+    from miketalk.media.timing import check_constant_rate
     from miketalk.model.parts import default_model_dir
     from miketalk.talk.output import check_output
     from miketalk.talk.say import Recorded, open_model, say
@@ -66,6 +68,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
         check_fps(fps)
     except MiketalkError as err:
         raise MiketalkError(f"{args.video}: its frame rate: {err}") from None
+    check_constant_rate(args.video, fps, len(frames))  # frames shown when they were taken
     settings = lipsync_settings(args, args.sampling, max_px, fps=fps)
     long_work = len(frames) > _LONG_WORK and sys.stderr.isatty()
     progress = args.progress or long_work
@@ -84,6 +87,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
                 background=background, inputs=inputs,
             )  # fmt: skip
         motion, seconds, trajectory = said.motion, said.duration, said.trajectory
+        seconds = min(seconds, motion.frames / fps)  # what the mp4 plays of the recording
     else:
         # Festival works while the video registers
         with festival_backend(args).start(text) as speech, open_model(model_dir) as model:
@@ -104,7 +108,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
             "source_frames": len(background),
             "blinks": list(background.blinks),
             "frames": motion.frames,
-            "audio_seconds": seconds,
+            "audio_seconds": seconds,  # as played: whole frames
             "lipsync_model": args.lipsync_model,
         } | ({"trajectory": trajectory} if trajectory else {})
         print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)

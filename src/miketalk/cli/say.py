@@ -117,6 +117,18 @@ def cli_inputs(args: argparse.Namespace) -> list[str]:
     return [str(v) for v in (getattr(args, n, None) for n in names) if isinstance(v, str)]
 
 
+def recorded_words(seconds: float, frames: int, fps: float) -> str:
+    """How much of a recording the mp4 plays (whole frames: at most half a frame more or less
+    than the recording), and, when that cuts 0.05 s or more (a low frame rate), what was cut."""
+    shown = min(seconds, frames / fps)
+    if seconds - shown >= 0.05:
+        return (
+            f"{shown:.2f} s of the recording's {seconds:.2f} s (its last {seconds - shown:.2f} s "
+            f"falls after the last whole frame at {fps:g} fps)"
+        )
+    return f"{shown:.2f} s of recorded audio"
+
+
 def drawn_words(motion) -> str:
     """What the summary line says was drawn: the morphs and their largest step, or, when each
     frame is one of the person's own images (the trained face), how many."""
@@ -213,7 +225,7 @@ def _say_recorded(
         drawn = f", {said.trajectory} trajectory" if said.trajectory else ""
         print(
             f"{args.output}: {motion.frames} frames at {args.fps:g} fps, "
-            f"{said.duration:.2f} s of recorded audio, {drawn_words(motion)} "
+            f"{recorded_words(said.duration, motion.frames, args.fps)}, {drawn_words(motion)} "
             f"({sampling}, {args.lipsync_model} lip-sync{drawn})",
             file=args.out,
         )

@@ -14,6 +14,13 @@ a killed run is removed by the next):
    H.264 (yuv420p, ``-threads 1`` so the bitstream does not depend on the
    machine's core count) and the wav to AAC.
 
+A recording given as a file (``audio_file=``, ``say --audio`` and ``dub --audio``) is
+not decoded into memory: ffmpeg reads its first audio stream itself and encodes it to
+AAC at the recording's own sample rate and channels (a 44.1 kHz stereo recording stays
+44.1 kHz stereo; AAC at 96 kb/s for mono, 64 kb/s a channel for more, which is
+transparent for speech), its samples counted from its first one, padded with silence or
+cut to the same ``n / fps``.
+
 So the audio and video streams have the same duration ``n / fps`` to within one
 audio sample (well within one frame). :func:`probe_durations` measures both by
 decoding the file.
@@ -24,6 +31,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Iterable, Iterator
@@ -42,7 +50,7 @@ if sys.platform == "linux":
 else:  # pragma: no cover - the pipe keeps its default size
     fcntl = None
 
-__all__ = ["ffmpeg_exe", "probe_durations", "write_mp4"]
+__all__ = ["audio_format", "ffmpeg_exe", "probe_durations", "write_mp4"]
 
 _BITEXACT = ["-fflags", "+bitexact", "-map_metadata", "-1"]
 _AUDIO_BITRATE = "96k"
@@ -84,6 +92,7 @@ def write_mp4(
     n_frames: int | None = None,
     crf: int = 18,
     preset: str = "veryfast",
+    audio_file: str | os.PathLike[str] | None = None,
 ) -> None:
     """Write frames and mono audio to an H.264 (yuv420p) + AAC mp4, atomically and reproducibly.
 
@@ -111,6 +120,9 @@ def write_mp4(
         x264 constant rate factor, 0 (lossless) to 51; 18 is visually lossless.
     preset : str, keyword-only
         x264 preset (speed/size trade-off; does not affect determinism).
+    audio_file : path-like, keyword-only, optional
+        A recording whose first audio stream is the sound, at its own rate and channels
+        (see the module docstring), instead of ``audio``.
 
     Raises
     ------
@@ -142,7 +154,11 @@ def write_mp4(
     exe = ffmpeg_exe()
     with scratch_dir("mp4") as work:
         audio_args: tuple[list[str], list[str]] = ([], [])
-        if audio is not None and rate is not None:
+        if audio_file is not None:
+            if audio is not None:
+                raise MiketalkError("give the audio as samples or as a file, not both")
+            audio_args = _audio_file_input(exe, Path(audio_file), int(n_frames), fps_q)
+        elif audio is not None and rate is not None:
             audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q)
         with atomic_path(path, suffix=".mp4") as out:
             count = _encode_video(
@@ -167,6 +183,48 @@ def _audio_input(
     return ["-i", str(wav)], [
         "-map", "1:a:0", "-c:a", "aac", "-aac_coder", _AAC_CODER, "-b:a", _AUDIO_BITRATE,
         "-flags:a", "+bitexact",
+    ]  # fmt: skip
+
+
+#: Channels of each layout name ffmpeg prints ("N channels" otherwise).
+_LAYOUTS = {"mono": 1, "stereo": 2, "2.1": 3, "3.0": 3, "quad": 4, "4.0": 4, "5.0": 5, "5.1": 6,
+            "6.1": 7, "7.1": 8}  # fmt: skip
+_AUDIO_STREAM = re.compile(r"Stream #\S+.*?: Audio: [^,]+, (\d+) Hz, ([^,]+)")
+
+
+def audio_format(path: str | os.PathLike[str]) -> tuple[int, int]:
+    """The sample rate (Hz) and channels of a media file's first audio stream.
+
+    Raises
+    ------
+    MiketalkError
+        If the file has no audio stream ffmpeg can read.
+    """
+    proc = subprocess.run(
+        [ffmpeg_exe(), "-hide_banner", "-nostdin", "-i", str(path)],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    match = _AUDIO_STREAM.search(proc.stderr)
+    if match is None:
+        raise MiketalkError(f"{path} has no audio stream ffmpeg can read")
+    layout = match[2].split("(")[0].strip()
+    count = re.match(r"(\d+) channels", layout)
+    channels = int(count[1]) if count else _LAYOUTS.get(layout, 2)
+    return int(match[1]), channels
+
+
+def _audio_file_input(
+    exe: str, path: Path, n_frames: int, fps: Fraction
+) -> tuple[list[str], list[str]]:
+    """ffmpeg arguments adding the first audio stream of ``path`` at its own rate and channels,
+    fitted to ``n_frames / fps`` (from its first sample), as the second input."""
+    rate, channels = audio_format(path)
+    n_samples = round(Fraction(n_frames) * rate / fps)
+    bitrate = f"{max(96, 64 * channels)}k"
+    fit = f"asetpts=N/SR/TB,apad=whole_len={n_samples},atrim=end_sample={n_samples}"
+    return ["-i", str(path.resolve())], [
+        "-map", "1:a:0", "-af", fit, "-c:a", "aac", "-aac_coder", _AAC_CODER, "-b:a", bitrate,
+        "-ar", str(rate), "-flags:a", "+bitexact",
     ]  # fmt: skip
 
 

@@ -85,6 +85,7 @@ def write_utterance(
     background: Background | None = None,
     inputs: Sequence[str | os.PathLike[str] | None] = (),
     max_px_per_frame: float | None = None,
+    sound: str | os.PathLike[str] | None = None,
 ) -> Motion:
     """Render ``timeline`` into the mp4 ``output`` with its sound, and its JSON beside it.
 
@@ -114,6 +115,9 @@ def write_utterance(
     max_px_per_frame : float, optional
         The step limit the learned lip-sync keeps by blurring its path (the paper's is
         blurred in ``timeline`` already); None: no limit.
+    sound : path-like, optional
+        The recording whose sound the mp4 plays, at its own rate and channels
+        (:func:`~miketalk.media.video.write_mp4`'s ``audio_file``); None: ``samples``.
 
     Returns
     -------
@@ -148,8 +152,8 @@ def write_utterance(
         atomic_paths([output, json_path], guard=guard) as (video_tmp, json_tmp),
     ):
         write_mp4(
-            video_tmp, frames, fps=timeline.fps, audio=samples, rate=rate,
-            n_frames=len(timeline.frames),
+            video_tmp, frames, fps=timeline.fps, audio=None if sound else samples, rate=rate,
+            n_frames=len(timeline.frames), audio_file=sound,
         )  # fmt: skip
         motion = measure(
             timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,

@@ -95,6 +95,7 @@ class _Aligner:
         self.frate = int(self.decoder.config["frate"])
         self.window = float(self.decoder.config["wlen"])  # seconds
         self.added: dict[str, tuple[str, ...]] = {}
+        self.score_per_frame: float | None = None
 
     def in_dictionary(self, word: str) -> bool:
         return word not in self.added and self.decoder.lookup_word(word) is not None
@@ -131,6 +132,14 @@ class _Aligner:
         self.decoder.process_raw(pcm, full_utt=True)
         self.decoder.end_utt()
         alignment = self.decoder.get_alignment()
+        spoken = [
+            w
+            for w in alignment.words()
+            if not w.name.startswith(("<", "[", "+")) and w.name != "sil"
+        ]
+        frames = sum(w.duration for w in spoken)
+        #: the acoustic score per frame of the words (not the silences) of the last pass
+        self.score_per_frame = sum(w.score for w in spoken) / frames if frames else None
         # iterating one phone's states crashes pocketsphinx 5.1.1: walk the flat list
         first_state_end = {}
         for state in alignment.states():

@@ -1,0 +1,87 @@
+"""When a video's frames are shown: its frames' timestamps, and a refusal of a variable rate.
+
+A video is decoded as a list of frames and one frame rate (the rate its stream states). A
+variable-frame-rate video (a phone's recording, a screen capture) has frames whose
+timestamps are not ``i / fps``: played at the stated rate, its frames would come too early
+or too late, and the new speech would drift from the mouth. :func:`frame_times` reads the
+timestamps of the video's packets (no decoding: ffmpeg copies them), and
+:func:`check_constant_rate` refuses, in one line, a video whose frames do not play at its
+stated rate.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from fractions import Fraction
+from pathlib import Path
+
+from miketalk.errors import MiketalkError
+
+__all__ = ["check_constant_rate", "frame_times"]
+
+#: How far (seconds, and as a share of the video's length) the frames' timestamps may
+#: end from where the stated rate puts them.
+TOLERANCE_SECONDS, TOLERANCE_SHARE = 1.5, 0.02
+
+
+def frame_times(path: str | os.PathLike[str]) -> tuple[list[float], float]:
+    """The presentation times (seconds, sorted, from 0) of a video's frames, and the last
+    frame's duration.
+
+    Raises
+    ------
+    MiketalkError
+        If ffmpeg cannot read the video stream.
+    """
+    from miketalk.media.video import ffmpeg_exe
+
+    proc = subprocess.run(
+        [
+            ffmpeg_exe(), "-hide_banner", "-nostdin", "-loglevel", "error", "-i", str(path),
+            "-map", "0:v:0", "-c", "copy", "-f", "framemd5", "-",
+        ],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if proc.returncode != 0:
+        raise MiketalkError(f"ffmpeg could not read the frames of {path}")
+    base, rows = Fraction(1), []
+    for line in proc.stdout.splitlines():
+        if line.startswith("#tb 0:"):
+            base = Fraction(line.split(":", 1)[1].strip())
+        elif line and not line.startswith("#"):
+            fields = [f.strip() for f in line.split(",")]
+            if fields[0] == "0":
+                rows.append((int(fields[2]), int(fields[3])))
+    if not rows:
+        raise MiketalkError(f"{path} has no video frames")
+    rows.sort()
+    first = rows[0][0]
+    return [float((pts - first) * base) for pts, _ in rows], float(rows[-1][1] * base)
+
+
+def check_constant_rate(path: str | os.PathLike[str], fps: float, n_frames: int) -> None:
+    """Refuse a video whose frames' timestamps do not follow its stated rate ``fps``.
+
+    The ``n_frames`` frames, shown at ``fps``, last ``n_frames / fps`` seconds; by their
+    timestamps they last from the first to the end of the last. When the two differ by more
+    than a frame and :data:`TOLERANCE_SHARE` of the length (or :data:`TOLERANCE_SECONDS`
+    frames' worth), the video has a variable frame rate.
+
+    Raises
+    ------
+    MiketalkError
+        In one line, saying how long the video is by its timestamps and at its rate, and how
+        to convert it.
+    """
+    times, last = frame_times(path)
+    stated = n_frames / fps
+    span = times[-1] + (last if last > 0 else 1.0 / fps)
+    allowed = max(TOLERANCE_SECONDS / fps, TOLERANCE_SHARE * stated)
+    if abs(span - stated) > allowed:
+        raise MiketalkError(
+            f"{Path(path).name} has a variable frame rate: its {n_frames} frames span "
+            f"{span:.2f} s by their timestamps, but would play as {stated:.2f} s at its "
+            f"{fps:g} fps; convert it to a constant rate first "
+            f"(ffmpeg -i {Path(path).name} -vf fps={fps:g} constant.mp4)"
+        )
