@@ -657,3 +657,120 @@ def test_the_summary_says_what_a_low_frame_rate_cuts() -> None:
     assert recorded_words(3.2, 6, 2.0).startswith("3.00 s of the recording's 3.20 s (its last 0.20")
     assert recorded_words(2.98, 75, 25.0) == "2.98 s of recorded audio"
     assert recorded_words(2.98, 74, 25.0) == "2.96 s of recorded audio"
+
+
+# ---------------------------------------------------------------------------
+# long input
+# ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("source", ["/dev/zero", "/dev/urandom"])
+def test_an_endless_text_file_is_refused_unread(source: str) -> None:
+    import time
+
+    from miketalk.speech.text import read_text_file
+
+    started = time.monotonic()
+    with pytest.raises(MiketalkError, match=r"more than 1048576 bytes"):
+        read_text_file(source)
+    assert time.monotonic() - started < 1.0
+
+
+def test_a_text_file_is_read_in_bounded_size_and_as_text(tmp_path: Path) -> None:
+    from miketalk.speech.text import MAX_TEXT_BYTES, read_text_file
+
+    big = tmp_path / "big.txt"
+    big.write_bytes(b"word " * (MAX_TEXT_BYTES // 5 + 1))
+    with pytest.raises(MiketalkError, match=rf"{big.stat().st_size} bytes.*split it"):
+        read_text_file(big)
+    binary = tmp_path / "b.txt"
+    binary.write_bytes(b"hello\0world")
+    with pytest.raises(MiketalkError, match="not a text file"):
+        read_text_file(binary)
+    latin = tmp_path / "l.txt"
+    latin.write_bytes("café".encode("latin-1"))
+    with pytest.raises(MiketalkError, match="not UTF-8"):
+        read_text_file(latin)
+    fine = tmp_path / "f.txt"
+    fine.write_text("Bin blue at F two now.", encoding="utf-8")
+    assert read_text_file(fine) == "Bin blue at F two now."
+
+
+def test_the_text_reaches_festival_in_files_not_the_environment() -> None:
+    from miketalk.speech.festival import FestivalBackend
+
+    texts = ['a "quoted" back\\slash', "second chunk"]
+    with FestivalBackend()._workspace(texts) as (tmp, env, command):
+        assert not any(k.startswith("MIKETALK_TEXT") for k in env)
+        assert all(t not in " ".join(command) for t in texts)
+        assert (tmp / "0.txt").read_text() == '"a \\"quoted\\" back\\\\slash"'
+        assert (tmp / "1.txt").read_text() == '"second chunk"'
+
+
+def test_a_text_larger_than_the_environment_is_spoken(tmp_path: Path) -> None:
+    """2.2 MB of text in chunks: more than Linux lets the environment hold (ARG_MAX, 2 MB),
+    which the text once travelled in. Planned only (no wave): the run stops at the plan."""
+    from miketalk.speech.festival import FestivalBackend
+
+    sentence = "Bin blue at F two now. "
+    run = FestivalBackend().start(sentence * (2_200_000 // len(sentence)))
+    try:
+        assert len(run._texts) > 10_000
+    finally:
+        run.close()
+
+
+def test_long_phones_are_stitched_with_silence_between_chunks() -> None:
+    from miketalk.speech.long_align import stitch_phones
+    from miketalk.speech.types import Phone
+
+    chunks = [
+        [Phone("pau", 1.0, 1.2), Phone("b", 1.2, 1.3), Phone("pau", 1.3, 2.0)],
+        [Phone("pau", 3.0, 3.1), Phone("iy", 3.1, 3.4), Phone("pau", 3.4, 4.0)],
+    ]
+    phones = stitch_phones(chunks, 5.0)
+    assert [(p.name, p.start, p.end) for p in phones] == [
+        ("pau", 0.0, 1.2), ("b", 1.2, 1.3), ("pau", 1.3, 3.1), ("iy", 3.1, 3.4),
+        ("pau", 3.4, 5.0),
+    ]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def joined_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The 48 GRID clips' sound joined (2.4 minutes, 44.1 kHz stereo) and its transcript."""
+    where = tmp_path_factory.mktemp("joined")
+    lines = (ROOT / "data" / "grid_s1" / "transcripts.txt").read_text().split("\n")
+    names = [line.split(None, 1) for line in lines if line.strip()]
+    (where / "list.txt").write_text("".join(f"file '{GRID / n}.mpg'\n" for n, _ in names))
+    _ffmpeg("-f", "concat", "-safe", "0", "-i", str(where / "list.txt"), "-vn",
+            str(where / "joined.wav"))  # fmt: skip
+    return where / "joined.wav", " ".join(text for _, text in names)
+
+
+@pytest.mark.parametrize("signum", [2, 15])
+def test_a_signal_during_a_long_alignment_stops_within_two_seconds(
+    joined_recording: tuple[Path, str], small_model: Path, tmp_path: Path, signum: int
+) -> None:
+    import time
+
+    audio, text = joined_recording
+    (tmp_path / "text.txt").write_text(text)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "miketalk.cli", "-v", "say", "--audio", str(audio), "-f",
+         str(tmp_path / "text.txt"), "-o", str(tmp_path / "out.mp4"), "--model", str(small_model)],
+        stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    try:
+        for line in proc.stderr:
+            if "aligning" in line:
+                break
+        time.sleep(1.0)  # inside the aligner
+        started = time.monotonic()
+        proc.send_signal(signum)
+        proc.wait(10)
+        assert time.monotonic() - started < 2.0
+        assert proc.returncode == 128 + signum
+        assert "Traceback" not in proc.stderr.read()
+    finally:
+        proc.kill()
+        proc.wait()

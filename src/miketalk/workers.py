@@ -20,7 +20,14 @@ from concurrent.futures import ProcessPoolExecutor
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["available_cores", "check_workers", "default_workers", "process_pool", "stop_pool"]
+__all__ = [
+    "available_cores",
+    "check_workers",
+    "default_workers",
+    "process_pool",
+    "run_in_child",
+    "stop_pool",
+]
 
 
 def available_cores() -> int:
@@ -117,3 +124,76 @@ def process_pool(
         stop_pool(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def run_in_child(function: Callable[..., object], *args: object) -> object:
+    """``function(*args)`` in a forked child process; its result (or its exception) here.
+
+    For work in native code that holds the interpreter (the forced aligner: minutes of
+    audio in one call), during which a signal's handler cannot run: the parent waits on a
+    pipe, so Ctrl-C or SIGTERM stops the wait at once, and the child is killed with it. The
+    child dies with its parent, also when the parent is killed outright. Where ``fork`` is
+    missing, or outside the main thread (where signals are not handled), the function runs
+    here.
+
+    Raises
+    ------
+    BaseException
+        What ``function`` raised (it must pickle: :class:`~miketalk.errors.MiketalkError`
+        does), or the parent's :class:`KeyboardInterrupt`.
+    """
+    import pickle
+    import threading
+
+    if not hasattr(os, "fork") or threading.current_thread() is not threading.main_thread():
+        return function(*args)
+    read_end, write_end = os.pipe()
+    parent = os.getpid()
+    pid = os.fork()
+    if pid == 0:  # the child: no Python handler for the signals, no way back
+        code = 0
+        try:
+            os.close(read_end)
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(signum, signal.SIG_DFL)
+            _die_with_parent()
+            if os.getppid() != parent:
+                os._exit(1)
+            try:
+                outcome = (True, function(*args))
+            except BaseException as err:  # handed to the parent, which raises it
+                outcome = (False, err)
+            try:
+                data = pickle.dumps(outcome)
+            except Exception as err:  # an exception that does not pickle: its text
+                data = pickle.dumps((False, MiketalkError(f"{type(err).__name__}: {err}")))
+            with os.fdopen(write_end, "wb") as pipe:
+                pipe.write(data)
+        except BaseException:
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(write_end)
+    chunks = []
+    try:
+        with os.fdopen(read_end, "rb") as pipe:
+            while True:  # a signal's handler runs during the wait, and may raise
+                block = os.read(pipe.fileno(), 1 << 20)
+                if not block:
+                    break
+                chunks.append(block)
+    except BaseException:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        raise
+    _, status = os.waitpid(pid, 0)
+    if not chunks:
+        raise MiketalkError(
+            "the worker process ended without a result (status "
+            f"{os.waitstatus_to_exitcode(status)}): killed when memory ran out?"
+        )
+    ok, value = pickle.loads(b"".join(chunks))
+    if not ok:
+        raise value
+    return value

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import logging
 import time
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
@@ -26,10 +25,9 @@ def read_text(args: argparse.Namespace) -> str:
     if args.file is not None and args.text is not None:
         raise MiketalkError("give the text or --file, not both")
     if args.file is not None:
-        try:
-            return Path(args.file).read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as err:
-            raise MiketalkError(f"cannot read {args.file}: {err}") from err
+        from miketalk.speech.text import read_text_file
+
+        return read_text_file(args.file)
     if args.text is None:
         raise MiketalkError("no text: give it as an argument or with --file")
     return args.text

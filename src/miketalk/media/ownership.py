@@ -283,8 +283,7 @@ def check_replaceable(
         else:
             why = f"is not {what.words}"
         raise MiketalkError(
-            f"{target} exists and {why}: move it, give another {option}, or replace it "
-            "with --force"
+            f"{target} exists and {why}: move it, give another {option}, or replace it with --force"
         )
     return path
 

@@ -35,10 +35,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.speech.align.phones import SILENCE
+from miketalk.speech.types import Phone
 from miketalk.speech.word_timings import WordTiming
 
 log = logging.getLogger(__name__)
 
+#: The longest audio the first pass aligns whole (s): longer audio is halved at a pause
+#: first (the coarse aligner holds some 19 MB a minute: 15 minutes, 290 MB).
+COARSE_SECONDS = 900.0
 #: A gap between two aligned words at least this long (s) may end a chunk.
 CHUNK_PAUSE = 0.25
 #: The longest chunk of the second pass (s).
@@ -79,11 +84,16 @@ class LongAlignment:
     chunks : tuple of (float, float, int)
         The audio span of each chunk of the second pass and how many of
         ``words`` (the next ones) it holds.
+    phones : tuple of Phone
+        The phones of the second pass, in recording time, contiguous from 0 to the end
+        of the audio (silence as ``pau``, also between the chunks and over what was left
+        out): :func:`stitch_phones` of the chunks' own.
     """
 
     words: tuple[tuple[int, WordTiming], ...]
     unaligned: tuple[Unaligned, ...]
     chunks: tuple[tuple[float, float, int], ...]
+    phones: tuple[Phone, ...] = ()
 
 
 def align_long(
@@ -130,24 +140,52 @@ def align_long(
             unaligned += [Unaligned(i, words[i], "its cue lies outside the audio") for i in indices]
             continue
         first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned)
-    placed, chunks = [], []
+    placed, chunks, phones = [], [], []
     missing = {u.index for u in unaligned}
     at = 0  # the chunks are consecutive runs of the first pass: where this one begins
     for group in _chunks(first_pass, missing):
         lo, hi = _chunk_span(first_pass, at, len(group), duration, missing)
         at += len(group)
         try:
-            group, spans = _second_pass(samples, rate, lo, hi, group, words, unaligned)
+            group, spans, own = _second_pass(samples, rate, lo, hi, group, words, unaligned)
         except MiketalkError as err:
             why = f"the second pass failed in {lo:.2f}..{hi:.2f} s ({err})"
             unaligned += [Unaligned(i, words[i], why) for i, _ in group]
             continue
         placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
         chunks.append((lo, hi, len(group)))
+        phones.append(own)
     unaligned.sort(key=lambda u: u.index)
     for u in unaligned:
         log.info("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
-    return LongAlignment(tuple(placed), tuple(unaligned), tuple(chunks))
+    stitched = stitch_phones(phones, duration)
+    return LongAlignment(tuple(placed), tuple(unaligned), tuple(chunks), tuple(stitched))
+
+
+def stitch_phones(chunks: Sequence[Sequence[Phone]], duration: float) -> list[Phone]:
+    """The phones of consecutive chunks (each in recording time, not overlapping) as one
+    contiguous list from 0 to ``duration``: silence (``pau``) between them, never two in a
+    row."""
+    out: list[Phone] = []
+
+    def put(name: str, start: float, end: float) -> None:
+        if end <= start + 1e-9:
+            return
+        if out and out[-1].name == SILENCE and name == SILENCE:
+            out[-1] = Phone(SILENCE, out[-1].start, end)
+        else:
+            out.append(Phone(name, start, end))
+
+    at = 0.0
+    for phones in chunks:
+        for p in phones:
+            start, end = max(p.start, at), min(p.end, duration)
+            if start > at:
+                put(SILENCE, at, start)
+            put(p.name, start, end)
+            at = max(at, end)
+    put(SILENCE, at, duration)
+    return out
 
 
 class _SilentWords(MiketalkError):
@@ -166,18 +204,19 @@ def _second_pass(
     group: list[tuple[int, WordTiming]],
     words: list[str],
     unaligned: list[Unaligned],
-) -> tuple[list[tuple[int, WordTiming]], list[WordTiming]]:
+) -> tuple[list[tuple[int, WordTiming]], list[WordTiming], list[Phone]]:
     """A chunk aligned again in its own audio; a word placed over silence (a word of the
-    script that is not said) is dropped, reported, and the rest aligned once more."""
+    script that is not said) is dropped, reported, and the rest aligned once more. Its
+    words' spans and its phones (recording time, inside ``[lo, hi]``)."""
     try:
-        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group])
+        return (group, *_align_span(samples, rate, lo, hi, [words[i] for i, _ in group]))
     except _SilentWords as err:
         if len(err.positions) == len(group):
             raise
         why = f"it is not said in {lo:.2f}..{hi:.2f} s (the aligner put it over silence)"
         unaligned += [Unaligned(group[k][0], words[group[k][0]], why) for k in err.positions]
         group = [g for k, g in enumerate(group) if k not in err.positions]
-        return group, _align_span(samples, rate, lo, hi, [words[i] for i, _ in group])
+        return (group, *_align_span(samples, rate, lo, hi, [words[i] for i, _ in group]))
 
 
 def _align_span(
@@ -186,8 +225,8 @@ def _align_span(
     lo: float,
     hi: float,
     words: Sequence[str],
-) -> list[WordTiming]:
-    """``words`` aligned in ``[lo, hi)`` of the audio, in recording time.
+) -> tuple[list[WordTiming], list[Phone]]:
+    """``words`` aligned in ``[lo, hi)`` of the audio, and their phones, in recording time.
 
     Raises
     ------
@@ -221,7 +260,8 @@ def _align_span(
     if silent:
         names = ", ".join(repr(words[k]) for k in silent)
         raise _SilentWords(f"{names} would lie over silence", silent)
-    return [WordTiming(w.word, w.start + lo, w.end + lo) for w in result.words]
+    spans = [WordTiming(w.word, w.start + lo, w.end + lo) for w in result.words]
+    return spans, [Phone(p.name, p.start + lo, p.end + lo) for p in result.phones]
 
 
 def _first_pass(
@@ -236,11 +276,14 @@ def _first_pass(
     """The words ``indices`` placed in ``[lo, hi)``: whole, else halves (see the module)."""
     if not indices:
         return []
-    try:
-        spans = _coarse_span(samples, rate, lo, hi, [words[i] for i in indices])
-        return list(zip(indices, spans, strict=True))
-    except MiketalkError as err:
-        failure = str(err)
+    if hi - lo <= COARSE_SECONDS:
+        try:
+            spans = _coarse_span(samples, rate, lo, hi, [words[i] for i in indices])
+            return list(zip(indices, spans, strict=True))
+        except MiketalkError as err:
+            failure = str(err)
+    else:  # the coarse aligner's memory grows with the audio: halves first
+        failure = f"longer than {COARSE_SECONDS:.0f} s"
     from miketalk.speech.coverage import voiced_frames
 
     voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)

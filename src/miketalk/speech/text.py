@@ -9,7 +9,9 @@ ones. Everything that reaches it passes through here first.
 from __future__ import annotations
 
 import logging
+import os
 import re
+import stat
 import unicodedata
 
 from miketalk.errors import MiketalkError
@@ -39,6 +41,48 @@ MAX_WORD = 100
 _WORD = re.compile(r"[A-Za-z0-9']+")
 
 
+#: The largest text file read (bytes): 1 MiB, some 170,000 words, more than 15 hours of
+#: speech. A larger file, or one that never ends (``/dev/zero``), is refused unread.
+MAX_TEXT_BYTES = 1 << 20
+
+
+def read_text_file(path: str | os.PathLike[str], *, limit: int = MAX_TEXT_BYTES) -> str:
+    """The UTF-8 text of ``path``, read in bounded size.
+
+    At most ``limit + 1`` bytes are ever read, so a device or a pipe that never ends
+    (``/dev/zero``, ``/dev/urandom``) costs no memory or time.
+
+    Raises
+    ------
+    MiketalkError
+        In one line: a file that cannot be read, larger than ``limit``, holding NUL bytes
+        (not text) or not UTF-8.
+    """
+    try:
+        with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if stat.S_ISREG(os.fstat(f.fileno()).st_mode) and size > limit:
+                data = None
+            else:
+                data = f.read(limit + 1)
+    except OSError as err:
+        raise MiketalkError(f"cannot read {path}: {err.strerror or err}") from None
+    if data is None or len(data) > limit:
+        what = f"{size} bytes" if data is None else f"more than {limit} bytes"
+        raise MiketalkError(
+            f"{path} holds {what}: miketalk reads texts of up to {limit} bytes (some "
+            f"{limit // 6:,} words); split it"
+        )
+    if b"\0" in data:
+        raise MiketalkError(f"{path} is not a text file (it holds NUL bytes)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise MiketalkError(
+            f"{path} is not UTF-8 text (byte {err.start} is not UTF-8): save it as UTF-8"
+        ) from None
+
+
 def normalize_text(text: str) -> str:
     """Return ``text`` as plain ASCII that Festival reads as words.
 
@@ -59,17 +103,35 @@ def normalize_text(text: str) -> str:
     out = unicodedata.normalize("NFKD", text.translate(_TRANSLITERATE))
     out = "".join(ch for ch in out if not unicodedata.combining(ch))
     dropped = sorted({ch for ch in out if ord(ch) > 127})
-    if dropped:
-        log.warning("no transliteration for %s: read as spaces", " ".join(dropped))
-        out = "".join(" " if ord(ch) > 127 else ch for ch in out)
+    out = "".join(" " if ord(ch) > 127 else ch for ch in out)
     out = "".join(" " if unicodedata.category(ch) == "Cc" and ch != "\n" else ch for ch in out)
     out = _NOT_SPOKEN.sub(" ", out)
     out = re.sub(r"[ \t]+", " ", out).strip()
     if not _SPEAKABLE.search(out):
         shown = text if len(text) <= 40 else text[:37] + "..."
+        scripts = _scripts(dropped)
+        if scripts:
+            raise MiketalkError(
+                f"nothing to speak in {shown!r}: Festival's voices speak English, and the text "
+                f"has no English word (its letters are {', '.join(scripts)})"
+            )
         raise MiketalkError(f"nothing to speak in {shown!r}: the text has no letters or digits")
+    if dropped:
+        log.warning("no transliteration for %s: read as spaces", " ".join(dropped))
     check_word_lengths(out)
     return out
+
+
+def _scripts(characters: list[str]) -> list[str]:
+    """The writing systems of the letters among ``characters`` (Greek, CJK, Cyrillic...)."""
+    names = []
+    for ch in characters:
+        if ch.isalpha():
+            name = unicodedata.name(ch, "").split(" ")[0]
+            script = {"CJK": "Chinese (CJK)"}.get(name, name.capitalize())
+            if script and script not in names:
+                names.append(script)
+    return names
 
 
 def check_word_lengths(text: str) -> None:

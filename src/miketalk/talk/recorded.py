@@ -45,6 +45,11 @@ log = logging.getLogger(__name__)
 #: Rate the recording is decoded at (the aligner's).
 RATE = 16000
 
+#: A recording longer than this (seconds), given as text, is aligned in pieces
+#: (:func:`miketalk.speech.long_align.align_long`): the fine aligner's memory grows with
+#: the audio it is given (some 10 MB a second), a piece's stays that of 12 s.
+LONG_SECONDS = 30.0
+
 _TOKEN = re.compile(r"[a-z0-9']+(?:[.\-][a-z0-9']+)*")
 
 
@@ -135,12 +140,13 @@ def align_recording(
         recording without sound, a word the aligner cannot place.
 
     Warns (:func:`warn_unexplained`) when the words leave more than a quarter
-    of the recording's voiced audio outside their phones.
+    of the recording's voiced audio outside their phones, and (:func:`warn_misfit`) when
+    they fit its sound badly (likely another recording's transcript).
     """
     from miketalk.media.decode import read_media_audio
-    from miketalk.speech.align import align_phones
     from miketalk.speech.coverage import speech_coverage
     from miketalk.speech.word_timings import read_word_timings
+    from miketalk.workers import run_in_child
 
     if text is None and timings is None:
         raise MiketalkError("say what the recording says: give its text or its word timings")
@@ -152,11 +158,69 @@ def align_recording(
             f"({' '.join(words)})"
         )
     samples = read_media_audio(audio, rate=RATE)
-    if len(samples) == 0 or not abs(samples.astype(int)).max() > 0:
+    if len(samples) == 0 or not samples.any():
         raise MiketalkError(f"{audio} has no sound")
-    phones = align_phones(samples, RATE, words, word_timings=given)
+    log.info("aligning %d words to %.1f s of %s", len(words), len(samples) / RATE, audio)
+    # in a child process: the aligner holds the interpreter for as long as its audio, and
+    # Ctrl-C or SIGTERM must stop it at once (miketalk.workers.run_in_child)
+    phones, score = run_in_child(_phones_of, audio, samples, words, given)
+    warn_misfit(audio, score, words)
     warn_unexplained(audio, speech_coverage(samples, RATE, phones), words)
     return Aligned(tuple(words), tuple(phones), samples, RATE)
+
+
+def _phones_of(
+    audio: object, samples: np.ndarray, words: list[str], given: Sequence | None
+) -> tuple[tuple[Phone, ...], float | None]:
+    """The phones of ``words`` in the recording and the words' fit (None: not measured)."""
+    from miketalk.speech.align.phones import align
+
+    if given is None and len(samples) > LONG_SECONDS * RATE:
+        return _align_long(audio, samples, words), None
+    alignment = align(samples, RATE, words, word_timings=given)
+    return alignment.phones, alignment.score_per_frame
+
+
+def _align_long(audio: object, samples: np.ndarray, words: list[str]) -> tuple[Phone, ...]:
+    """The phones of a recording longer than :data:`LONG_SECONDS`, aligned in pieces
+    (:func:`miketalk.speech.long_align.align_long`: memory by the piece, not the recording);
+    the words it cannot place are warned about, and the mouth rests over them.
+
+    Raises
+    ------
+    MiketalkError
+        When no word can be placed.
+    """
+    from miketalk.corpus.script import Cue
+    from miketalk.speech.long_align import align_long
+
+    found = align_long(samples, RATE, [Cue(tuple(words), start=None, end=None)])
+    if not found.words:
+        raise MiketalkError(f"none of the {len(words)} words could be placed in {audio}")
+    if found.unaligned:
+        first = found.unaligned[0]
+        log.warning(
+            "%s: %d of its %d words could not be placed (the first, word %d %r: %s); the "
+            "mouth rests there: does the text say what the recording says?",
+            audio, len(found.unaligned), len(words), first.index + 1, first.word, first.why,
+        )  # fmt: skip
+    return found.phones
+
+
+def warn_misfit(audio: object, score: float | None, words: Sequence[str]) -> None:
+    """Warn when the aligned words fit the recording's sound badly (their acoustic score per
+    frame under :data:`~miketalk.speech.align.phones.FIT_LIMIT`): likely another recording's
+    transcript. A warning, not a refusal: the margin measured on GRID is narrow."""
+    from miketalk.speech.align.phones import FIT_LIMIT
+
+    if score is None or score >= FIT_LIMIT:
+        return
+    said = " ".join(words)
+    log.warning(
+        "%s: the words fit its sound badly (%.1f per frame, under %.0f): is the text "
+        "(%s) what this recording says?",
+        audio, score, FIT_LIMIT, said if len(said) <= 60 else said[:57] + "...",
+    )  # fmt: skip
 
 
 def warn_unexplained(audio: object, coverage: SpeechCoverage, words: Sequence[str]) -> None:
@@ -240,6 +304,7 @@ def say_recording(
         background=background,
         inputs=inputs,
         max_px_per_frame=max_px_per_frame,
+        sound=recorded.audio,
     )
     return Spoken(
         timeline, motion, output, output.with_suffix(".json"), words=aligned.words,

@@ -1,9 +1,11 @@
 """Festival as a subprocess: text -> wav + timed radio phones, in one of the voices of
 :mod:`miketalk.speech.festival.voices`.
 
-The Scheme program is package data (``scheme/synthesize.scm``); text and
-settings reach it through environment variables only, so user text is never
-parsed as Scheme (Festival's Scheme can run shell commands).
+The Scheme program is package data (``scheme/synthesize.scm``); settings reach it
+through environment variables, the text through files in its scratch directory (each
+chunk one Scheme string datum, read and never evaluated), so user text is never parsed
+as Scheme code (Festival's Scheme can run shell commands) and a long text never meets the
+environment's or the command line's size limit.
 
 numpy is imported inside the functions that build arrays, not at the top: so
 ``miketalk say`` can start Festival (:meth:`FestivalBackend.start`) before
@@ -204,7 +206,7 @@ class FestivalBackend(SpeechBackend):
 
     @contextmanager
     def _workspace(self, texts: list[str]) -> Iterator[tuple[Path, dict[str, str], list[str]]]:
-        """A scratch directory, the environment carrying ``texts``, and the command line."""
+        """A scratch directory holding ``texts``, the environment, and the command line."""
         festival = self._path()
         scheme = resources.files("miketalk.speech").joinpath("scheme/synthesize.scm")
         with scratch_dir("festival") as tmp, resources.as_file(scheme) as scheme_path:
@@ -215,8 +217,9 @@ class FestivalBackend(SpeechBackend):
                 "MIKETALK_OUT": str(tmp),
                 "MIKETALK_CHUNKS": str(len(texts)),
             }
-            for i, chunk_text in enumerate(texts):
-                env[f"MIKETALK_TEXT_{i}"] = chunk_text
+            for i, chunk_text in enumerate(texts):  # files: never the environment
+                quoted = chunk_text.replace("\\", "\\\\").replace('"', '\\"')
+                (tmp / f"{i}.txt").write_text(f'"{quoted}"', encoding="ascii")
             yield tmp, env, [festival, "--heap", str(self.heap), "-b", str(scheme_path)]
 
     def _run(self, texts: list[str], ends: list[tuple[float, ...]] | None) -> list[Chunk]:

@@ -39,7 +39,7 @@ class FestivalSession(Protocol):
     def _workspace(
         self, texts: list[str]
     ) -> AbstractContextManager[tuple[Path, dict[str, str], list[str]]]:
-        """A scratch directory, the environment carrying ``texts``, and the command line."""
+        """A scratch directory holding ``texts``, the environment, and the command line."""
         ...
 
 
@@ -56,7 +56,7 @@ class FestivalRun(PendingSpeech):
     Festival analyses the text, writes each chunk's predicted phones and ends,
     prints :data:`PLANNED` on stderr and waits for one datum on stdin; ``finish``
     writes the dictated ends (if any) before sending it, then Festival makes
-    the waves. The text reaches Festival only through the environment.
+    the waves. The text reaches Festival only through files in its scratch directory.
     """
 
     def __init__(self, backend: FestivalSession, text: str) -> None:

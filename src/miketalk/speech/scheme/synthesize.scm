@@ -1,13 +1,15 @@
 ;;; miketalk: text -> wav + timed phones with Festival (a radio-phoneset voice).
 ;;;
-;;; Run as `festival -b synthesize.scm`. Everything comes in through environment
-;;; variables; the user's text is read with getenv and only ever used as a string
-;;; datum, never spliced into a Scheme expression.
+;;; Run as `festival -b synthesize.scm`. Settings come in through environment
+;;; variables; the user's text through files (one string datum each, read with readfp,
+;;; never evaluated): it is only ever used as a string datum, never spliced into a
+;;; Scheme expression, and a long text does not meet the environment's size limit.
 ;;;   MIKETALK_VOICE     the voice, one of the names allowed below
 ;;;   MIKETALK_OUT       a directory; chunk I is written as I.wav (RIFF) and
 ;;;                      I.phones (one "name end-seconds" line per Segment)
 ;;;   MIKETALK_CHUNKS    how many chunks of text there are
-;;;   MIKETALK_TEXT_I    chunk I's text (I = 0 .. MIKETALK_CHUNKS - 1)
+;;;   MIKETALK_OUT/I.txt chunk I's text as one Scheme string datum ("..." with \ and "
+;;;                      escaped), I = 0 .. MIKETALK_CHUNKS - 1
 ;;;   MIKETALK_ENDS_I    optional: a file holding one list of numbers, chunk I's
 ;;;                      dictated Segment end times in seconds. When given, the
 ;;;                      text modules run up to Duration, the ends are set, and
@@ -70,7 +72,10 @@
 
 (define (miketalk-text-utt i)
   "Chunk I's text as a Text utterance (the text is a string datum, never code)."
-  (eval (list 'Utterance 'Text (miketalk-env (format nil "MIKETALK_TEXT_%d" i)))))
+  (let ((text (miketalk-read-ends (miketalk-out-path i "txt"))))
+    (if (not (equal? (typeof text) 'string))
+        (begin (format stderr "miketalk: chunk %d's text is not a string\n" i) (exit 5)))
+    (eval (list 'Utterance 'Text text))))
 
 (define (miketalk-out-path i suffix)
   (format nil "%s/%d.%s" (miketalk-env "MIKETALK_OUT") i suffix))
