@@ -774,3 +774,120 @@ def test_a_signal_during_a_long_alignment_stops_within_two_seconds(
     finally:
         proc.kill()
         proc.wait()
+
+
+# ---------------------------------------------------------------------------
+# the probes of issue 40 through the command line: one line, exit 2 (1 for the machine)
+# ---------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def face(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from test_cli import shifted_model
+
+    return shifted_model(tmp_path_factory.mktemp("face"), 64)
+
+
+def cli(*args: object, cwd: Path, timeout: float = 180) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "miketalk.cli", *map(str, args)], cwd=cwd, capture_output=True,
+        text=True, timeout=timeout, check=False,
+    )  # fmt: skip
+
+
+def one_line(proc: subprocess.CompletedProcess, status: int, *fragments: str) -> str:
+    assert proc.returncode == status, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+def test_say_never_replaces_a_users_video(face: Path, tmp_path: Path) -> None:
+    (tmp_path / "mine.mp4").write_bytes(b"my holiday")
+    proc = cli("say", "hello there", "-o", "mine.mp4", "--model", face, cwd=tmp_path)
+    one_line(proc, 2, "mine.mp4 exists and miketalk did not write it", "--force")
+    assert (tmp_path / "mine.mp4").read_bytes() == b"my holiday"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.mp4"]
+    # its own pair is replaced; with --force the user's file too
+    assert cli("say", "Hi.", "-o", "ours.mp4", "--model", face, cwd=tmp_path).returncode == 0
+    again = cli("say", "Hello.", "-o", "ours.mp4", "--model", face, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    doc = json.loads((tmp_path / "ours.json").read_text())
+    assert doc["mp4"] == file_record(tmp_path / "ours.mp4") | {"name": "ours.mp4"}
+    forced = cli("say", "Hi.", "-o", "mine.mp4", "--model", face, "--force", cwd=tmp_path)
+    assert forced.returncode == 0, forced.stderr
+
+
+def test_say_audio_never_writes_over_its_recording(face: Path, tmp_path: Path) -> None:
+    _ffmpeg("-i", str(GRID / "bbaf2n.mpg"), "-c:v", "libx264", "-c:a", "aac",
+            str(tmp_path / "talk.mp4"))  # fmt: skip
+    (tmp_path / "link.mp4").symlink_to(tmp_path / "talk.mp4")
+    kept = (tmp_path / "talk.mp4").read_bytes()
+    for output in ("talk.mp4", "link.mp4"):
+        proc = cli("say", "--audio", "talk.mp4", "--text", "bin blue at f two now", "-o",
+                   output, "--model", face, "--force", cwd=tmp_path)  # fmt: skip
+        one_line(proc, 2, "is also an input", "never writes over what it reads")
+    assert (tmp_path / "talk.mp4").read_bytes() == kept
+
+
+def test_cues_never_replace_a_json_written_by_hand(tmp_path: Path) -> None:
+    (tmp_path / "notes.json").write_text('{"my": "notes"}')
+    proc = cli("cues", "hello there", "-o", "notes.json", cwd=tmp_path)
+    one_line(proc, 2, "notes.json exists and is not mouth cues miketalk wrote")
+    assert (tmp_path / "notes.json").read_text() == '{"my": "notes"}'
+    assert (
+        cli("cues", "hello there", "-o", "c.json", "--wav", "c.wav", cwd=tmp_path).returncode == 0
+    )
+    again = cli("cues", "hello again", "-o", "c.json", "--wav", "c.wav", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr  # its own cues and wav
+    (tmp_path / "mine.wav").write_bytes((tmp_path / "c.wav").read_bytes()[:44] + b"\0" * 64)
+    theirs = cli("cues", "hi", "-o", "d.json", "--wav", "mine.wav", cwd=tmp_path)
+    one_line(theirs, 2, "mine.wav exists and is not a wav miketalk wrote")
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["say", "-f", "/dev/zero", "-o", "v.mp4"], "more than 1048576 bytes"),
+        (["say", "-f", "/dev/urandom", "-o", "v.mp4"], "more than 1048576 bytes"),
+        (["say", "Καλημέρα", "-o", "v.mp4"], "no English word"),
+        (["build", "x.mp4", "--transcript", "t.txt", "-o", "m", "--workers", "0"], "from 1 to"),
+        (["build", "x.mp4", "--transcript", "t.txt", "-o", "m", "--workers", "1000"], "from 1 to"),
+        (["build", "x.mp4", "--transcript", "t.txt", "-o", "/sys/m"], "cannot write /sys/m"),
+    ],
+)
+def test_bad_input_is_one_line_at_once(
+    face: Path, tmp_path: Path, args: list[str], fragment: str
+) -> None:
+    import time
+
+    started = time.monotonic()
+    proc = (
+        cli(*args, "--model", face, cwd=tmp_path) if args[0] == "say" else cli(*args, cwd=tmp_path)
+    )
+    one_line(proc, 2, fragment)
+    assert time.monotonic() - started < 20  # before any work
+
+
+def test_a_full_disk_at_publication_is_exit_one_and_leaves_the_old_pair(
+    face: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    from miketalk import cli as command
+
+    assert command.main(["say", "Hi.", "-o", str(tmp_path / "v.mp4"), "--model", str(face)]) == 0
+    old = files(tmp_path)
+    capsys.readouterr()
+    real = os.replace
+
+    def replace(src, dst, *a, **k):
+        if Path(dst).name == "v.json":
+            raise OSError(28, "No space left on device", str(dst))
+        return real(src, dst, *a, **k)
+
+    monkeypatch.setattr(atomic.os, "replace", replace)
+    status = command.main(["say", "Hello.", "-o", str(tmp_path / "v.mp4"), "--model", str(face)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 1 and len(err) == 1 and "No space left" in err[0], err
+    assert files(tmp_path) == old

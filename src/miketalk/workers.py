@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 
-from miketalk.errors import MiketalkError
+from miketalk.errors import MachineFailure, MiketalkError
 
 __all__ = [
     "available_cores",
@@ -189,7 +189,7 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
         raise
     _, status = os.waitpid(pid, 0)
     if not chunks:
-        raise MiketalkError(
+        raise MachineFailure(
             "the worker process ended without a result (status "
             f"{os.waitstatus_to_exitcode(status)}): killed when memory ran out?"
         )

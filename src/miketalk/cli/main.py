@@ -1,7 +1,8 @@
 """The ``miketalk`` command line: ``say``, ``cues`` and ``phones``.
 
 Every user mistake (a bad setting, an output that cannot be written, a text
-Festival cannot read, a broken model) is one line on stderr and exit status 2,
+Festival cannot read, a broken model, an output miketalk did not write) is one line on
+stderr and exit status 2,
 found before the work starts where it can be. stdout carries only the result
 (:mod:`miketalk.console`); ``-v`` logs progress and timings on stderr.
 SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind. A full disk
@@ -20,7 +21,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 from miketalk.cli.parser import build_parser
 from miketalk.console import handle_termination, native_output_logged
-from miketalk.errors import MiketalkError
+from miketalk.errors import MachineFailure, MiketalkError
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -40,6 +41,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.out = out
         try:
             return args.func(args)
+        except MachineFailure as err:
+            print(f"miketalk: error: {err}", file=sys.stderr)
+            return 1
+        except MemoryError:
+            print("miketalk: error: memory ran out; the output was not written", file=sys.stderr)
+            return 1
         except MiketalkError as err:
             print(f"miketalk: error: {err}", file=sys.stderr)
             return 2

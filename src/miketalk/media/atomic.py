@@ -34,6 +34,7 @@ never one of each.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import logging
 import os
@@ -43,7 +44,7 @@ import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
-from miketalk.errors import MiketalkError
+from miketalk.errors import MachineFailure, MiketalkError
 from miketalk.media.scratch import deferred_signals, owner_tag, tag_owner_alive
 
 log = logging.getLogger(__name__)
@@ -234,7 +235,8 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
         try:
             os.replace(*renames[0])
         except OSError as err:
-            raise MiketalkError(
+            kind = MachineFailure if err.errno in _MACHINE_ERRNOS else MiketalkError
+            raise kind(
                 f"cannot write {renames[0][1]}: {err.strerror or err}; it was left as it was"
             ) from None
         return
@@ -266,7 +268,8 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
             roll_back(journal)
             if isinstance(err, OSError):
                 where = err.filename or first
-                raise MiketalkError(
+                kind = MachineFailure if err.errno in _MACHINE_ERRNOS else MiketalkError
+                raise kind(
                     f"cannot write {where}: {err.strerror or err}; the old "
                     f"{' and '.join(f.name for _, f in renames)} were left as they were"
                 ) from None
@@ -275,6 +278,10 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
         for entry in entries:
             (first.parent / entry["backup"]).unlink(missing_ok=True)
 
+
+#: What an OSError of the machine (not of the user's choice of output) is: a full disk, a
+#: quota, an input/output error.
+_MACHINE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO})
 
 #: The ``format`` of a journal (a journal of older miketalks is a list of renames).
 JOURNAL_FORMAT = "miketalk-journal/2"
