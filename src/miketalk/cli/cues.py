@@ -44,7 +44,8 @@ def cmd_cues(args: argparse.Namespace) -> int:
     kinds = [(p, CUE_KINDS[format_of(p)]) for p in outputs]
     kinds += [(Path(args.wav), Kind.WAV)] if args.wav is not None else []
     for path, kind in kinds:  # before Festival runs
-        check_replaceable(path, kind, inputs=inputs, force=args.force)
+        option = "--wav" if kind == Kind.WAV else "-o"
+        check_replaceable(path, kind, inputs=inputs, force=args.force, option=option)
         check_writable(path)
     table = default_table()
     if args.audio is not None:
@@ -77,7 +78,9 @@ def cmd_cues(args: argparse.Namespace) -> int:
             sound_file=sound_file,
             extended=extended,
             guard=lambda: [
-                check_replaceable(p, kind, inputs=inputs, force=args.force) for p, kind in kinds
+                check_replaceable(p, kind, inputs=inputs, force=args.force)
+                for p, kind in kinds
+                if kind != Kind.WAV
             ],
         )
         for path in outputs:
