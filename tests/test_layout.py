@@ -65,6 +65,7 @@ LAYERS: dict[str, int] = {
     "miketalk.composite": 9,
     "miketalk.building": 10,
     "miketalk.talk": 10,
+    "miketalk.serve": 11,
     "miketalk.cli": 12,
     "synth_face": 20,
     "miketalk_lab": 30,

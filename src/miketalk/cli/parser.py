@@ -23,6 +23,7 @@ from miketalk.cli.options import (
 )
 from miketalk.cli.phones import cmd_phones
 from miketalk.cli.say import cmd_say
+from miketalk.cli.serve import add_serve_parser
 
 
 class _Parser(argparse.ArgumentParser):
@@ -198,4 +199,5 @@ def build_parser() -> argparse.ArgumentParser:
     cues.set_defaults(func=cmd_cues)
     add_dub_parser(sub)
     add_build_parser(sub)
+    add_serve_parser(sub)
     return parser

@@ -1,0 +1,146 @@
+"""A job the page asks for, checked before it is queued: its settings, its model, its files.
+
+The page sends a job as JSON: the model by its id in the server's list, the uploads by the
+ids :class:`~miketalk.serve.uploads.Uploads` gave them, the text as text, and choices from
+closed lists (lip-sync model, voice). Anything else is refused in one line before a folder
+is made; the quick checks the command line makes before its work (the lip-sync model against
+the model, a dub's model being a person's) are made here too, so their line comes at once.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from miketalk.errors import MiketalkError
+from miketalk.lipsync.settings import LIPSYNC_MODELS
+from miketalk.serve.catalog import Catalog, Entry
+from miketalk.serve.config import MAX_TEXT_CHARS
+from miketalk.serve.jobs import Board, Job
+from miketalk.serve.uploads import Upload, Uploads
+from miketalk.speech.festival.voices import DEFAULT_VOICE, VOICES
+
+#: The kinds of job the page can ask for.
+KINDS = ("say", "dub", "build")
+#: The longest name of a model built on the page, characters.
+MAX_LABEL_CHARS = 80
+
+
+def _text(body: Mapping[str, Any], key: str = "text", limit: int = MAX_TEXT_CHARS) -> str:
+    value = body.get(key)
+    if value is None:
+        return ""
+    if not isinstance(value, str):
+        raise MiketalkError(f"the {key} must be text")
+    if len(value) > limit:
+        raise MiketalkError(f"the {key} is {len(value)} characters long: at most {limit}")
+    return value.strip()
+
+
+def _choice(body: Mapping[str, Any], key: str, choices: tuple[str, ...], default: str) -> str:
+    value = body.get(key) or default
+    if value not in choices:
+        raise MiketalkError(f"{key} must be one of {', '.join(c for c in choices if c)}")
+    return value
+
+
+def _speech_settings(body: Mapping[str, Any], entry: Entry, recorded: bool) -> dict[str, Any]:
+    """The text, lip-sync model and voice of a say or dub, checked against the model."""
+    from miketalk.draw.registry import choose_lipsync_model
+
+    text = _text(body)
+    if not recorded and not text:
+        raise MiketalkError("no text: type what the face should say, or give a recording")
+    lipsync = _choice(body, "lipsync", ("", *LIPSYNC_MODELS), "")
+    voice = _choice(body, "voice", tuple(VOICES), DEFAULT_VOICE)
+    try:
+        chosen = choose_lipsync_model(entry.path, lipsync or None, recorded=recorded)
+    except MiketalkError as err:  # the model named as the page knows it
+        raise MiketalkError(str(err).replace(str(entry.path), entry.label)) from None
+    return {"text": text or None, "lipsync": lipsync or None, "voice": voice, "chosen": chosen}
+
+
+def make_job(body: object, *, board: Board, catalog: Catalog, uploads: Uploads) -> Job:
+    """Check the page's request ``body`` and queue its job.
+
+    Raises
+    ------
+    MiketalkError
+        In one line: a malformed request, an unknown model or upload, a setting the model
+        cannot take, no text.
+    """
+    if not isinstance(body, Mapping):
+        raise MiketalkError("a job is a JSON object")
+    kind = body.get("kind")
+    if kind not in KINDS:
+        raise MiketalkError(f"kind must be one of {', '.join(KINDS)}")
+    if kind == "build":
+        return _build(body, board=board, uploads=uploads)
+    entry = catalog.get(body.get("model"))
+    recorded = bool(body.get("audio"))
+    if kind == "dub":
+        if not entry.describe()["person"]:
+            raise MiketalkError(
+                f"the model {entry.label} was not built from video of a person: dub needs a "
+                "model built from clips of the person in the video"
+            )
+        if not body.get("video"):
+            raise MiketalkError("choose the video to dub")
+    settings = _speech_settings(body, entry, recorded)
+    job = board.new_job(kind)
+    try:
+        audio = video = None
+        if recorded:
+            audio = _take(job, uploads, body["audio"], ("audio", "video"), "recording")
+        if kind == "dub":
+            video = _take(job, uploads, body["video"], ("video",), "video")
+        job.params = {
+            "model_dir": entry.path, "text": settings["text"], "lipsync": settings["lipsync"],
+            "voice": settings["voice"], "audio": audio.path if audio else None,
+        } | ({"video": video.path} if video else {})  # fmt: skip
+        job.shown = {
+            "model": entry.label,
+            "text": settings["text"],
+            "recording": audio.name if audio else None,
+            "video": video.name if video else None,
+            "lipsync": settings["lipsync"] or f"the model's own ({settings['chosen'].value})",
+            "voice": None if recorded else settings["voice"],
+        }
+        job.aliases.append((str(entry.path), entry.label))
+    except BaseException:
+        shutil.rmtree(job.folder, ignore_errors=True)
+        raise
+    return board.submit(job)
+
+
+def _build(body: Mapping[str, Any], *, board: Board, uploads: Uploads) -> Job:
+    label = " ".join(_text(body, "name", limit=1000).split())[:MAX_LABEL_CHARS]
+    if not body.get("video"):
+        raise MiketalkError("choose the video of the person to build the face from")
+    if not body.get("script"):
+        raise MiketalkError("choose what the video says: a transcript (.txt) or subtitles")
+    job = board.new_job("build")
+    try:
+        video = _take(job, uploads, body["video"], ("video",), "video")
+        script = uploads.take(body["script"], ("script",), job.folder, "script")
+        kind = "subtitles" if script.path.suffix in (".srt", ".vtt") else "transcript"
+        path = script.path.rename(script.path.with_name(kind + script.path.suffix))
+        job.aliases.append((str(path), script.name))
+        label = label or Path(video.name).stem or "a face"
+        model_dir = board.config.models / job.id
+        job.params = {"video": video.path, "script": {kind: path}, "label": label,
+                      "model_dir": model_dir}  # fmt: skip
+        job.shown = {"name": label, "video": video.name, kind: script.name}
+        job.aliases.append((str(model_dir), f"the model {label}"))
+    except BaseException:
+        shutil.rmtree(job.folder, ignore_errors=True)
+        raise
+    return board.submit(job)
+
+
+def _take(job: Job, uploads: Uploads, upload_id: object, kinds, stem: str) -> Upload:
+    upload = uploads.take(upload_id, kinds, job.folder, stem)
+    job.aliases.append((str(upload.path), upload.name))
+    return upload

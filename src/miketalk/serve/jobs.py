@@ -1,0 +1,362 @@
+"""The background work: jobs, their folders, their two queues, and what the page sees of them.
+
+Every job gets a new folder in the results named by the server
+(``<results>/<YYYYmmdd-HHMMSS>-<kind>-<random>/``): its inputs are moved in, its outputs
+written there, and ``job.json`` records it (when it is queued and when it ends), so that
+a second tab never writes over a first's output and the results outlive the server.
+``say`` and ``dub`` run one after the other in one worker thread (each takes seconds, and
+two cores are better spent on one at a time); builds run one at a time in a child process
+(:class:`miketalk.serve.work.BuildRun`), watched by a second thread, so a build and a
+``say`` can run together and the page stays responsive. A queued job can be cancelled, and
+so can a running build; a running ``say`` or ``dub`` finishes.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import queue
+import secrets
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from miketalk.errors import MiketalkError
+from miketalk.serve.build import BUILD_STAGES, BuildRun
+from miketalk.serve.catalog import Catalog
+from miketalk.serve.config import ServeConfig
+from miketalk.serve.work import Outcome, Warm, one_line, speak, write_text
+
+log = logging.getLogger(__name__)
+
+#: The file in a job's folder that records it.
+RECORD = "job.json"
+#: A job's statuses; the last four are final.
+STATUSES = ("queued", "running", "done", "failed", "cancelled", "interrupted")
+FINAL = frozenset(STATUSES[2:])
+
+
+@dataclass
+class Job:
+    """One piece of work the page asked for.
+
+    Attributes
+    ----------
+    id, kind : str
+        Its id (also its folder's name) and what it does: ``say``, ``dub`` or ``build``.
+    folder : Path
+        Its own folder in the results.
+    params : dict
+        What the work takes (paths included; never sent to the page).
+    shown : dict
+        What the page shows of its inputs (names as they were uploaded, the text, the model).
+    aliases : list of (str, str)
+        Server paths and the names the page knows them by (for messages).
+    """
+
+    id: str
+    kind: str
+    folder: Path
+    params: dict[str, Any] = field(default_factory=dict)
+    shown: dict[str, Any] = field(default_factory=dict)
+    aliases: list[tuple[str, str]] = field(default_factory=list)
+    status: str = "queued"
+    created: float = field(default_factory=time.time)
+    started: float | None = None
+    finished: float | None = None
+    stage: str | None = None
+    stages: list[dict[str, Any]] = field(default_factory=list)
+    message: str | None = None
+    result: dict[str, Any] | None = None
+    files: dict[str, Path] = field(default_factory=dict)
+    cancel_asked: bool = False
+
+    def public(self) -> dict[str, Any]:
+        """What the page sees: no server path."""
+        end = self.finished or time.time()
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "status": self.status,
+            "created": self.created,
+            "started": self.started,
+            "finished": self.finished,
+            "elapsed": round(end - self.started, 2) if self.started else None,
+            "stage": self.stage,
+            "stages": list(self.stages),
+            "all_stages": list(BUILD_STAGES) if self.kind == "build" else [],
+            "progress": len(self.stages) / len(BUILD_STAGES) if self.kind == "build" else None,
+            "message": self.message,
+            "result": self.result,
+            "inputs": dict(self.shown),
+            "files": {name: f"/files/{self.id}/{name}" for name in self.files},
+            "cancellable": self.status == "queued"
+            or (self.kind == "build" and self.status == "running"),
+        }
+
+    def plainly(self, line: str) -> str:
+        """``line`` with the server's paths named as the page knows them."""
+        for path, name in sorted(self.aliases, key=lambda a: -len(a[0])):
+            line = line.replace(path, name)
+        return line
+
+
+class Board:
+    """The jobs: made, queued, run, cancelled, listed (see the module docstring).
+
+    Parameters
+    ----------
+    config : ServeConfig
+    catalog : Catalog
+        The models (a build's new model is looked up there when it is done).
+    """
+
+    def __init__(self, config: ServeConfig, catalog: Catalog) -> None:
+        self.config = config
+        self.catalog = catalog
+        self._lock = threading.RLock()
+        self._jobs: dict[str, Job] = {}
+        self._speech: queue.Queue[Job | None] = queue.Queue()
+        self._builds: queue.Queue[Job | None] = queue.Queue()
+        self._closing = threading.Event()
+        config.results.mkdir(parents=True, exist_ok=True)
+        config.models.mkdir(parents=True, exist_ok=True)
+        self._load_history()
+        self._threads = [
+            threading.Thread(target=self._speech_loop, name="miketalk-speech", daemon=True),
+            threading.Thread(target=self._build_loop, name="miketalk-build", daemon=True),
+        ]
+        for thread in self._threads:
+            thread.start()
+
+    # -- making and finding jobs
+
+    def new_job(self, kind: str) -> Job:
+        """A job of ``kind`` with a new folder of its own (not yet queued)."""
+        for _ in range(100):
+            stamp = time.strftime("%Y%m%d-%H%M%S")
+            job_id = f"{stamp}-{kind}-{secrets.token_hex(3)}"
+            folder = self.config.results / job_id
+            try:
+                folder.mkdir()
+            except FileExistsError:
+                continue
+            job = Job(job_id, kind, folder)
+            job.aliases.append((str(folder) + os.sep, ""))
+            return job
+        raise MiketalkError(f"cannot make a new folder in {self.config.results}")
+
+    def submit(self, job: Job) -> Job:
+        """Queue ``job`` (its record is written now)."""
+        with self._lock:
+            self._jobs[job.id] = job
+            self._save(job)
+        (self._builds if job.kind == "build" else self._speech).put(job)
+        return job
+
+    def get(self, job_id: object) -> Job:
+        """The job called ``job_id``.
+
+        Raises
+        ------
+        MiketalkError
+            No such job.
+        """
+        with self._lock:
+            job = self._jobs.get(job_id) if isinstance(job_id, str) else None
+        if job is None:
+            raise MiketalkError("no such job")
+        return job
+
+    def public(self, job_id: object) -> dict[str, Any]:
+        """What the page sees of one job."""
+        job = self.get(job_id)
+        with self._lock:
+            return job.public()
+
+    def listing(self) -> list[dict[str, Any]]:
+        """Every job, the newest first."""
+        with self._lock:
+            return [j.public() for j in sorted(self._jobs.values(), key=lambda j: -j.created)]
+
+    def cancel(self, job_id: object) -> dict[str, Any]:
+        """Cancel a queued job, or stop a running build (its thread terminates the child).
+
+        Raises
+        ------
+        MiketalkError
+            A job that has ended, or a ``say`` or ``dub`` already running.
+        """
+        job = self.get(job_id)
+        with self._lock:
+            if job.status == "queued":
+                self._end(job, "cancelled", "cancelled before it started")
+            elif job.status == "running" and job.kind == "build":
+                job.cancel_asked = True
+                job.stage = "cancelling"
+            elif job.status == "running":
+                raise MiketalkError(f"a {job.kind} cannot be stopped once it runs; it will end")
+            else:
+                raise MiketalkError(f"the job has ended ({job.status})")
+            return job.public()
+
+    def close(self) -> None:
+        """Stop the threads; a running build is cancelled (and waited for)."""
+        self._closing.set()
+        with self._lock:
+            for job in self._jobs.values():
+                if job.kind == "build" and job.status == "running":
+                    job.cancel_asked = True
+        self._speech.put(None)
+        self._builds.put(None)
+        for thread in self._threads:
+            thread.join(timeout=60)
+
+    # -- the two workers
+
+    def _start(self, job: Job, stage: str) -> bool:
+        with self._lock:
+            if job.status != "queued":
+                return False
+            job.status, job.started, job.stage = "running", time.time(), stage
+            return True
+
+    def _end(self, job: Job, status: str, message: str | None = None, outcome=None) -> None:
+        with self._lock:
+            job.status, job.finished, job.message = status, time.time(), message
+            job.stage = None
+            if outcome is not None:
+                job.result, job.files = outcome.result, outcome.files
+            self._save(job)
+
+    def _fail(self, job: Job, err: BaseException) -> None:
+        if not isinstance(err, MiketalkError):
+            log.error("job %s failed", job.id, exc_info=err)
+        else:
+            log.info("job %s: %s", job.id, err)
+        self._end(job, "failed", job.plainly(one_line(err)))
+
+    def _speech_loop(self) -> None:
+        import miketalk.talk.say  # noqa: F401 - the first job starts warm
+
+        warm = Warm()
+        try:
+            while (job := self._speech.get()) is not None:
+                if not self._start(job, "dubbing" if job.kind == "dub" else "speaking"):
+                    continue
+                try:
+                    outcome = speak(job.folder, **job.params, warm=warm)
+                except Exception as err:
+                    self._fail(job, err)
+                else:
+                    self._end(job, "done", outcome=outcome)
+        finally:
+            warm.close()
+
+    def _build_loop(self) -> None:
+        while (job := self._builds.get()) is not None:
+            if not self._start(job, "checking the video"):
+                continue
+            try:
+                self._build(job)
+            except Exception as err:
+                self._fail(job, err)
+
+    def _build(self, job: Job) -> None:
+        params = job.params
+        run = BuildRun(
+            params["video"], params["model_dir"], params["script"], label=params["label"],
+            options=self.config.build_options, workers=self.config.workers,
+        )  # fmt: skip
+        ended: tuple | None = None
+        try:
+            while ended is None:
+                alive = run.alive()  # before reading: a child that has ended has said all
+                for message in run.messages(0.2 if alive else 0):
+                    if message[0] == "stage":
+                        self._stage_done(job, message[1], message[2])
+                    else:
+                        ended = message
+                if ended is None and not alive:
+                    ended = ("died",)
+                with self._lock:
+                    cancel = job.cancel_asked and ended is None
+                if cancel:
+                    run.cancel()
+                    ended = ("cancelled",)
+        finally:
+            run.close()
+        self._build_ended(job, ended)
+
+    def _stage_done(self, job: Job, name: str, seconds: float) -> None:
+        with self._lock:
+            job.stages.append({"name": name, "seconds": round(seconds, 1)})
+            later = [s for s in BUILD_STAGES if s not in {d["name"] for d in job.stages}]
+            job.stage = "cancelling" if job.cancel_asked else (later[0] if later else "finishing")
+
+    def _build_ended(self, job: Job, ended: tuple) -> None:
+        model_dir: Path = job.params["model_dir"]
+        if ended[0] == "done":
+            entry = next((e for e in self.catalog.entries() if e.path == model_dir), None)
+            result = {
+                "model": entry.id if entry else None,
+                "label": job.params["label"],
+                "seconds": round(sum(ended[1].values()), 1),
+            }
+            self._end(job, "done", outcome=Outcome(result))
+        elif ended[0] == "cancelled":
+            self._end(job, "cancelled", "cancelled: no model was written")
+        elif ended[0] == "error":
+            self._end(job, "failed", job.plainly(ended[1]))
+        else:
+            log.error("the build of job %s died without a word", job.id)
+            self._end(
+                job, "failed", "the build's process died (killed when memory ran out?); "
+                "no model was written",
+            )  # fmt: skip
+
+    # -- records
+
+    def _save(self, job: Job) -> None:
+        doc = job.public() | {
+            "files": {name: path.name for name, path in job.files.items()},
+            "params": {k: str(v) for k, v in job.params.items() if k in ("model_dir",)},
+        }
+        try:
+            write_text(job.folder / RECORD, json.dumps(doc, indent=1))
+        except OSError as err:
+            log.warning("cannot record job %s: %s", job.id, err)
+
+    def _load_history(self) -> None:
+        """The jobs of earlier runs of the server, from their records."""
+        try:
+            folders = sorted(p for p in self.config.results.iterdir() if p.is_dir())
+        except OSError:
+            return
+        for folder in folders:
+            try:
+                doc = json.loads((folder / RECORD).read_text(encoding="utf-8"))
+                job = Job(doc["id"], doc["kind"], folder, shown=dict(doc.get("inputs") or {}))
+            except (OSError, ValueError, KeyError, TypeError):
+                continue
+            if job.id != folder.name:
+                continue
+            job.status = doc.get("status") if doc.get("status") in FINAL else "interrupted"
+            job.created = float(doc.get("created") or os.path.getmtime(folder))
+            job.started, job.finished = doc.get("started"), doc.get("finished")
+            job.stages = list(doc.get("stages") or [])
+            job.result = doc.get("result")
+            job.message = doc.get("message")
+            if job.status == "interrupted":
+                job.message = "the server stopped before this job ended"
+                job.finished = job.started
+            files = doc.get("files") or {}
+            job.files = {
+                name: folder / name
+                for name, stored in files.items()
+                if name == stored and (folder / name).is_file()
+            }
+            self._jobs[job.id] = job

@@ -1,0 +1,450 @@
+// miketalk serve: the page. Plain JavaScript, no library; every text from the server or
+// the user is put in the page as text (textContent), never as HTML.
+"use strict";
+
+const $ = (selector, root = document) => root.querySelector(selector);
+const $$ = (selector, root = document) => Array.from(root.querySelectorAll(selector));
+
+const SHAPES = {
+  A: "closed (P, B, M)", B: "slightly open (K, S, T, EE)", C: "open (EH, AE)",
+  D: "wide open (AA)", E: "rounded (AO, ER)", F: "puckered (UW, OW, W)",
+  G: "teeth on lip (F, V)", H: "tongue up (L)", X: "rest",
+};
+const FINAL = new Set(["done", "failed", "cancelled", "interrupted"]);
+
+const state = { config: null, models: [], model: null, build: null, shown: null };
+
+// -- talking to the server
+
+async function api(path, options = {}) {
+  const headers = { "X-Miketalk": "1", ...(options.headers || {}) };
+  let response;
+  try {
+    response = await fetch(path, { ...options, headers });
+  } catch (err) {
+    throw new Error("the server cannot be reached: is miketalk serve still running?");
+  }
+  let doc = null;
+  try { doc = await response.json(); } catch (err) { doc = null; }
+  if (!response.ok) throw new Error((doc && doc.error) || `the server answered ${response.status}`);
+  return doc;
+}
+
+function post(path, body) {
+  return api(path, {
+    method: "POST", headers: { "Content-Type": "application/json" },
+    body: JSON.stringify(body || {}),
+  });
+}
+
+function megabytes(n) {
+  return `${(n / 1048576).toFixed(1).replace(/\.0$/, "")} MB`;
+}
+
+// An upload: the file's bytes as the body, its name in a header (shown, never a path).
+function upload(file, kind, busy) {
+  const limit = state.config.max_upload_bytes;
+  if (file.size > limit) {
+    return Promise.reject(new Error(
+      `${file.name} is ${megabytes(file.size)}: larger than the upload limit of ` +
+      `${megabytes(limit)} (miketalk serve --max-upload-mb)`));
+  }
+  return new Promise((resolve, reject) => {
+    const xhr = new XMLHttpRequest();
+    xhr.open("POST", `/api/upload?kind=${encodeURIComponent(kind)}`);
+    xhr.setRequestHeader("X-Miketalk", "1");
+    xhr.setRequestHeader("X-Miketalk-Name", encodeURIComponent(file.name));
+    xhr.setRequestHeader("Content-Type", "application/octet-stream");
+    xhr.upload.onprogress = (e) => {
+      if (e.lengthComputable && busy) {
+        busy(`sending ${file.name}: ${Math.round((100 * e.loaded) / e.total)} %`);
+      }
+    };
+    xhr.onload = () => {
+      let doc = null;
+      try { doc = JSON.parse(xhr.responseText); } catch (err) { doc = null; }
+      if (xhr.status >= 200 && xhr.status < 300 && doc) resolve(doc);
+      else reject(new Error((doc && doc.error) || `the upload failed (${xhr.status})`));
+    };
+    xhr.onerror = () => reject(new Error(`the upload of ${file.name} failed: is the server running?`));
+    xhr.send(file);
+  });
+}
+
+const sleep = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
+
+// Ask for a job until it ends; onUpdate sees every state.
+async function follow(id, onUpdate, every) {
+  for (;;) {
+    const job = await api(`/api/jobs/${encodeURIComponent(id)}`);
+    onUpdate(job);
+    if (FINAL.has(job.status)) return job;
+    await sleep(every);
+  }
+}
+
+// -- models
+
+async function loadModels(select) {
+  state.models = await api("/api/models");
+  const list = $("#models");
+  list.replaceChildren();
+  $("#no-models").hidden = state.models.length > 0;
+  for (const model of state.models) {
+    const item = document.createElement("li");
+    item.setAttribute("role", "radio");
+    item.tabIndex = 0;
+    item.dataset.id = model.id;
+    const image = document.createElement("img");
+    image.src = model.image;
+    image.alt = "";
+    image.loading = "lazy";
+    image.onerror = () => { image.style.visibility = "hidden"; };
+    const text = document.createElement("div");
+    const name = document.createElement("div");
+    name.className = "name";
+    name.textContent = model.label;
+    const what = document.createElement("div");
+    what.className = "what";
+    const origin = { workflow: "workflow", built: "built here", given: "given" }[model.source];
+    what.textContent = `${model.person ? "a person" : "a still face"} · ${origin} · ` +
+      model.lipsync_models.join(", ");
+    text.append(name, what);
+    item.append(image, text);
+    item.addEventListener("click", () => chooseModel(model.id));
+    item.addEventListener("keydown", (e) => {
+      if (e.key === "Enter" || e.key === " ") { e.preventDefault(); chooseModel(model.id); }
+    });
+    list.append(item);
+  }
+  const keep = select || (state.model && state.model.id);
+  const first = state.models.find((m) => m.id === keep) || state.models[0] || null;
+  chooseModel(first ? first.id : null);
+}
+
+function chooseModel(id) {
+  state.model = state.models.find((m) => m.id === id) || null;
+  for (const item of $$("#models li")) {
+    item.setAttribute("aria-checked", String(item.dataset.id === id));
+  }
+  for (const label of $$(".chosen")) {
+    label.textContent = state.model ? state.model.label : "none chosen";
+  }
+  for (const form of [$("#say-form"), $("#dub-form")]) fillLipsync(form);
+  const person = Boolean(state.model && state.model.person);
+  $(".person-only", $("#dub-form")).hidden = person || !state.model;
+  $("#dub-form button[type=submit]").disabled = !person;
+  $("#say-form button[type=submit]").disabled = !state.model;
+}
+
+function fillLipsync(form) {
+  const select = $("select[name=lipsync]", form);
+  const recorded = Boolean($("input[name=audio]", form).files.length);
+  const keep = select.value;
+  select.replaceChildren();
+  const model = state.model;
+  const own = model ? (recorded ? model.own_recording : model.own_text) : null;
+  select.append(new Option(own ? `the model's own (${own})` : "the model's own", ""));
+  for (const name of (model ? model.lipsync_models : [])) select.append(new Option(name, name));
+  select.value = $$("option", select).some((o) => o.value === keep) ? keep : "";
+}
+
+// -- forms
+
+function setBusy(form, text) {
+  const busy = $(".busy", form);
+  busy.hidden = !text;
+  busy.textContent = text || "";
+  $("button[type=submit]", form).disabled = Boolean(text) ||
+    (form.id === "build-form" && Boolean(state.build)) ||
+    (form.id !== "build-form" && !state.model) ||
+    (form.id === "dub-form" && !(state.model && state.model.person));
+}
+
+function showError(form, message) {
+  const line = $(".error", form);
+  line.textContent = message ? `error: ${message}` : "";
+  line.hidden = !message;
+}
+
+async function submitSpeech(form, kind) {
+  showError(form, null);
+  if (!state.model) { showError(form, "choose a face in the list first"); return; }
+  const clicked = performance.now();
+  state.shown = null;
+  $("#result").hidden = true;  // until this job's result
+  $("#player").pause();
+  $("#player").removeAttribute("src");
+  try {
+    setBusy(form, "starting");
+    const body = {
+      kind, model: state.model.id, text: $("textarea[name=text]", form).value,
+      lipsync: $("select[name=lipsync]", form).value,
+    };
+    const audio = $("input[name=audio]", form).files[0];
+    if (audio) body.audio = (await upload(audio, "audio", (t) => setBusy(form, t))).upload;
+    else body.voice = $("select[name=voice]", form).value;
+    if (kind === "dub") {
+      const video = $("input[name=video]", form).files[0];
+      if (!video) throw new Error("choose the video to dub");
+      body.video = (await upload(video, "video", (t) => setBusy(form, t))).upload;
+    }
+    const job = await post("/api/jobs", body);
+    refreshJobs();
+    const done = await follow(job.id, (j) => {
+      setBusy(form, j.status === "queued" ? "waiting for the job before it" :
+        `${j.stage || j.status}${j.elapsed ? ` (${j.elapsed.toFixed(1)} s)` : ""}`);
+    }, 150);
+    if (done.status === "done") showResult(done, clicked);
+    else showError(form, done.message || done.status);
+  } catch (err) {
+    showError(form, err.message);
+  } finally {
+    setBusy(form, null);
+    refreshJobs();
+  }
+}
+
+async function submitBuild(form) {
+  showError(form, null);
+  const video = $("input[name=video]", form).files[0];
+  const script = $("input[name=script]", form).files[0];
+  try {
+    if (!video) throw new Error("choose the video of the person to build the face from");
+    if (!script) throw new Error("choose what the video says: a transcript (.txt) or subtitles");
+    setBusy(form, "starting");
+    const body = { kind: "build", name: $("input[name=name]", form).value };
+    body.video = (await upload(video, "video", (t) => setBusy(form, t))).upload;
+    body.script = (await upload(script, "script", (t) => setBusy(form, t))).upload;
+    const job = await post("/api/jobs", body);
+    setBusy(form, null);
+    refreshJobs();
+    await watchBuild(job);
+  } catch (err) {
+    showError(form, err.message);
+  } finally {
+    setBusy(form, null);
+  }
+}
+
+async function watchBuild(job) {
+  const form = $("#build-form");
+  const box = $("#build-progress");
+  state.build = job.id;
+  delete box.dataset.ended;
+  box.hidden = false;
+  $("button[type=submit]", form).disabled = true;  // one build at a time
+  $(".outcome", box).textContent = "";
+  $(".label", box).textContent = job.inputs.name || "";
+  $("#cancel-build").disabled = false;
+  drawBuild(job);
+  const done = await follow(job.id, drawBuild, 400);
+  state.build = null;
+  $("#cancel-build").disabled = true;
+  $("button[type=submit]", form).disabled = false;
+  refreshJobs();
+  if (done.status === "done") {
+    $(".outcome", box).textContent =
+      `Built ${done.result.label} in ${Math.round(done.result.seconds)} s: it is in the list of faces.`;
+    await loadModels(form.hidden ? undefined : done.result.model);  // chosen if watched
+  } else if (done.status === "cancelled") {
+    $(".outcome", box).textContent = "Cancelled: no model was written.";
+  } else {
+    $(".outcome", box).textContent = "The build failed.";
+    showError(form, done.message || done.status);
+  }
+  box.dataset.ended = done.status;  // all said and done (the list of faces too)
+}
+
+function drawBuild(job) {
+  const box = $("#build-progress");
+  const done = new Map(job.stages.map((s) => [s.name, s.seconds]));
+  const names = [...job.all_stages, ...job.stages.map((s) => s.name).filter((n) => !job.all_stages.includes(n))];
+  const list = $(".stages", box);
+  list.replaceChildren();
+  for (const name of names) {
+    const item = document.createElement("li");
+    const label = document.createElement("span");
+    label.textContent = name;
+    const secs = document.createElement("span");
+    secs.className = "secs";
+    if (done.has(name)) {
+      item.className = "done";
+      secs.textContent = `${done.get(name).toFixed(1)} s`;
+    } else if (job.status === "running" && name === job.stage) {
+      item.className = "running";
+    }
+    item.append(label, secs);
+    list.append(item);
+  }
+  const percent = Math.round(100 * (job.progress || 0));
+  $(".fill", box).style.width = `${percent}%`;
+  $(".bar", box).setAttribute("aria-valuenow", String(percent));
+  const stage = job.status === "running" ? (job.stage || "") : job.status;
+  $(".elapsed", box).textContent =
+    `${stage}${job.elapsed ? ` · ${Math.round(job.elapsed)} s in all` : ""}`;
+  box.dataset.status = job.status;
+  $("#tab-build").classList.toggle("running", !FINAL.has(job.status));
+}
+
+// -- the result: the video, its downloads, its mouth cues
+
+function showResult(job, clicked) {
+  const result = job.result;
+  const section = $("#result");
+  section.hidden = false;
+  state.shown = job;
+  const player = $("#player");
+  player.src = job.files[result.video];
+  player.dataset.job = job.id;
+  if (clicked !== undefined) {
+    player.addEventListener("playing", () => {
+      player.dataset.sinceClick = ((performance.now() - clicked) / 1000).toFixed(2);
+    }, { once: true });
+    player.play().catch(() => { /* autoplay refused: the controls are there */ });
+  }
+  $(".summary", section).textContent =
+    `${job.kind === "dub" ? "Dubbed" : "Said"} with ${job.inputs.model}: ${result.summary}`;
+  const links = {
+    "#get-mp4": result.video, "#get-timeline": result.timeline,
+    "#get-cues": result.cues_json, "#get-tsv": result.cues_tsv,
+  };
+  for (const [selector, name] of Object.entries(links)) {
+    $(selector).href = `${job.files[name]}?download`;
+  }
+  drawCues(result.cues, result.duration);
+}
+
+function drawCues(cues, duration) {
+  const strip = $("#cues");
+  const head = $(".head", strip);
+  strip.replaceChildren(head);
+  for (const [start, end, value] of cues) {
+    const cue = document.createElement("div");
+    cue.className = `cue shape-${value}`;
+    cue.style.left = `${(100 * start) / duration}%`;
+    cue.style.width = `${(100 * (end - start)) / duration}%`;
+    cue.textContent = value;
+    cue.title = `${value}: ${SHAPES[value] || ""} (${start.toFixed(2)}-${end.toFixed(2)} s)`;
+    strip.append(cue);
+  }
+  strip.dataset.duration = String(duration);
+  moveHead(0);
+}
+
+function moveHead(time) {
+  const job = state.shown;
+  if (!job) return;
+  const { cues, duration } = job.result;
+  $("#cues .head").style.left = `${Math.min(100, (100 * time) / duration)}%`;
+  const cue = cues.find(([start, end]) => time >= start && time < end) || cues[cues.length - 1];
+  const value = cue ? cue[2] : "X";
+  const shape = $("#shape-now");
+  shape.textContent = value;
+  shape.className = `shape shape-${value}`;
+  $("#shape-what").textContent = SHAPES[value] || "";
+}
+
+function followPlayer() {
+  const player = $("#player");
+  let frame = null;
+  const tick = () => {
+    moveHead(player.currentTime);
+    frame = player.paused ? null : requestAnimationFrame(tick);
+  };
+  player.addEventListener("play", () => { if (!frame) frame = requestAnimationFrame(tick); });
+  player.addEventListener("seeked", () => moveHead(player.currentTime));
+  player.addEventListener("timeupdate", () => { if (!frame) moveHead(player.currentTime); });
+  $("#cues").addEventListener("click", (e) => {
+    const strip = e.currentTarget.getBoundingClientRect();
+    const duration = Number(e.currentTarget.dataset.duration || 0);
+    if (duration) player.currentTime = ((e.clientX - strip.left) / strip.width) * duration;
+  });
+}
+
+// -- the list of jobs
+
+async function refreshJobs() {
+  let jobs;
+  try { jobs = await api("/api/jobs"); } catch (err) { return; }
+  const list = $("#jobs");
+  list.replaceChildren();
+  for (const job of jobs.slice(0, 30)) {
+    const item = document.createElement("li");
+    const kind = document.createElement("span");
+    kind.className = "kind";
+    kind.textContent = job.kind;
+    const status = document.createElement("span");
+    status.className = `status ${job.status}`;
+    status.textContent = job.status;
+    const what = document.createElement("div");
+    what.className = "what";
+    const inputs = job.inputs || {};
+    what.textContent = job.kind === "build"
+      ? `${inputs.name || ""} from ${inputs.video || "a video"}`
+      : `${inputs.model || ""}: ${inputs.text ? `"${inputs.text.slice(0, 60)}"` : inputs.recording || ""}`;
+    item.append(kind, status, what);
+    if (job.message && job.status !== "done") {
+      const why = document.createElement("div");
+      why.className = `why ${job.status}`;
+      why.textContent = job.message;
+      item.append(why);
+    }
+    if (job.status === "done" && job.result && job.result.video) {
+      item.classList.add("openable");
+      item.title = "show this result";
+      item.addEventListener("click", () => { showResult(job); showTab(job.kind); });
+    }
+    list.append(item);
+  }
+}
+
+// -- start
+
+function showTab(name) {
+  for (const tab of $$(".tabs button")) tab.setAttribute("aria-selected", String(tab.dataset.tab === name));
+  for (const panel of $$(".panel")) panel.hidden = panel.dataset.panel !== name;
+  $("#result").hidden = name === "build" || !state.shown;
+  if (name === "build") $("#player").pause();
+}
+
+async function start() {
+  for (const tab of $$(".tabs button")) tab.addEventListener("click", () => showTab(tab.dataset.tab));
+  $("#say-form").addEventListener("submit", (e) => { e.preventDefault(); submitSpeech(e.target, "say"); });
+  $("#dub-form").addEventListener("submit", (e) => { e.preventDefault(); submitSpeech(e.target, "dub"); });
+  $("#build-form").addEventListener("submit", (e) => { e.preventDefault(); submitBuild(e.target); });
+  $("#cancel-build").addEventListener("click", async () => {
+    if (!state.build) return;
+    $("#cancel-build").disabled = true;
+    try { await post(`/api/jobs/${encodeURIComponent(state.build)}/cancel`); } catch (err) {
+      showError($("#build-form"), err.message);
+    }
+  });
+  for (const form of [$("#say-form"), $("#dub-form")]) {
+    const audio = $("input[name=audio]", form);
+    audio.addEventListener("change", () => {
+      $("select[name=voice]", form).disabled = audio.files.length > 0;
+      fillLipsync(form);
+    });
+  }
+  followPlayer();
+  try {
+    state.config = await api("/api/config");
+    for (const select of $$("select[name=voice]")) {
+      for (const voice of state.config.voices) {
+        select.append(new Option(`${voice.name}: ${voice.description}`, voice.name));
+      }
+      select.value = state.config.default_voice;
+    }
+    $("#server").textContent = `miketalk ${state.config.version} · uploads up to ${megabytes(state.config.max_upload_bytes)}`;
+    await loadModels();
+    await refreshJobs();
+    const running = (await api("/api/jobs")).find((j) => j.kind === "build" && !FINAL.has(j.status));
+    if (running) watchBuild(running);  // a reload goes on showing the build
+  } catch (err) {
+    showError($("#say-form"), err.message);
+  }
+  document.body.dataset.ready = "1";
+}
+
+start();

@@ -1,0 +1,451 @@
+"""``miketalk serve`` in a real headless browser: Debian's Chromium driven by Playwright.
+
+One server (on a free port of 127.0.0.1, in this process) and one browser serve the module.
+The page loads within a second. A build of two of the ``.test`` face s1's clips starts in a
+tab of its own and shows its stages; while it runs, the other tab speaks: typed text plays
+as a ``<video>`` as long as its audio, with its mouth cues and download links, on the
+synthetic face (and on the workflow's s1 where ``make run`` made it); a second tab writes its
+own folder; a text file named ``.mp4`` is the library's one line in the page; a file name
+that climbs out of the folder is only shown; a request from elsewhere, an upload over the
+limit and a bad job are each one line. Then the build ends with its stages shown and a face
+that speaks, and a cancelled build leaves nothing. ``MIKETALK_SERVE_SHOTS=DIR`` saves
+screenshots there.
+"""
+
+from __future__ import annotations
+
+import http.client
+import json
+import os
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+import yaml
+
+from miketalk import cli
+from miketalk.media.video import probe_durations
+from miketalk.speech import FestivalBackend
+
+ROOT = Path(__file__).resolve().parents[1]
+CHROMIUM = Path("/usr/bin/chromium")
+#: Chromium's switches as root in a container, without a network of its own.
+FLAGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+]  # fmt: skip
+#: Two of the .test face s1's training clips: the shortest video that builds a face.
+CLIPS = ["bbaf2n", "lgwg2n"]
+SHOTS = os.environ.get("MIKETALK_SERVE_SHOTS")
+
+
+def shot(page, name: str) -> None:
+    """A screenshot into ``$MIKETALK_SERVE_SHOTS`` when it is set."""
+    if SHOTS:
+        Path(SHOTS).mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(Path(SHOTS) / f"{name}.png"), full_page=True)
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small synthetic face (test_cli's shifted texture, exact flows)."""
+    from test_cli import shifted_model
+
+    return shifted_model(tmp_path_factory.mktemp("synthetic_face"), 64)
+
+
+@pytest.fixture(scope="module")
+def joined(tmp_path_factory: pytest.TempPathFactory):
+    """Two of .test s1's clips joined into one 6 s video with its transcript."""
+    from miketalk_lab.bench.joined import join_clips
+
+    s1 = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["faces"]["s1"]["corpus"]
+    return join_clips(
+        CLIPS, tmp_path_factory.mktemp("joined"), media=str(ROOT / s1["media"]),
+        transcripts=ROOT / s1["transcripts"], timings=str(ROOT / s1["timings"]),
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def server(synthetic: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    """The server, on a free port of 127.0.0.1, building with the .test workflow's flows."""
+    if not FestivalBackend().is_available():
+        pytest.skip("Festival not installed")
+    from miketalk.serve.app import make_server
+    from miketalk.serve.config import ServeConfig
+
+    flow = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["flow"]
+    quick = {"flow": flow["methods"][flow["method"]], "mixed_window": flow["mixed_window"]}
+    workflow = [ROOT / "results" / "model" / "s1"]  # after `make run`
+    root = tmp_path_factory.mktemp("serve")
+    config = ServeConfig(
+        results=root / "results", models=root / "models", host="127.0.0.1", port=0,
+        known_models=(synthetic, *(p for p in workflow if (p / "manifest.json").is_file())),
+        workflow=False, max_upload_bytes=64 << 20,
+        build_options=quick,
+    )  # fmt: skip
+    httpd = make_server(config)
+    thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1})
+    thread.start()
+    yield httpd
+    httpd.shutdown()
+    thread.join()
+    httpd.server_close()
+    httpd.app.close()
+
+
+@pytest.fixture(scope="module")
+def url(server) -> str:
+    host, port = server.server_address[:2]
+    return f"http://{host}:{port}/"
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    """Debian's Chromium, headless, with a fresh profile (never `playwright install`)."""
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright not installed (pip install -e .[dev])")
+    if not CHROMIUM.is_file():
+        pytest.skip("chromium not installed (apt-get install chromium)")
+    with sync_playwright() as playwright:
+        context = playwright.chromium.launch_persistent_context(
+            str(tmp_path_factory.mktemp("profile")), executable_path=str(CHROMIUM),
+            headless=True, args=FLAGS, viewport={"width": 1280, "height": 860},
+        )  # fmt: skip
+        yield context
+        context.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser, url):
+    """The page, with what it logged as errors in ``page.errors``."""
+    page = browser.new_page()
+    page.errors = []
+    page.on("pageerror", lambda err: page.errors.append(str(err)))
+    page.on("console", lambda m: page.errors.append(m.text) if m.type == "error" else None)
+    page.on("response", lambda r: page.errors.append(r.url) if r.status >= 400 else None)
+    return page
+
+
+def _open(page, url: str) -> float:
+    """Load the page until it has listed the models; the seconds it took."""
+    page.bring_to_front()
+    started = time.perf_counter()
+    page.goto(url)
+    page.wait_for_selector("body[data-ready='1']", timeout=10_000)
+    return time.perf_counter() - started
+
+
+def _choose(page, label: str) -> None:
+    page.locator("#models li", has_text=label).first.click()
+    page.wait_for_selector(f"#models li[aria-checked='true']:has-text('{label}')")
+
+
+def _say(page, label: str, text: str) -> dict:
+    """Type ``text`` for the face ``label`` and click Speak; when it plays, what the page
+    and the server say of it."""
+    page.bring_to_front()  # a page behind another has its animation frames throttled
+    page.click("#tab-say")
+    _choose(page, label)
+    page.fill("#say-form textarea[name=text]", text)
+    page.evaluate("delete document.getElementById('player').dataset.sinceClick")
+    page.click("#say-form button[type=submit]")
+    page.wait_for_selector("#player[data-since-click]", state="attached", timeout=30_000)
+    seen = page.evaluate(
+        """() => { const v = document.getElementById('player');
+        return {duration: v.duration, since: Number(v.dataset.sinceClick), job: v.dataset.job,
+                cues: document.querySelectorAll('#cues .cue').length,
+                mp4: document.getElementById('get-mp4').href}; }"""
+    )
+    seen["error"] = page.locator("#say-form .error").is_visible()
+    return seen
+
+
+def _job_folder(server, job_id: str) -> Path:
+    folder = server.app.config.results / job_id
+    assert folder.is_dir() and folder.parent == server.app.config.results
+    return folder
+
+
+def _build(page, joined, name: str) -> None:
+    page.bring_to_front()
+    page.click("#tab-build")
+    page.fill("#build-form input[name=name]", name)
+    page.set_input_files("#build-form input[name=video]", str(joined.video))
+    page.set_input_files("#build-form input[name=script]", str(joined.transcript))
+    page.click("#build-form button[type=submit]")
+    page.wait_for_selector("#build-progress .stages li.done", timeout=30_000)
+
+
+def _stages(page, which: str) -> list[str]:
+    """The names of the build's stages the page lists (``which``: ``li``, ``li.done``)."""
+    items = page.locator(f"#build-progress .stages {which}")
+    return items.evaluate_all("items => items.map(i => i.firstChild.textContent)")
+
+
+def _build_status(page, status: str, timeout: float) -> None:
+    page.bring_to_front()
+    page.wait_for_selector(f"#build-progress[data-ended='{status}']", timeout=timeout * 1000)
+
+
+@pytest.fixture(scope="module")
+def building(browser, url: str, joined, server):
+    """A tab that has started a build (its first stage done), left to run."""
+    tab = browser.new_page()
+    _open(tab, url)
+    _build(tab, joined, "s1 here")
+    assert tab.is_disabled("#build-form button[type=submit]")  # one build at a time
+    shot(tab, "build")
+    return tab
+
+
+def test_the_page_loads_within_a_second(page, url: str) -> None:
+    seconds = _open(page, url)
+    labels = page.locator("#models li .name").all_inner_texts()
+    assert labels[0].startswith("model")  # the synthetic face's folder name
+    assert seconds <= 1.0, f"the page took {seconds:.2f} s"
+    shot(page, "page")
+    assert page.errors == []
+
+
+def test_a_build_shows_its_stages_as_it_runs(building, server) -> None:
+    assert _stages(building, "li") == server.app.settings()["build_stages"]
+    assert building.locator("#build-progress .stages li.running").count() == 1
+    width = building.locator("#build-progress .fill").evaluate("e => e.style.width")
+    assert 0 < float(width.rstrip("%")) < 100
+    # the server answers at once while the build works
+    started = time.perf_counter()
+    assert building.evaluate("fetch('/api/models').then(r => r.json())")
+    assert time.perf_counter() - started < 0.5
+
+
+def test_typed_text_plays_with_its_cues_and_downloads(page, url: str, server) -> None:
+    _open(page, url)
+    labels = page.locator("#models li .name").all_inner_texts()
+    for label in labels:
+        seen = _say(page, label, "Bin blue at F two now, please say it again soon.")
+        assert not seen["error"]
+        folder = _job_folder(server, seen["job"])
+        video, audio = probe_durations(folder / "say.mp4")
+        assert abs(seen["duration"] - max(video, audio)) < 0.05, (seen, video, audio)
+        assert abs(video - audio) < 0.1
+        assert seen["cues"] > 3
+        cues = json.loads((folder / "cues.json").read_text())
+        assert cues["mouthCues"][-1]["end"] == pytest.approx(audio, abs=0.02)
+        assert sorted(p.name for p in folder.iterdir()) == [
+            "cues.json", "cues.tsv", "job.json", "say.json", "say.mp4",
+        ]  # fmt: skip
+        assert seen["since"] <= (3.0 if label == "s1" else 5.0), seen
+        download = page.request.get(seen["mp4"])
+        assert download.ok and download.body() == (folder / "say.mp4").read_bytes()
+    page.evaluate("document.getElementById('player').pause()")
+    shot(page, "played")
+    assert page.errors == []
+
+
+def test_a_second_tab_writes_its_own_folder(browser, page, url: str, server) -> None:
+    other = browser.new_page()
+    _open(other, url)
+    _open(page, url)
+    label = page.locator("#models li .name").first.inner_text()
+    first, second = _say(page, label, "One."), _say(other, label, "Two.")
+    assert first["job"] != second["job"]
+    for seen, word in ((first, "One."), (second, "Two.")):
+        timeline = json.loads((_job_folder(server, seen["job"]) / "say.json").read_text())
+        assert timeline["text"].strip() == word
+    other.close()
+
+
+def test_a_text_file_named_mp4_is_the_librarys_one_line(
+    page, url: str, synthetic: Path, tmp_path: Path, monkeypatch, capsys
+) -> None:
+    fake = tmp_path / "speech.mp4"
+    fake.write_text("this is not a video\n")
+    _open(page, url)
+    page.click("#tab-say")
+    page.fill("#say-form textarea[name=text]", "hello")
+    page.set_input_files("#say-form input[name=audio]", str(fake))
+    assert page.is_disabled("#say-form select[name=voice]")  # the recording speaks
+    page.click("#say-form button[type=submit]")
+    error = page.locator("#say-form .error")
+    error.wait_for(state="visible", timeout=20_000)
+    line = error.inner_text()
+    shot(page, "error")
+    page.set_input_files("#say-form input[name=audio]", [])
+    # the command line, with the same file named as the page names it
+    monkeypatch.chdir(tmp_path)
+    code = cli.main(["say", "--audio", "speech.mp4", "--text", "hello", "--model",
+                     str(synthetic), "-o", "out.mp4"])  # fmt: skip
+    said = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(said) == 1, said
+    assert "\n" not in line and "Traceback" not in line
+    assert line.startswith("error: ffmpeg cannot decode the audio of speech.mp4: "), line
+    assert line == said[0].replace("miketalk: error: ", "error: ", 1)
+
+
+def _request(server, method: str, path: str, body: bytes = b"", **headers: str):
+    host, port = server.server_address[:2]
+    connection = http.client.HTTPConnection(host, port, timeout=30)
+    headers = {"Host": f"{host}:{port}"} | {k.replace("_", "-"): v for k, v in headers.items()}
+    try:
+        connection.request(method, path, body=body or None, headers=headers)
+        response = connection.getresponse()
+        raw = response.read()
+    finally:
+        connection.close()
+    doc = json.loads(raw) if response.getheader("Content-Type") == "application/json" else raw
+    return response.status, doc
+
+
+def test_a_climbing_file_name_is_only_shown(server, synthetic) -> None:
+    results = server.app.config.results
+    root = results.parent
+
+    def written() -> set[Path]:  # (the build's work folder comes and goes in models/)
+        return {p for p in root.rglob("*") if not {".uploads", "models"} & set(p.parts)}
+
+    before = written()
+    names = {}
+    for raw in ("../../../../outside.mp4", "..%2F..%2Foutside2.mp4", "..\\..\\outside3.mp4"):
+        status, doc = _request(
+            server, "POST", "/api/upload?kind=audio", b"not a recording",
+            X_Miketalk="1", X_Miketalk_Name=raw,
+        )  # fmt: skip
+        assert status == 200, doc
+        names[doc["name"]] = doc["upload"]
+    assert sorted(names) == ["outside.mp4", "outside2.mp4", "outside3.mp4"]
+    kept = sorted(p.name for p in (results / ".uploads").iterdir())
+    assert kept == sorted(f"{u}.mp4" for u in names.values())
+    status, job = _request(
+        server, "POST", "/api/jobs", json.dumps({"kind": "say", "model": "model",
+        "text": "hello", "audio": names["outside.mp4"]}).encode(),
+        X_Miketalk="1", Content_Type="application/json",
+    )  # fmt: skip
+    assert status == 201, job
+    folder = _job_folder(server, job["id"])
+    for _ in range(100):
+        if (doc := _request(server, "GET", f"/api/jobs/{job['id']}")[1])["status"] == "failed":
+            break
+        time.sleep(0.1)
+    assert doc["message"].startswith("ffmpeg cannot decode the audio of outside.mp4: ")
+    assert sorted(p.name for p in folder.iterdir()) == ["job.json", "recording.mp4"]
+    after = written()
+    assert {p.relative_to(root).parts[:2] for p in after - before} == {("results", job["id"])}
+    # files are served from a job's own list only, models chosen from the server's
+    assert _request(server, "GET", f"/files/{job['id']}/job.json")[0] == 404
+    assert _request(server, "GET", f"/files/{job['id']}/../../job.json")[0] == 404
+    bad = {"kind": "say", "model": "../../synthetic", "text": "hello"}
+    status, doc = _request(server, "POST", "/api/jobs", json.dumps(bad).encode(),
+                           X_Miketalk="1", Content_Type="application/json")  # fmt: skip
+    assert status == 400 and doc["error"].startswith("no such model")
+
+
+def test_refusals_are_one_line(server) -> None:
+    job = json.dumps({"kind": "say", "model": "model", "text": "hi"}).encode()
+    status, doc = _request(server, "POST", "/api/jobs", job, Content_Type="application/json")
+    assert status == 403  # not from the page: no X-Miketalk header
+    status, _ = _request(server, "POST", "/api/jobs", job, X_Miketalk="1",
+                         Origin="http://evil.example")  # fmt: skip
+    assert status == 403
+    status, _ = _request(server, "GET", "/api/models", Host="evil.example")
+    assert status == 404  # DNS rebinding: another host name
+    # over the limit: refused before the body is sent
+    status, doc = _request(server, "POST", "/api/upload?kind=video", X_Miketalk="1",
+                           X_Miketalk_Name="big.mp4", Content_Length=str(65 << 20))  # fmt: skip
+    assert status == 413
+    assert doc["error"] == (
+        "big.mp4 is 65 MB: larger than the upload limit of 64 MB (miketalk serve --max-upload-mb)"
+    )
+    for body, said in (
+        (b"{", "the request is not JSON"),
+        (b'{"kind": "sing"}', "kind must be one of say, dub, build"),
+        (b'{"kind": "say", "model": "model"}', "no text: type what the face should say"),
+        (b'{"kind": "say", "model": "model", "text": "hi", "lipsync": "learned"}',
+         "the model at model has no learned coarticulation"),
+        (b'{"kind": "dub", "model": "model", "text": "hi"}',
+         "the model model was not built from video of a person"),
+        (b'{"kind": "say", "model": "model", "text": "hi", "voice": "bob"}',
+         "voice must be one of kal, ked, slt"),
+    ):  # fmt: skip
+        status, doc = _request(server, "POST", "/api/jobs", body, X_Miketalk="1")
+        assert status == 400 and doc["error"].startswith(said), doc
+        assert "\n" not in doc["error"]
+
+
+def test_the_build_ends_with_its_stages_and_a_face_that_speaks(building, server) -> None:
+    models = server.app.config.models
+    _build_status(building, "done", 150)
+    stages = server.app.settings()["build_stages"]
+    assert _stages(building, "li.done") == stages
+    assert building.locator("#build-progress .fill").evaluate("e => e.style.width") == "100%"
+    assert "Built s1 here" in building.locator("#build-progress .outcome").inner_text()
+    assert building.locator("#models li[aria-checked='true'] .name").inner_text() == "s1 here"
+    jobs = building.evaluate("fetch('/api/jobs').then(r => r.json())")
+    build = next(j for j in jobs if j["kind"] == "build")
+    assert build["status"] == "done" and [s["name"] for s in build["stages"]] == stages
+    (model,) = models.iterdir()  # its own folder, named by the server; no work folder left
+    assert model.name == build["id"] and (model / "manifest.json").is_file()
+    said = [j["finished"] for j in jobs if j["kind"] == "say" and j["status"] == "done"]
+    assert any(build["started"] < t < build["finished"] for t in said)  # while it built
+    seen = _say(building, "s1 here", "Bin blue at F two now.")
+    assert not seen["error"]
+    folder = _job_folder(server, seen["job"])
+    assert json.loads((folder / "say.json").read_text())["lipsync_model"] == "learned"
+    video, audio = probe_durations(folder / "say.mp4")
+    assert abs(seen["duration"] - max(video, audio)) < 0.05
+    building.evaluate("document.getElementById('player').pause()")
+
+
+def test_a_cancelled_build_leaves_nothing(building, joined, server) -> None:
+    import multiprocessing
+
+    models = server.app.config.models
+    before = sorted(p.name for p in models.iterdir())
+    _build(building, joined, "never")
+    building.click("#cancel-build")
+    _build_status(building, "cancelled", 60)
+    assert "no model was written" in building.locator("#build-progress .outcome").inner_text()
+    assert sorted(p.name for p in models.iterdir()) == before
+    assert not any(p.name.startswith("miketalk-") for p in models.parent.rglob("*"))
+    assert multiprocessing.active_children() == []  # the build's process is gone
+    assert all(m["label"] != "never" for m in server.app.catalog.describe())
+    job = next(j for j in server.app.board.listing() if j["kind"] == "build")
+    assert job["status"] == "cancelled" and job["inputs"]["name"] == "never"
+
+
+def test_the_command_starts_and_stops(tmp_path: Path) -> None:
+    import signal
+    import socket
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "miketalk.cli", "serve", "--port", "0", "--results",
+               str(tmp_path / "results"), "--max-upload-mb", "1"]  # fmt: skip
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("miketalk serve: http://127.0.0.1:"), line
+        address = line.split("http://")[1].split("/")[0]
+        connection = http.client.HTTPConnection(address, timeout=10)
+        connection.request("GET", "/api/config")
+        assert json.loads(connection.getresponse().read())["max_upload_bytes"] == 1 << 20
+        connection.close()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        err = proc.communicate(timeout=30)[1]
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+    with socket.socket() as taken:  # a port in use is one line
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = str(taken.getsockname()[1])
+        busy = subprocess.run(
+            [*command[:4], "--port", port, "--results", str(tmp_path / "other")],
+            capture_output=True, text=True, timeout=60,
+        )  # fmt: skip
+    assert busy.returncode == 2 and busy.stderr.count("\n") == 1, busy.stderr
+    assert busy.stderr.startswith(f"miketalk: error: cannot listen on 127.0.0.1:{port}: ")
