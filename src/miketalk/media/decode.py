@@ -22,6 +22,8 @@ from __future__ import annotations
 import os
 import re
 import subprocess
+import tempfile
+from collections.abc import Iterator
 from fractions import Fraction
 from pathlib import Path
 
@@ -29,7 +31,7 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["read_media_audio", "read_video"]
+__all__ = ["iter_video_frames", "read_media_audio", "read_video", "video_info"]
 
 #: Seconds ffmpeg may take to decode one file's sound.
 _TIMEOUT = 300.0
@@ -73,14 +75,40 @@ def read_video(
     path = Path(path)
     if not path.is_file():
         raise MiketalkError(f"video file not found: {path}")
+    args = _video_args(path, "verbose", start, frames)
+    proc = subprocess.run(args, capture_output=True, check=False)
+    log = proc.stderr.decode("utf-8", "replace")
+    if proc.returncode != 0:
+        if "matches no streams" in log:
+            raise MiketalkError(f"{path} has no video stream")
+        raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(log)}")
+    size = _SIZE_RE.search(log)
+    rate = _RATE_RE.search(log)
+    if size is None or not proc.stdout:
+        raise MiketalkError(f"no video frame decoded from {path}: {_tail(log)}")
+    width, height = int(size[1]), int(size[2])
+    if rate is None or int(rate[1]) == 0 or int(rate[2]) == 0:
+        raise MiketalkError(f"{path}: the video stream does not state its frame rate")
+    frame_bytes = width * height * 3
+    if len(proc.stdout) % frame_bytes:
+        raise MiketalkError(
+            f"{path}: ffmpeg's output ({len(proc.stdout)} bytes) is not a whole number of "
+            f"{width}x{height} RGB frames"
+        )
+    frames = np.frombuffer(proc.stdout, np.uint8).reshape(-1, height, width, 3).copy()
+    return frames, float(Fraction(int(rate[1]), int(rate[2])))
+
+
+def _video_args(path: Path, loglevel: str, start: float | None, frames: int | None) -> list[str]:
+    """ffmpeg's arguments decoding ``path``'s first video stream to raw RGB on its stdout."""
     import imageio_ffmpeg
 
-    args = [
+    return [
         imageio_ffmpeg.get_ffmpeg_exe(),
         "-hide_banner",
         "-nostdin",
         "-loglevel",
-        "verbose",
+        loglevel,
         "-threads",
         "1",
         *(["-ss", f"{start:.6f}"] if start else []),
@@ -106,27 +134,94 @@ def read_video(
         "rgb24",
         "pipe:1",
     ]
-    proc = subprocess.run(args, capture_output=True, check=False)
-    log = proc.stderr.decode("utf-8", "replace")
-    if proc.returncode != 0:
-        if "matches no streams" in log:
-            raise MiketalkError(f"{path} has no video stream")
-        raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(log)}")
-    size = _SIZE_RE.search(log)
-    rate = _RATE_RE.search(log)
-    if size is None or not proc.stdout:
-        raise MiketalkError(f"no video frame decoded from {path}: {_tail(log)}")
-    width, height = int(size[1]), int(size[2])
-    if rate is None or int(rate[1]) == 0 or int(rate[2]) == 0:
-        raise MiketalkError(f"{path}: the video stream does not state its frame rate")
+
+
+def video_info(path: str | os.PathLike[str]) -> tuple[int, int, float]:
+    """The width, height and frame rate of the first video stream of ``path``.
+
+    Found by decoding its first frame as :func:`read_video` does (so the size is the one
+    :func:`iter_video_frames` yields).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any video file ffmpeg reads.
+
+    Returns
+    -------
+    width, height : int
+        The decoded frames' size in pixels.
+    fps : float
+        The stream's frame rate.
+
+    Raises
+    ------
+    MiketalkError
+        As :func:`read_video`.
+    """
+    first, fps = read_video(path, frames=1)
+    return int(first.shape[2]), int(first.shape[1]), fps
+
+
+def iter_video_frames(
+    path: str | os.PathLike[str], *, start: float | None = None, frames: int | None = None
+) -> Iterator[np.ndarray]:
+    """Decode the first video stream of ``path`` one frame at a time, as a stream.
+
+    The same frames as :func:`read_video` (the same ffmpeg arguments, so the same
+    bytes), but memory holds one frame, not the whole video: a long HD video is
+    read in constant memory. ffmpeg runs while the frames are consumed; closing the
+    generator early (``break``, ``close()``) stops it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any video file ffmpeg reads.
+    start : float, optional
+        Seconds from the beginning (ffmpeg's accurate input seek), as :func:`read_video`.
+    frames : int, optional
+        Yield at most this many frames.
+
+    Yields
+    ------
+    numpy.ndarray
+        ``(H, W, 3)`` uint8 RGB frames in display order (each a new array).
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing or ffmpeg cannot decode it (before the first frame, from
+        :func:`video_info`, or when the stream ends, quoting ffmpeg's log), or if the
+        stream ends inside a frame.
+    """
+    path = Path(path)
+    width, height, _ = video_info(path)
     frame_bytes = width * height * 3
-    if len(proc.stdout) % frame_bytes:
-        raise MiketalkError(
-            f"{path}: ffmpeg's output ({len(proc.stdout)} bytes) is not a whole number of "
-            f"{width}x{height} RGB frames"
-        )
-    frames = np.frombuffer(proc.stdout, np.uint8).reshape(-1, height, width, 3).copy()
-    return frames, float(Fraction(int(rate[1]), int(rate[2])))
+    args = _video_args(path, "error", start, frames)
+    with tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log)
+        assert proc.stdout is not None
+        finished = False
+        try:
+            while True:
+                data = proc.stdout.read(frame_bytes)
+                if not data:
+                    break
+                if len(data) < frame_bytes:
+                    raise MiketalkError(
+                        f"{path}: the video stream ended inside a {width}x{height} frame"
+                    )
+                yield np.frombuffer(data, np.uint8).reshape(height, width, 3).copy()
+            finished = True
+        finally:
+            if not finished:
+                proc.kill()
+            proc.stdout.close()
+            code = proc.wait()
+        if code != 0:
+            log.seek(0)
+            text = log.read().decode("utf-8", "replace")
+            raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(text)}")
 
 
 def _tail(log: str) -> str:
