@@ -56,6 +56,7 @@ LAYERS: dict[str, int] = {
     "miketalk.speech": 2,
     "miketalk.stabilize": 3,
     "miketalk.mouth": 3,
+    "miketalk.track": 3,
     "miketalk.corpus": 4,
     "miketalk.flow": 5,
     "miketalk.render": 6,
