@@ -34,7 +34,7 @@ $(STAMP): pyproject.toml setup.py src/miketalk/render/_morph_kernels.c
 	@command -v $(PYTHON) >/dev/null || { echo "$(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[dev,evaluation]'
+	$(BIN)/pip install -q -e '.[dev]'
 	touch $@
 
 run: setup
@@ -50,7 +50,7 @@ lint: setup
 	$(BIN)/snakemake --lint --cores 1
 
 test: setup lint
-	MIKETALK_NO_SKIP=1 $(BIN)/pytest -q
+	MIKETALK_NO_SKIP=1 $(BIN)/pytest -q -n 2 --dist loadfile
 
 bench: run
 	$(BIN)/python -m miketalk_lab.bench --out results/bench --results-doc docs/results.md

@@ -64,3 +64,10 @@ def s1_built(s1_joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
         keep_corpus=where / "corpus",
     )
     return where / "model"
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The slow end-to-end tests first (a stable sort): under ``pytest -n 2 --dist loadfile``
+    (``make test``) their files start at once on one worker while the rest share the other,
+    instead of starting last."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

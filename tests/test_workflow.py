@@ -150,7 +150,9 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     # s1 speaks with what it learned (its config), at the speech's own speed
     said = json.loads((results / "utterances/s1/hello.json").read_text())
     assert said["lipsync_model"] == "learned"
-    assert said["motion"]["morphs"] == said["motion"]["frames"]
+    # the learned path keeps the step limit: more states drawn than frames where it moves fast
+    assert said["motion"]["morphs"] >= said["motion"]["frames"]
+    assert said["largest_step_px"] <= said["max_px_per_frame"] + 1e-6
     assert abs(said["motion"]["duration_ratio"] - 1) < 0.1
     # ... over its own frames (the model keeps 2 to 3 s of its reference clip, cut where
     # the head stands still), and the synthetic face stays still

@@ -3,8 +3,8 @@
 A face is built from one person's frontal face. :func:`check_one_face` counts
 faces with dlib's frontal face detector (HOG, shipped inside dlib: no model
 file) in a few frames spread over the video, and refuses a video where most of
-them show no face, or several. dlib comes with miketalk's ``evaluation`` extra
-(``make setup`` installs it); without it the check is skipped with a warning,
+them show no face, or several. dlib is a dependency of miketalk (face tracking,
+:mod:`miketalk.track`); where it cannot be imported the check is skipped with a warning,
 and the stabilizer's own rules (:mod:`miketalk.stabilize.locate`) are the only ones.
 """
 

