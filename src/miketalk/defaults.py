@@ -117,7 +117,7 @@ BACKGROUND_SMOOTH = 0.04
 
 #: The flows of a model ``miketalk build`` makes: the workflow's defaults of
 #: ``flow.methods.bergen``, ``flow.strategy`` and ``flow.mixed_window``
-#: (workflow/schemas/config.schema.yaml; tests/test_build.py checks they agree).
+#: (workflow/schemas/config.schema.yaml; tests/product/test_build.py checks they agree).
 BUILD_FLOW_METHOD = {"estimator": "bergen", "settings": {"levels": 5}}
 BUILD_FLOW_STRATEGY = "bridge"
 BUILD_MIXED_WINDOW = 6

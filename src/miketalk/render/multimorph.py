@@ -24,7 +24,7 @@ three or more
     (``inverse_iterations`` steps; 0 is the first-order ``P = q - S(q)``).
     With two visemes this path is the two-image morph made by backward warps
     (no holes to fill); it is measured against the paper's forward-warp morph
-    in ``tests/test_coarticulation.py``. The model's ``median`` setting applies
+    in ``tests/product/test_coarticulation.py``. The model's ``median`` setting applies
     as in the paper's morph (3x3 median).
 
 All warps are ``cv2.remap`` in float32. :func:`miketalk.draw.learned.render_learned`

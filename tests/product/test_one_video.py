@@ -22,7 +22,7 @@ from miketalk.media.video import write_mp4
 from miketalk_lab.bench.joined import join_clips
 from miketalk_lab.bench.one_video import boundary_errors
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data" / "grid_s1"
 #: Three training clips then one held-out clip (3 s each).
 CLIPS = ["bbaf2n", "lgwg2n", "pric4p", "bbas3a"]

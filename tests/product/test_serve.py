@@ -29,7 +29,7 @@ from miketalk import cli
 from miketalk.media.video import probe_durations
 from miketalk.speech import FestivalBackend
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = Path("/usr/bin/chromium")
 #: Chromium's switches as root in a container, without a network of its own.
 FLAGS = [

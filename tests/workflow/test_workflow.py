@@ -24,7 +24,7 @@ import pytest
 
 from miketalk.speech import FestivalBackend
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = Path(sys.executable).parent / "snakemake"
 
 pytestmark = [

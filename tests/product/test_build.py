@@ -17,7 +17,7 @@ import yaml
 from miketalk import cli, defaults
 from miketalk.speech import FestivalBackend
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data" / "grid_s1"
 
 needs_festival = pytest.mark.skipif(

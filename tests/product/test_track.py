@@ -33,7 +33,7 @@ from miketalk.track.similarity import compose_affine
 from miketalk.track.smooth import smooth_poses, smooth_transforms
 from miketalk_lab.hard_s1 import chroma_alpha, hard_frames, hard_motion, make_hard_clip, room
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CLIP = ROOT / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
 FPS = 25.0
 

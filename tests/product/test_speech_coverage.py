@@ -17,7 +17,7 @@ from miketalk.media.decode import read_media_audio
 from miketalk.speech.coverage import UNEXPLAINED_LIMIT, frame_levels, speech_coverage
 from miketalk.speech.types import Phone
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RATE = 16000
 #: GRID s1 saying "bin blue at s three again" (six words)
 CLIP = ROOT / "data/grid_s1/video/bbas3a.mpg"

@@ -25,7 +25,7 @@ from miketalk_lab.evaluation.landmarks import (
     mouth_width,
 )
 
-CLIP = Path(__file__).resolve().parents[1] / "data" / "grid_s1" / "video" / "bbas3a.mpg"
+CLIP = Path(__file__).resolve().parents[2] / "data" / "grid_s1" / "video" / "bbas3a.mpg"
 
 
 @pytest.fixture(scope="module")

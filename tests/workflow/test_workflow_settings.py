@@ -22,7 +22,7 @@ from miketalk_lab.workflow.config import SCHEMA, ConfigError, canonical, validat
 from miketalk_lab.workflow.experiment import Experiment
 from miketalk_lab.workflow.inputs import CLIP_CHAIN, Inputs
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data/grid_s1"
 _DOT_TEST = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())
 _MAIN = yaml.safe_load((ROOT / "config.yaml").read_text())
