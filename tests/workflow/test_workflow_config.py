@@ -250,3 +250,20 @@ def test_the_sampling_strip_of_a_face_that_does_not_morph_like_the_paper_is_the_
     assert proc.returncode == 0, proc.stderr[-2000:]
     for sampling in config["sweeps"]["sampling"]:
         assert f"results/utterances/s1/sweep/{sampling}/px2.5_fps30.json" in proc.stdout
+
+
+@pytest.mark.parametrize(
+    ("method", "message"),
+    [
+        ({"estimator": "bergen", "settings": {"levels": 0}}, "levels must be an integer >= 1"),
+        ({"estimator": "bergen", "settings": {"levels": "five"}}, "got 'five'"),
+        ({"estimator": "bergen", "settings": {"smooth": 2}}, "has no setting 'smooth'"),
+        ({"estimator": "horn_schunck"}, "'horn_schunck' is not one of"),
+    ],
+)
+def test_a_wrong_flow_setting_fails_the_dry_run(tmp_path: Path, method: dict, message: str) -> None:
+    config = dot_test_config()
+    config["flow"]["methods"]["bergen"] = method
+    proc = dry_run(tmp_path, config)
+    assert proc.returncode != 0
+    assert message in proc.stdout + proc.stderr

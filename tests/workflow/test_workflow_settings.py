@@ -225,6 +225,26 @@ def test_a_faces_flow_method_is_configured_and_its_strategy_known() -> None:
 
 
 @pytest.mark.parametrize(
+    ("settings", "problem"),
+    [
+        ({"levels": 0}, "levels must be an integer >= 1, got 0"),
+        ({"levels": "five"}, "levels must be an integer >= 1, got 'five'"),
+        ({"smooth": 2}, "flow estimator 'bergen' has no setting 'smooth'"),
+    ],
+)
+def test_a_flow_methods_settings_are_checked_before_any_job(settings: dict, problem: str) -> None:
+    config = dot_test()
+    config["flow"]["methods"]["bergen"]["settings"] = settings
+    assert refused(config).startswith(f"flow.methods.bergen: {problem}")
+
+
+def test_an_unknown_estimator_is_refused_by_the_schema() -> None:
+    config = dot_test()
+    config["flow"]["methods"]["bergen"]["estimator"] = "horn_schunck"
+    assert refused(config).startswith("config: flow.methods.bergen.estimator: 'horn_schunck'")
+
+
+@pytest.mark.parametrize(
     ("change", "problems"),
     [
         ({"test": [*TEST, TRAIN[1]]},

@@ -87,6 +87,25 @@ def check_method(face: str, method: str, methods: Mapping) -> None:
         )
 
 
+def check_flow_methods(methods: Mapping[str, Mapping]) -> None:
+    """Every flow method's estimator takes its settings: known names, values in range
+    (:func:`miketalk.flow.registry.get_estimator` checks them), so that a wrong setting fails
+    the dry run rather than the flows job.
+
+    Raises
+    ------
+    ConfigError
+        In one line naming the method, for the first that does not.
+    """
+    from miketalk.flow.registry import get_estimator
+
+    for name, spec in methods.items():
+        try:
+            get_estimator(spec["estimator"], **spec.get("settings", {}))
+        except MiketalkError as err:
+            raise ConfigError(f"flow.methods.{name}: {err}") from None
+
+
 def check_face_settings(
     face: str,
     *,

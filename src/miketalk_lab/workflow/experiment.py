@@ -116,6 +116,7 @@ class Experiment:
         ConfigError
             For the first face whose settings do not.
         """
+        checks.check_flow_methods(self.methods)
         for face in self.faces:
             method, strategy = self.model_flow(face)
             checks.check_face_settings(
