@@ -158,3 +158,11 @@ def test_one_video_defaults_are_the_library_s(parser: argparse.ArgumentParser) -
     for function in (segment_video, check_video_inputs):
         default = inspect.signature(function).parameters["heldout_seconds"].default
         assert default == defaults.HELDOUT_SECONDS
+
+
+def test_the_background_s_names_and_default_are_the_library_s() -> None:
+    from miketalk.composite.background_files import BACKGROUND_CHOICES, BackgroundChoice
+
+    assert BACKGROUND_CHOICES == ("auto", "still") == tuple(BackgroundChoice)
+    face = _schema("faces")["additionalProperties"]["properties"]["background"]
+    assert face["default"] == defaults.BACKGROUND in BACKGROUND_CHOICES

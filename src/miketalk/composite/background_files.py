@@ -14,6 +14,7 @@ import json
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import replace
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
@@ -263,6 +264,17 @@ def read_background(model_dir: str | os.PathLike[str]) -> Background:
     )
 
 
+class BackgroundChoice(StrEnum):
+    """What ``--background`` (and a workflow face's ``background``) names, besides a video."""
+
+    AUTO = "auto"  #: the model's own background if it keeps one, else the still face
+    STILL = "still"  #: the model's still face
+
+
+#: The named backgrounds, as plain strings (anything else is a video's path).
+BACKGROUND_CHOICES: tuple[str, ...] = tuple(c.value for c in BackgroundChoice)
+
+
 def resolve_background(choice: str | None, model, *, progress: bool = False):
     """The background of ``--background``: ``auto``, ``still`` or a video's path.
 
@@ -279,9 +291,9 @@ def resolve_background(choice: str | None, model, *, progress: bool = False):
         be read, is shorter than a second, or does not show the model's person.
     """
     choice = choice or defaults.BACKGROUND
-    if choice == "still":
+    if choice == BackgroundChoice.STILL:
         return None
-    if choice == "auto":
+    if choice == BackgroundChoice.AUTO:
         return read_background(model.directory) if has_background(model.directory) else None
     stabilizer = model_stabilizer(model.directory)
     frames, fps = check_video(choice)

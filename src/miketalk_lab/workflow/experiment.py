@@ -11,13 +11,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from miketalk.composite.background_files import BACKGROUND_CHOICES
 from miketalk_lab.workflow import checks, faces, paths, sweeps
 from miketalk_lab.workflow.config import SCHEMA, canonical, project_path, validate_config
 from miketalk_lab.workflow.vocabulary import PAPER
 
 #: What a face's utterances may play under the mouth besides a video of the person (the
-#: schema's ``faces.NAME.background``).
-BACKGROUNDS = ("auto", "still")
+#: schema's ``faces.NAME.background``): the library's.
+BACKGROUNDS = BACKGROUND_CHOICES
 
 
 class Experiment:
