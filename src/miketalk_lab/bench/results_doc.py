@@ -203,16 +203,15 @@ def heldout_section(results: Path, face: str, measured_by: str, snakemake: str) 
 
 def sweep_section(results: Path, face: str, snakemake: str) -> list[str]:
     """The training-clips sweep of a face (``training_clips.csv``): its lip-sync renderers."""
+    from miketalk_lab.evaluation.dub_heldout import DUB_RENDERERS
+
     path = results / "metrics" / "heldout" / face / "training_clips.csv"
     lines = [f"### {face}: how much video a model needs (the training-clips sweep)", ""]
     if not path.is_file():
         return [*lines, _missing(path), ""]
     table = pd.read_csv(path)
     model = _own_model(table)
-    shown = table[
-        (table["model"] == model)
-        & table["renderer"].isin(("morph", "learned", "trained", "trained_heard"))
-    ]
+    shown = table[(table["model"] == model) & table["renderer"].isin(DUB_RENDERERS)]
     columns = [f"{c}_mean" for c in SWEEP_COLUMNS if f"{c}_mean" in table.columns]
     shown = shown[["training_clips", "renderer", "clips", *columns]]
     shown = shown.sort_values(["renderer", "training_clips"], kind="stable")

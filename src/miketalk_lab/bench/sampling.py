@@ -31,12 +31,13 @@ import yaml
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk.lipsync.settings import Sampling
 
 DEFAULT_MODEL = defaults.model_dir("synthetic")
 #: The project's configuration, whose ``sentences`` are measured.
 CONFIG = pathlib.Path("config.yaml")
 #: The modes compared; the first is ``say``'s default.
-MODES = ("blur", "paper")
+MODES = (Sampling.BLUR.value, Sampling.PAPER.value)
 #: The default mode's target: the speech's duration within this fraction of its own.
 TARGET_DURATION = 0.10
 #: How much larger than the paper mode's blur's largest step may be and count as no
