@@ -207,7 +207,8 @@ def align(
         WordTiming(w, a0, min(a1, duration)) for w, (a0, a1, _) in zip(clean, spans, strict=True)
     ]
     slack = 1.0 / frate + aligner.window
-    return Alignment(tuple(found), tuple(_contiguous(phones, duration, slack=slack)), score)
+    phones = _contiguous(phones, duration, slack=slack)
+    return Alignment(tuple(found), tuple(phones), score)
 
 
 _Span = tuple[float, float, list[tuple[str, float, float]]]  # a word: start, end, its phones

@@ -583,7 +583,7 @@ def test_build_checks_workers_and_its_folder_before_any_work(tmp_path: Path) -> 
 # faithful output
 # ---------------------------------------------------------------------------
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 GRID = ROOT / "data" / "grid_s1" / "video"
 
 
@@ -891,3 +891,24 @@ def test_a_full_disk_at_publication_is_exit_one_and_leaves_the_old_pair(
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 1 and len(err) == 1 and "No space left" in err[0], err
     assert files(tmp_path) == old
+
+
+def test_long_audio_is_halved_where_the_words_fit(
+    joined_recording: tuple[Path, str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Audio over COARSE_SECONDS is halved at a pause before the coarse pass (its memory),
+    and the words on either side of the cut are settled by the fine aligner: none lost.
+    (2.4 minutes halved as an hour would be, with the limit at 40 s.)"""
+    from miketalk.corpus.script import Cue
+    from miketalk.media.decode import read_media_audio
+    from miketalk.speech import long_align
+
+    audio, text = joined_recording
+    samples = read_media_audio(audio)
+    monkeypatch.setattr(long_align, "COARSE_SECONDS", 40.0)
+    words = tuple(text.split())
+    found = long_align.align_long(samples, 16000, [Cue(words, start=None, end=None)])
+    assert len(found.unaligned) <= len(words) // 100, found.unaligned[:3]
+    assert found.phones[0].start == 0.0 and found.phones[-1].end == pytest.approx(
+        len(samples) / 16000
+    )
