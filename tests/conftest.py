@@ -8,6 +8,7 @@ a skip there would hide a missing install step.
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -25,6 +26,14 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo):
 
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """pytest-xdist's workers (``make test`` runs ``-n 2``) start with Ctrl-C ignored, and
+    the processes they start would inherit that: the tests of what Ctrl-C does need Python's
+    own handler, as a terminal gives it."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
