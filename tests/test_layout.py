@@ -80,8 +80,8 @@ LAYERS: dict[str, int] = {
 MAX_LOOSE_MODULES = 8
 
 #: No module longer than this (lines). Modules are split where their concept splits; the cap
-#: only catches one that has grown into several things.
-MAX_LINES = 600
+#: catches one that has grown into several things.
+MAX_LINES = 450
 
 
 def modules(packages: Mapping[str, Path]) -> dict[str, Path]:

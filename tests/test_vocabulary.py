@@ -123,7 +123,8 @@ def test_no_vocabulary_is_spelled_twice(names: tuple[str, ...]) -> None:
 def test_morph_settings_defaults_are_the_morpher_s_and_the_schema_s() -> None:
     import inspect
 
-    from miketalk.render.morph import Morpher, MorphSettings
+    from miketalk.render.morph import Morpher
+    from miketalk.render.morph_settings import MorphSettings
 
     settings = MorphSettings().to_dict()
     signature = inspect.signature(Morpher).parameters
@@ -139,7 +140,7 @@ def test_morph_settings_defaults_are_the_morpher_s_and_the_schema_s() -> None:
 
 def test_an_unknown_morph_setting_is_one_line() -> None:
     from miketalk.errors import MiketalkError
-    from miketalk.render.morph import MorphSettings
+    from miketalk.render.morph_settings import MorphSettings
 
     with pytest.raises(MiketalkError, match="unknown morph setting smooth"):
         MorphSettings.of({"smooth": True})

@@ -40,7 +40,8 @@ from miketalk.flow import FlowDatabase
 from miketalk.lipsync.timeline import FrameSample, Timeline
 from miketalk.media.images import read_image
 from miketalk.model.manifest import check_digest, check_files, inside, read_manifest
-from miketalk.render.morph import Morpher, MorphSettings
+from miketalk.render.morph import Morpher
+from miketalk.render.morph_settings import MorphSettings
 
 if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
     pass
@@ -61,7 +62,7 @@ class Model:
     cache_size : int
         How many transitions' morphers to keep ready.
     morph_options : dict, optional
-        Some of :class:`miketalk.render.morph.MorphSettings` by name, checked here (an
+        Some of :class:`miketalk.render.morph_settings.MorphSettings` by name, checked here (an
         unknown one is a one-line error).
 
     Raises

@@ -34,6 +34,7 @@ accuracy and speed.
 
 from miketalk.track.canonical import CANONICAL_LANDMARKS
 from miketalk.track.crop import FaceCropSettings, face_crop, face_mask, iter_face_crops, paste_back
+from miketalk.track.result import Failure, FailureRange, Track
 from miketalk.track.similarity import (
     apply_affine,
     fit_similarity,
@@ -41,15 +42,7 @@ from miketalk.track.similarity import (
     invert_affine,
     pose_parameters,
 )
-from miketalk.track.track import (
-    FaceTracker,
-    Failure,
-    FailureRange,
-    Track,
-    TrackerSettings,
-    track_frames,
-    track_video,
-)
+from miketalk.track.track import FaceTracker, TrackerSettings, track_frames, track_video
 
 __all__ = [
     "CANONICAL_LANDMARKS",

@@ -84,7 +84,7 @@ class FaceCropSettings:
         Parameters
         ----------
         track_transform : numpy.ndarray
-            ``(2, 3)`` frame-to-canonical (a :class:`~miketalk.track.track.Track`'s).
+            ``(2, 3)`` frame-to-canonical (a :class:`~miketalk.track.result.Track`'s).
 
         Returns
         -------
@@ -139,7 +139,7 @@ def iter_face_crops(
         The video's frames, in order (e.g. :func:`~miketalk.media.decode.iter_video_frames`).
     transforms : numpy.ndarray
         ``(N, 2, 3)`` their frame-to-canonical transforms, NaN for a frame left out
-        (a :class:`~miketalk.track.track.Track`'s ``transforms``).
+        (a :class:`~miketalk.track.result.Track`'s ``transforms``).
     settings : FaceCropSettings, optional
         The crop's geometry.
 
