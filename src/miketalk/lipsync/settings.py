@@ -241,8 +241,3 @@ class LipsyncSettings:
         object.__setattr__(self, "trajectory", check_trajectory_name(self.trajectory))
         if self.trajectory is not None and self.model not in (None, LipsyncModel.TRAINED):
             raise MiketalkError("--trajectory goes with --lipsync-model trained")
-
-    @property
-    def limited(self) -> bool:
-        """Whether a step limit applies (``max_px_per_frame`` set and sampling not none)."""
-        return self.max_px_per_frame is not None and self.sampling != Sampling.NONE
