@@ -221,7 +221,7 @@ def test_say_background_auto_moves_the_head(capsys, tmp_path, person, video):
 
 
 def test_lower_face_correlation_tells_a_mouth_in_place_from_one_that_is_not():
-    from miketalk.composite.background import lower_face_correlation
+    from miketalk.composite.registration import lower_face_correlation
 
     frame = _head(4)
     box = (74, 100, 28, 8)  # the synthetic mouth: centre (88, 104), 28 px wide

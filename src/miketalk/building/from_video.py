@@ -25,6 +25,7 @@ from miketalk.errors import MiketalkError
 from miketalk.media.atomic import check_writable, output_lock
 from miketalk.media.ownership import Kind, check_replaceable
 from miketalk.media.scratch import scratch_dir
+from miketalk.track.crop import FaceCropSettings
 from miketalk.workers import check_workers, default_workers
 
 __all__ = ["KEPT", "build_model_from_video", "peak_mb", "publish_directory"]
@@ -47,6 +48,7 @@ def build_model_from_video(
     flow: dict | None = None,
     mixed_window: int = defaults.BUILD_MIXED_WINDOW,
     keep_corpus: str | Path | None = None,
+    crop: FaceCropSettings | None = FaceCropSettings(),  # noqa: B008 (frozen: one value)
 ) -> dict:
     """Build a model from one video (see the module docstring); the seconds each stage took.
 
@@ -56,6 +58,9 @@ def build_model_from_video(
     ``flow`` (the flow method's ``estimator`` and ``settings``) and ``mixed_window``
     default to the workflow's defaults; ``keep_corpus`` is where the corpus folder is moved at
     the end (for a held-out test of the model; a new folder), instead of removed.
+    ``crop``: the face tracked and the model built in its canonical crop of this geometry
+    (:mod:`miketalk.track`), its output at the video's own resolution; None: in the
+    video's own pixels (the plain-background rules of :mod:`miketalk.stabilize`).
 
     Raises
     ------
@@ -118,7 +123,9 @@ def build_model_from_video(
                 video, segments, transcript=transcript, subtitles=subtitles,
                 heldout_seconds=heldout_seconds, checked=checked,
             ),
-            "corpus": lambda: corpus_stage(corpus, settings, segments=segments, workers=workers),
+            "corpus": lambda: corpus_stage(
+                corpus, settings, segments=segments, workers=workers, crop=crop
+            ),
             "visemes": lambda: choose_visemes_stage(corpus_dir=corpus, grouping={}, out=out),
             "eigenlips": lambda: eigenlips_stage(corpus, corpus / "eigenlips.npz"),
             "flows (mixed)": lambda: flows_of("mixed"),

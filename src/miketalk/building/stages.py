@@ -20,6 +20,7 @@ import pandas as pd
 
 from miketalk.corpus.one_video import MIN_VISEME_CLASSES
 from miketalk.errors import MiketalkError
+from miketalk.track.crop import FaceCropSettings
 
 __all__ = [
     "MIN_VISEME_CLASSES",
@@ -38,18 +39,20 @@ def corpus_stage(
     *,
     segments: str | Path | None = None,
     workers: int = 1,
+    crop: FaceCropSettings | None = None,
 ) -> dict:
     """The training clips of a face (or its one video's training utterances) into its corpus.
 
     ``corpus`` is the face's corpus settings (paths absolute); ``segments`` the
     ``segments.json`` of a face from one video, whose training part must show
-    :data:`MIN_VISEME_CLASSES` viseme classes (:func:`check_viseme_classes`).
+    :data:`MIN_VISEME_CLASSES` viseme classes (:func:`check_viseme_classes`); ``crop``
+    the face crop to work in (:func:`miketalk.corpus.clips.ingest_clips`).
     """
     from miketalk.corpus.clips import ingest_clips
     from miketalk.corpus.one_video import face_clips
 
     clips = face_clips(dict(corpus), "train", segments=segments)
-    report = ingest_clips(Path(corpus_dir), clips=clips, workers=workers)
+    report = ingest_clips(Path(corpus_dir), clips=clips, workers=workers, crop=crop)
     if segments is not None:  # a face from one video: its utterances must show the classes
         check_viseme_classes(corpus_dir)
     return report

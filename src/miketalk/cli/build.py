@@ -41,7 +41,15 @@ def cmd_build(args: argparse.Namespace) -> int:
             print(f"miketalk build: {stage}: {seconds:.1f} s, peak {peak:.0f} MB", file=sys.stderr)
 
     from miketalk.building.from_video import build_model_from_video
+    from miketalk.track.crop import FaceCropSettings
 
+    crop = None
+    if args.frame == "crop":
+        crop = FaceCropSettings() if args.crop_size is None else FaceCropSettings(
+            size=args.crop_size, eye_distance=FaceCropSettings.eye_distance * args.crop_size / 256
+        )  # fmt: skip
+    elif args.crop_size is not None:
+        raise MiketalkError("--crop-size goes with --frame crop (the face crop's size)")
     seconds = build_model_from_video(
         args.video,
         args.output,
@@ -53,6 +61,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         report=report,
         keep_corpus=args.keep_corpus,
+        crop=crop,
     )
     total = time.perf_counter() - started
     segments = json.loads((Path(args.output) / "build" / "segments.json").read_text("utf-8"))
@@ -104,6 +113,21 @@ def add_build_parser(sub) -> None:
         type=int,
         default=None,
         help="processes to use, 1 to the machine's cores (default 2, or 1 on one core)",
+    )
+    build.add_argument(
+        "--frame",
+        choices=("crop", "full"),
+        default="crop",
+        help="crop: track the face and work in a face crop of fixed size, the output at the "
+        "video's own resolution (default; any video of one person); full: work in the "
+        "video's own pixels (a still head before a plain backdrop, as GRID's)",
+    )
+    build.add_argument(
+        "--crop-size",
+        type=int,
+        default=None,
+        metavar="PX",
+        help="the face crop's width and height in pixels (default 256)",
     )
     build.add_argument("--force", action="store_true", help="replace an existing model")
     build.add_argument(

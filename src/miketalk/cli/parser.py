@@ -93,8 +93,9 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument(
         "--fps",
         type=checked(fps_value),
-        default=defaults.FPS,
-        help=f"frame rate, {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (default {defaults.FPS:g})",
+        default=None,
+        help=f"frame rate, {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (default: a face-crop model's "
+        f"video's own, else {defaults.FPS:g})",
     )
     say.add_argument(
         "--sampling",

@@ -62,7 +62,6 @@ def cmd_say(args: argparse.Namespace) -> int:
     text = read_text(args)
     output = check_output(args.output, overwrite=args.force, inputs=cli_inputs(args))
     check_lipsync_model(args)
-    settings = lipsync_settings(args, sampling, max_px)
     # Festival starts first and analyses the text while the rest loads
     with festival_backend(args).start(text) as speech:
         log.info("Festival started (%s voice)", voice.name)
@@ -73,6 +72,9 @@ def cmd_say(args: argparse.Namespace) -> int:
             from miketalk.composite.background_files import resolve_background
 
             background = resolve_background(args.background, model, progress=args.progress)
+            settings = lipsync_settings(
+                args, sampling, max_px, fps=output_fps(args, background, model)
+            )
             long_text = len(text.split()) > 40
             spoken = say(
                 speech,
@@ -158,6 +160,18 @@ def check_lipsync_model(args: argparse.Namespace) -> None:
                  "a recording" if recorded else "typed text")  # fmt: skip
 
 
+def output_fps(args: argparse.Namespace, background, model) -> float:
+    """``--fps``, or by default the frame rate of the video a face crop's model plays its
+    mouth into (its head motion frame for frame; 29.97 stays 29.97), else
+    :data:`miketalk.defaults.FPS`. Sets ``args.fps`` to it."""
+    from miketalk.composite.background_files import model_crop
+
+    if args.fps is None:
+        in_crop = background is not None and model_crop(model.directory) is not None
+        args.fps = background.fps if in_crop else defaults.FPS
+    return args.fps
+
+
 def lipsync_settings(
     args: argparse.Namespace, sampling: str, max_px: float | None, fps: float | None = None
 ) -> LipsyncSettings:
@@ -191,12 +205,12 @@ def _say_recorded(
     text = read_text(args) if has_text(args) else None
     check_output(args.output, overwrite=args.force, inputs=cli_inputs(args))
     check_lipsync_model(args)
-    settings = lipsync_settings(args, sampling, max_px)
     from miketalk.composite.background_files import resolve_background
     from miketalk.talk.say import Recorded, open_model, say
 
     with open_model(args.model) as model:
         background = resolve_background(args.background, model, progress=args.progress)
+        settings = lipsync_settings(args, sampling, max_px, fps=output_fps(args, background, model))
         said = say(
             Recorded(args.audio, text=text, timings=args.timings),
             args.output,

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from miketalk import defaults
-from miketalk.composite.loop import pingpong, smooth_in_time
+from miketalk.composite.loop import pingpong
 from miketalk.errors import MiketalkError
 
 __all__ = [
@@ -43,22 +43,12 @@ __all__ = [
     "background_from_video",
     "check_video",
     "composited",
-    "find_blinks",
     "pingpong",
 ]
 
 
 #: The shortest video ``dub`` and ``--background VIDEO`` take, seconds.
 MIN_SECONDS = 1.0
-
-#: The least correlation of a video's lower face (stabilized, the median over its frames)
-#: with the model's reference: the 16 committed GRID clips checked score 0.63 to 0.96, the
-#: same man mirrored (registered wrongly, at ECC correlation 0.91) 0.12.
-MIN_LOWER_FACE = 0.4
-
-#: A frame blinks when its eye band differs from the sequence's median by this many
-#: times the band's median difference (and at least 3 grey levels).
-BLINK_FACTOR = 3.0
 
 
 @dataclass(frozen=True)
@@ -83,6 +73,16 @@ class Background:
     steady : numpy.ndarray or None
         (h, w, 3) uint8 the median of the frames stabilized onto the
         reference: the background's light, to match the mouth's colour to.
+    shown : numpy.ndarray or None
+        (N,) bool: the frames the mouth is put into; the others (a tracked video's
+        frames without the face, :mod:`miketalk.composite.tracked`) play as they are.
+        None: all of them.
+    shot : numpy.ndarray or None
+        (N,) int: which run of tracked frames of one shot each frame belongs to (-1 where
+        not shown): the loop turns within one (None: all one shot).
+
+    The frames may be an array or a sequence read when needed
+    (:mod:`miketalk.media.frame_source`): indexed by a whole number, with ``shape``.
     """
 
     frames: np.ndarray
@@ -92,6 +92,8 @@ class Background:
     blinks: tuple[int, ...] = ()
     source: str = ""
     steady: np.ndarray | None = None
+    shown: np.ndarray | None = None
+    shot: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -134,6 +136,9 @@ def composited(
         offset = compositor.colour_field(rest, background.steady)
     for k, render in enumerate(renders):
         i = background.index(k, fps)
+        if background.shown is not None and not background.shown[i]:
+            yield np.array(background.frames[i], np.uint8, copy=True)
+            continue
         yield compositor(
             background.frames[i],
             render,
@@ -157,77 +162,6 @@ def background_doc(background: Background | None) -> dict:
             "loop": "pingpong",
         }
     }
-
-
-def lower_face_correlation(
-    steady: np.ndarray, reference: np.ndarray, mouth_box: tuple[int, int, int, int]
-) -> float:
-    """Normalized cross-correlation (luma) of two frames over the lips and chin.
-
-    The box is 1 mouth width either side of the mouth box's centre, from 0.45
-    above it to 0.8 below: where a registered video's mouth must land for the
-    composited mouth to cover it.
-    """
-    import cv2
-
-    x, y, w, h = mouth_box
-    cx, cy = x + w / 2, y + h / 2
-    rows = slice(max(0, round(cy - 0.45 * w)), round(cy + 0.8 * w))
-    cols = slice(max(0, round(cx - w)), round(cx + w))
-    a, b = (
-        cv2.cvtColor(np.ascontiguousarray(f), cv2.COLOR_RGB2GRAY)[rows, cols].astype(np.float64)
-        for f in (steady, reference)
-    )
-    a, b = a - a.mean(), b - b.mean()
-    norm = float(np.sqrt((a * a).sum() * (b * b).sum()))
-    return float((a * b).sum() / norm) if norm > 0 else 0.0
-
-
-def find_blinks(
-    stabilized: np.ndarray, mouth_box: tuple[int, int, int, int], *, factor: float = BLINK_FACTOR
-) -> tuple[int, ...]:
-    """Frames whose eyes differ from the sequence's usual eyes: blinks.
-
-    Parameters
-    ----------
-    stabilized : numpy.ndarray
-        (N, H, W, 3) frames on the reference.
-    mouth_box : tuple of int
-        The mouth box: the eyes are 0.8 to 1.4 mouth widths above it (a face's
-        proportions, as :mod:`miketalk.stabilize` uses them), across
-        two mouth widths about its centre.
-    factor : float
-        See :data:`BLINK_FACTOR`.
-    """
-    x, y, w, _ = mouth_box
-    top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
-    left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
-    band = stabilized[:, top:bottom, left:right].astype(np.float32).mean(axis=3)
-    change = np.abs(band - np.median(band, axis=0)).mean(axis=(1, 2))
-    threshold = max(factor * float(np.median(change)), 3.0)
-    return tuple(int(i) for i in np.flatnonzero(change > threshold))
-
-
-#: Frames a long video's conform field and light are measured on (evenly spread).
-_SAMPLE = 100
-
-
-def _spread(n: int, most: int) -> np.ndarray:
-    """At most ``most`` indices spread evenly over ``range(n)`` (all of them for ``n <= most``)."""
-    return np.arange(n) if n <= most else np.linspace(0, n - 1, most).round().astype(int)
-
-
-def _fill(transforms: np.ndarray) -> np.ndarray:
-    """NaN transforms replaced by the nearest registered frame's (earlier on a tie)."""
-    ok = np.flatnonzero(np.isfinite(transforms[:, 0, 0]))
-    idx = np.arange(len(transforms))
-    pos = np.clip(np.searchsorted(ok, idx), 1, len(ok) - 1) if len(ok) > 1 else np.zeros_like(idx)
-    if len(ok) > 1:
-        left, right = ok[pos - 1], ok[pos]
-        nearest = np.where(idx - left <= right - idx, left, right)
-    else:
-        nearest = np.full_like(idx, ok[0])
-    return transforms[nearest]
 
 
 def check_video(path: str | os.PathLike[str]) -> tuple[np.ndarray, float]:
@@ -281,8 +215,7 @@ def background_from_video(
     Raises
     ------
     MiketalkError
-        When the first frame, or fewer than half of all frames, register: the
-        video does not show the model's person frontally (or no one).
+        As :func:`register_video`: the video does not show the model's person frontally.
     """
     import cv2
 
@@ -292,89 +225,16 @@ def background_from_video(
     small = frames
     if (fh, fw) != (h, w):
         small = np.stack([cv2.resize(f, (w, h), interpolation=cv2.INTER_AREA) for f in frames])
-    first = stabilizer.register(small[:1], clip=source, on_failure="nan")
-    if not np.isfinite(first).all():
-        rho = float(stabilizer.correlations[0])
-        why = (
-            "no registration to the model's reference converges"
-            if rho < 0
-            else f"correlation {rho:.2f} with the model's reference, at least "
-            f"{stabilizer.min_correlation} needed"
+    scaled = ""
+    if abs(fw * h / (fh * w) - 1) > 0.02:
+        scaled = (
+            f"; it is {fw}x{fh}, the reference {w}x{h}, and frames are scaled to the "
+            "reference's size: another shape distorts the face"
         )
-        if abs(fw * h / (fh * w) - 1) > 0.02:
-            why += (
-                f"; it is {fw}x{fh}, the reference {w}x{h}, and frames are scaled to the "
-                "reference's size: another shape distorts the face"
-            )
-        raise MiketalkError(
-            f"{source}: its first frame does not show the model's person ({why}): give a "
-            "frontal video of the same person"
-        )
-    from miketalk.composite.video_checks import SECOND_FACE, face_matches
+    from miketalk.composite.registration import register_video
 
-    peaks = face_matches(small[0], stabilizer, first[0])
-    if len(peaks) > 1 and peaks[1] >= SECOND_FACE:
-        raise MiketalkError(
-            f"{source}: its first frame shows the model's face twice (a second place matches "
-            f"it at {peaks[1]:.2f}, at least {SECOND_FACE} counts): give a video of one person"
-        )
-    transforms = _register(stabilizer, small, first[0], source=source, progress=progress)
-    ok = np.isfinite(transforms[:, 0, 0])
-    if ok.mean() < 0.5:
-        raise MiketalkError(
-            f"{source}: only {int(ok.sum())} of its {len(ok)} frames show the model's person "
-            "(register to its reference): give a frontal video of the same person"
-        )
-    some = _spread(len(small), _SAMPLE)  # the field and the light from at most _SAMPLE frames
-    field = stabilizer.conform(small[some], transforms[some], clip=source)
-    transforms = _fill(transforms)
-    if smooth > 0 and len(transforms) > 1:
-        transforms = smooth_in_time(transforms, smooth * fps)
-    full = np.array([(scale @ np.vstack([t, [0, 0, 1]]))[:2] for t in transforms])
-    steady = stabilizer.apply(small, transforms, field=field)
-    blinks = find_blinks(steady, stabilizer.mouth_box)
-    median = np.median(steady[some], axis=0).astype(np.uint8)
-    score = lower_face_correlation(median, stabilizer.reference, stabilizer.mouth_box)
-    if score < MIN_LOWER_FACE:
-        raise MiketalkError(
-            f"{source}: its mouth and chin do not land on the model's (correlation {score:.2f} "
-            f"with the model's reference after registration, at least {MIN_LOWER_FACE} needed): "
-            "give a frontal video of the same person"
-        )
-    _check_colour(median, stabilizer, source)
-    return Background(frames, full, field, float(fps), blinks, source, median)
-
-
-def _check_colour(median: np.ndarray, stabilizer, source: str) -> None:
-    """Refuse a registered video whose face's colour the model's mouth cannot match."""
-    from miketalk.composite.video_checks import MAX_COLOUR_SHIFT, colour_shift
-
-    shift = colour_shift(median, stabilizer.reference, stabilizer.mask)
-    if shift > MAX_COLOUR_SHIFT:
-        raise MiketalkError(
-            f"{source}: its face's colour is far from the model's (chromaticity {shift:.3f} "
-            f"from the reference's, at most {MAX_COLOUR_SHIFT} allowed): give a video in "
-            "natural colour and steady light"
-        )
-
-
-def _register(stabilizer, frames: np.ndarray, init: np.ndarray, *, source: str, progress: bool):
-    """:meth:`Stabilizer.register` in chunks, each starting from the last registered frame."""
-    chunk = 50
-    out = np.empty((len(frames), 2, 3))
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(frames), desc="registering", unit="frame")
-    start = init
-    for i in range(0, len(frames), chunk):
-        part = stabilizer.register(frames[i : i + chunk], clip=source, init=start, on_failure="nan")
-        out[i : i + chunk] = part
-        ok = np.flatnonzero(np.isfinite(part[:, 0, 0]))
-        start = part[ok[-1]] if len(ok) else None
-        if bar is not None:
-            bar.update(len(part))
-    if bar is not None:
-        bar.close()
-    return out
+    found = register_video(
+        small, fps, stabilizer, source=source, progress=progress, smooth=smooth, scaled=scaled
+    )
+    full = np.array([(scale @ np.vstack([t, [0, 0, 1]]))[:2] for t in found.transforms])
+    return Background(frames, full, found.field, float(fps), found.blinks, source, found.steady)

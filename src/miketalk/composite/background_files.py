@@ -23,16 +23,19 @@ from miketalk import defaults
 from miketalk.composite.background import Background, background_from_video, check_video, composited
 from miketalk.composite.loop import head_speed, still_window
 from miketalk.errors import MiketalkError
+from miketalk.track.crop import FaceCropSettings, crop_doc, crop_from_doc
 
 __all__ = [
     "composite_renders",
     "has_background",
     "model_compositor",
+    "model_crop",
     "model_stabilizer",
     "mouth_box_of",
     "read_background",
     "resolve_background",
     "save_background",
+    "video_background",
     "write_background",
 ]
 
@@ -62,6 +65,11 @@ def model_stabilizer(model_dir: str | os.PathLike[str]):
             f"{DIRECTORY}/{META}): only such a model can play over a video"
         )
     meta = json.loads((where / META).read_text(encoding="utf-8"))
+    crop = crop_from_doc(meta.get("crop"))
+    if crop is not None:
+        from miketalk.corpus.clips import crop_stabilizer
+
+        return crop_stabilizer(read_image(where / REFERENCE), crop)
     face = read_image(where / FACE_MASK)[..., 0] > 127
     return Stabilizer.from_reference(
         read_image(where / REFERENCE), face=face, mouth_box=tuple(meta["mouth_box"])
@@ -142,27 +150,43 @@ def write_background(
     from miketalk.corpus.clips import REFERENCE as CORPUS_REFERENCE
     from miketalk.corpus.clips import corpus_stabilizer, mouth_box
     from miketalk.media.images import read_image
+    from miketalk.track.crop import crop_from_doc
 
     corpus_dir = Path(corpus_dir)
     regions = json.loads((corpus_dir / "regions.json").read_text(encoding="utf-8"))
     clip = regions["reference"]["clip"]
-    if segments is not None:
-        from miketalk.corpus.one_video import read_utterance
-
-        frames, fps = read_utterance(segments, clip, media=media)
-    else:
-        frames, fps = check_video(media.replace("{id}", clip))
+    crop = crop_from_doc(regions.get("crop"))
     stabilizer = corpus_stabilizer(corpus_dir)
-    whole = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
+    where, part = Path(media.replace("{id}", clip)), {}
+    reference = regions["reference"]
+    if "media" in reference:  # a face crop's: the reference's shot, where it is in its video
+        where = Path(reference["media"])
+        if "first_frame" in reference:
+            start = reference["first_frame"] / reference["fps"]
+            part = {"start": start, "frames": reference["frames"]}
+    elif segments is not None:
+        from miketalk.corpus.one_video import utterance_clip
+
+        found = utterance_clip(segments, clip, media=media)
+        where, part = found.media, {"start": found.start, "frames": found.span[1]}
+    if crop is not None:
+        from miketalk.composite.tracked import tracked_background
+
+        whole = tracked_background(where, stabilizer, crop, source=f"clip {clip}", **part)
+    else:
+        frames, fps = check_video(where) if not part else _read_part(where, part)
+        whole = background_from_video(frames, fps, stabilizer, source=f"clip {clip}")
+    fps = whole.fps
     x, y, w, _h = stabilizer.mouth_box
     speed = head_speed(whole.transforms, (x + w / 2, y - 0.5 * w))  # the nose
     start, stop = still_window(
         speed, whole.blinks, shortest=max(2, round(shortest * fps)),
-        longest=max(2, round(seconds * fps)),
+        longest=max(2, round(seconds * fps)), shot=whole.shot,
     )  # fmt: skip
     background = replace(
         whole, frames=whole.frames[start:stop], transforms=whole.transforms[start:stop],
         blinks=tuple(b - start for b in whole.blinks if start <= b < stop),
+        shown=None if whole.shown is None else whole.shown[start:stop], shot=None,
     )  # fmt: skip
     face = read_image(corpus_dir / CORPUS_FACE)[..., 0] > 127
     return save_background(
@@ -173,7 +197,15 @@ def write_background(
         mouth_box=mouth_box(corpus_dir),
         clip=clip,
         start=start,
+        crop=crop,
     )
+
+
+def _read_part(media: Path, part: dict) -> tuple[np.ndarray, float]:
+    """The frames of a part of a video (an utterance), as the corpus cut them."""
+    from miketalk.media.decode import read_video
+
+    return read_video(media, start=part["start"], frames=part["frames"])
 
 
 def save_background(
@@ -185,6 +217,7 @@ def save_background(
     mouth_box: tuple[int, int, int, int],
     clip: str,
     start: int = 0,
+    crop: FaceCropSettings | None = None,
 ) -> dict:
     """Write ``background`` and what registers video to the reference into ``model_dir``.
 
@@ -202,6 +235,9 @@ def save_background(
         Where the frames come from.
     start : int
         The clip's frame the first kept frame is.
+    crop : FaceCropSettings, optional
+        The face crop the model works in (its reference and mouth box are in crop
+        pixels, the frames at the video's resolution); None: the frames' own pixels.
 
     Returns
     -------
@@ -229,6 +265,10 @@ def save_background(
         "mouth_box": [int(v) for v in mouth_box],
         "transforms": [[round(float(v), 6) for v in t.ravel()] for t in background.transforms],
     }
+    if crop is not None:
+        meta["crop"] = crop_doc(crop)
+    if background.shown is not None and not np.all(background.shown):
+        meta["shown"] = [bool(v) for v in background.shown]
     write_text_atomic(out / META, json.dumps(meta, indent=1))  # last: complete once it exists
     return meta
 
@@ -241,6 +281,7 @@ def read_background(model_dir: str | os.PathLike[str]) -> Background:
     MiketalkError
         If the model keeps none, or a frame is missing.
     """
+    from miketalk.media.frame_source import ImageFrames
     from miketalk.media.images import read_image
 
     where = Path(model_dir) / DIRECTORY
@@ -250,7 +291,7 @@ def read_background(model_dir: str | os.PathLike[str]) -> Background:
             "use --background still or a video"
         )
     meta = json.loads((where / META).read_text(encoding="utf-8"))
-    frames = np.stack([read_image(where / f"{i:04d}.png") for i in range(meta["frames"])])
+    frames = ImageFrames([where / f"{i:04d}.png" for i in range(meta["frames"])])
     field = np.load(where / FIELD)
     transforms = np.array(meta["transforms"], np.float64).reshape(-1, 2, 3)
     return Background(
@@ -261,6 +302,7 @@ def read_background(model_dir: str | os.PathLike[str]) -> Background:
         tuple(meta["blinks"]),
         f"clip {meta['clip']}",
         read_image(where / STEADY),
+        np.array(meta["shown"], bool) if "shown" in meta else None,
     )
 
 
@@ -295,9 +337,39 @@ def resolve_background(choice: str | None, model, *, progress: bool = False):
         return None
     if choice == BackgroundChoice.AUTO:
         return read_background(model.directory) if has_background(model.directory) else None
-    stabilizer = model_stabilizer(model.directory)
-    frames, fps = check_video(choice)
-    return background_from_video(frames, fps, stabilizer, source=str(choice), progress=progress)
+    return video_background(model.directory, choice, progress=progress)
+
+
+def model_crop(model_dir: str | os.PathLike[str]) -> FaceCropSettings | None:
+    """The face crop a model works in (None: the frames' own pixels, or no background)."""
+    where = Path(model_dir) / DIRECTORY / META
+    if not where.is_file():
+        return None
+    return crop_from_doc(json.loads(where.read_text(encoding="utf-8")).get("crop"))
+
+
+def video_background(
+    model_dir: str | os.PathLike[str], video: str | os.PathLike[str], *, progress: bool = False
+) -> Background:
+    """Any video of the model's person registered to its reference (``say --background
+    VIDEO``, ``dub``): through its face crops for a model that works in one
+    (:func:`~miketalk.composite.tracked.tracked_background`), else frame by frame
+    (:func:`~miketalk.composite.background.background_from_video`).
+
+    Raises
+    ------
+    MiketalkError
+        A model not built from a person, or a video that cannot be read, is shorter
+        than a second, or does not show the model's person.
+    """
+    stabilizer = model_stabilizer(model_dir)
+    crop = model_crop(model_dir)
+    if crop is not None:
+        from miketalk.composite.tracked import tracked_background
+
+        return tracked_background(video, stabilizer, crop, source=str(video), progress=progress)
+    frames, fps = check_video(video)
+    return background_from_video(frames, fps, stabilizer, source=str(video), progress=progress)
 
 
 def composite_renders(

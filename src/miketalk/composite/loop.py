@@ -40,7 +40,12 @@ def head_speed(transforms: np.ndarray, point: tuple[float, float]) -> np.ndarray
 
 
 def still_window(
-    speed: np.ndarray, blinks: Iterable[int], *, shortest: int, longest: int
+    speed: np.ndarray,
+    blinks: Iterable[int],
+    *,
+    shortest: int,
+    longest: int,
+    shot: np.ndarray | None = None,
 ) -> tuple[int, int]:
     """The frames ``[start, stop)`` to play ping-pong: both turns where the head is still.
 
@@ -58,6 +63,9 @@ def still_window(
         Frames where the eyes close.
     shortest, longest : int
         The window's least and greatest length, frames (clipped to ``N``).
+    shot : numpy.ndarray, optional
+        (N,) int: the shot each frame belongs to, -1 for a frame that may not be played
+        (no face tracked): a window lies within one shot. None: all one.
     """
     n = len(speed)
     longest = max(1, min(longest, n))
@@ -72,6 +80,8 @@ def still_window(
     for start in range(n - shortest + 1):
         for stop in range(start + shortest, min(n, start + longest) + 1):
             if need and seen[stop] == seen[start]:
+                continue
+            if shot is not None and (shot[start] < 0 or shot[start] != shot[stop - 1]):
                 continue
             key = (round(float(speed[start] + speed[stop - 1]), 6), -(stop - start), start)
             if best is None or key < best[0]:

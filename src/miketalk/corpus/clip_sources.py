@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -11,6 +12,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.speech.types import Phone
 from miketalk.speech.word_timings import WordTiming, read_word_timings
+from miketalk.track.crop import FaceCropSettings
 
 #: Sample rate of the corpus sound (the aligner's rate).
 RATE = 16000
@@ -47,7 +49,13 @@ class Clip:
 
 @dataclass(frozen=True)
 class DecodedClip:
-    """A clip read and aligned: frames as recorded, sound, phones (clip time)."""
+    """A clip read and aligned: frames as recorded (or its face crops), sound, phones
+    (clip time).
+
+    ``left_out`` and ``to_crop`` are set when the frames are face crops
+    (:func:`decode_clip` with ``crop``): per frame why the tracker left it out (None:
+    the face was tracked), and each frame's map from the video's pixels to its crop's.
+    """
 
     clip: Clip
     frames: np.ndarray
@@ -55,6 +63,28 @@ class DecodedClip:
     samples: np.ndarray
     phones: tuple[Phone, ...]
     words: tuple[WordTiming, ...]
+    left_out: tuple[str | None, ...] | None = None
+    to_crop: np.ndarray | None = None
+    cuts: tuple[int, ...] = ()
+
+    def shots(self) -> list[DecodedClip]:
+        """The clip cut at its shot changes (:attr:`cuts`, found by the tracker), each part
+        a clip of its own named ``<id>.<k>`` (one shot: one light, one colour offset)."""
+        if not self.cuts:
+            return [self]
+        bounds = [0, *self.cuts, len(self.frames)]
+        parts = []
+        for k, (a, b) in enumerate(itertools.pairwise(bounds), 1):
+            part = self.cut(a, b)
+            parts.append(replace(part, clip=replace(part.clip, id=f"{self.clip.id}.{k}")))
+        return parts
+
+    @property
+    def tracked(self) -> np.ndarray | None:
+        """``(N,)`` bool: the frames whose face was tracked (None: not face crops)."""
+        if self.left_out is None:
+            return None
+        return np.array([why is None for why in self.left_out], dtype=bool)
 
     def cut(self, first: int, stop: int) -> DecodedClip:
         """Frames ``first`` to ``stop`` (exclusive), with their sound, phones and words.
@@ -89,6 +119,9 @@ class DecodedClip:
             self.samples[round(t0 * RATE) : round(t1 * RATE)],
             moved(self.phones),
             moved(self.words),
+            None if self.left_out is None else self.left_out[first:stop],
+            None if self.to_crop is None else self.to_crop[first:stop],
+            tuple(c - first for c in self.cuts if first < c < stop),
         )
 
 
@@ -171,8 +204,12 @@ def clip_sources(
     return clips
 
 
-def decode_clip(clip: Clip) -> DecodedClip:
+def decode_clip(clip: Clip, *, crop: FaceCropSettings | None = None) -> DecodedClip:
     """Read a clip's frames and sound and align its phones.
+
+    With ``crop``, the frames are the face's canonical crops (:func:`~miketalk.track.
+    video_crops.crop_video`: the face tracked, then cropped; frames without one frontal
+    face flagged in ``tracked``), at the crop's size whatever the video's.
 
     Raises
     ------
@@ -183,8 +220,23 @@ def decode_clip(clip: Clip) -> DecodedClip:
     from miketalk.media.decode import read_media_audio, read_video
     from miketalk.speech.align import align
 
+    left_out = to_crop = None
+    cuts: tuple[int, ...] = ()
     try:
-        if clip.span is not None:
+        if crop is not None:
+            from miketalk.track.video_crops import crop_video
+
+            count = clip.span[1] if clip.span is not None else None
+            cropped = crop_video(clip.media, crop=crop, start=clip.start if count else None,
+                                 frames=count, source=f"its video {clip.media.name}")  # fmt: skip
+            frames, fps = cropped.crops, cropped.fps
+            left_out = tuple(None if r is None else str(r) for r in cropped.track.reasons)
+            to_crop, cuts = cropped.to_crop, tuple(cropped.track.cuts())
+            samples = read_media_audio(
+                clip.media, rate=RATE, start=clip.start if count else None,
+                duration=count / clip.fps if count else None,
+            )  # fmt: skip
+        elif clip.span is not None:
             frames, fps = read_video(clip.media, start=clip.start, frames=clip.span[1])
             samples = read_media_audio(
                 clip.media, rate=RATE, start=clip.start, duration=clip.span[1] / clip.fps
@@ -218,7 +270,17 @@ def decode_clip(clip: Clip) -> DecodedClip:
     shortest = min((p.duration for p in spoken), default=1.0)
     if len(frames) < 3 or shortest <= 0:
         raise ClipError(f"clip {clip.id}: shorter than its phones")
-    return DecodedClip(clip, frames, float(fps), samples, aligned.phones, aligned.words)
+    return DecodedClip(
+        clip,
+        frames,
+        float(fps),
+        samples,
+        aligned.phones,
+        aligned.words,
+        left_out,
+        to_crop,
+        cuts,
+    )
 
 
 def _clipped(phones: Sequence[Phone], duration: float) -> list[Phone]:

@@ -39,6 +39,7 @@ does not exist, an id the table lacks, clips of different sizes or frame rates).
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import logging
@@ -73,6 +74,7 @@ from miketalk.media.atomic import write_text_atomic
 from miketalk.media.audio import write_wav
 from miketalk.media.images import read_image, write_png
 from miketalk.mouth.region import REGIONS, mouth_box
+from miketalk.track.crop import FaceCropSettings, crop_doc, crop_from_doc, face_mask
 
 log = logging.getLogger(__name__)
 
@@ -105,8 +107,9 @@ def ingest_clips(
     out_dir: str | Path,
     *,
     clips: Sequence[Clip],
-    decode: Callable[[Clip], DecodedClip] = decode_clip,
+    decode: Callable[[Clip], DecodedClip] | None = None,
     workers: int = 1,
+    crop: FaceCropSettings | None = None,
 ) -> dict:
     """Write the corpus folder of ``clips`` (see the module docstring).
 
@@ -116,11 +119,18 @@ def ingest_clips(
         The corpus folder to fill.
     clips : sequence of Clip
         The training clips, in the order they are written.
-    decode : callable
-        ``decode(clip) -> DecodedClip`` (:func:`decode_clip`; tests pass a fake).
+    decode : callable, optional
+        ``decode(clip) -> DecodedClip`` (:func:`decode_clip` with ``crop``; tests pass
+        a fake).
     workers : int
         Clips decoded and aligned at once (threads: decoding runs in ffmpeg
         and the aligner's C code).
+    crop : FaceCropSettings, optional
+        Work in the face's canonical crop (:mod:`miketalk.track`): the face is tracked
+        in each clip, the corpus's frames are its crops, and the face mask the
+        registration uses is the crop's (:func:`~miketalk.track.crop.face_mask`)
+        instead of the plain-background and skin-colour rules. None: the frames as
+        recorded.
 
     Returns
     -------
@@ -144,7 +154,11 @@ def ingest_clips(
         shutil.rmtree(frames_dir)
     frames_dir.mkdir(parents=True)
     skipped: list[tuple[str, str]] = []
-    decoded = _decoded(clips, decode, skipped, workers)
+    if decode is None:
+        decode = functools.partial(decode_clip, crop=crop)
+    decoded = (
+        part for whole in _decoded(clips, decode, skipped, workers) for part in whole.shots()
+    )
 
     stabilizer = None
     size = fps = None
@@ -157,7 +171,12 @@ def ingest_clips(
             size, fps = item.frames.shape[1:3], item.fps
             reference = int(choose_reference(item.frames))
             try:
-                stabilizer = Stabilizer.from_reference(item.frames[reference], sample=item.frames)
+                if crop is None:
+                    stabilizer = Stabilizer.from_reference(
+                        item.frames[reference], sample=item.frames
+                    )
+                else:  # the crop's face: its mask and mouth where the similarity puts them
+                    stabilizer = crop_stabilizer(item.frames[reference], crop)
             except MiketalkError as err:
                 raise MiketalkError(
                     f"clip {clip.id}, the reference clip: its face cannot be found ({err})"
@@ -168,6 +187,9 @@ def ingest_clips(
                 "mouth_box": list(mouth),
                 "size": [int(size[0]), int(size[1])],
             }
+            if crop is not None:  # and where its shot is in the video
+                regions["crop"] = crop_doc(crop)
+                regions["reference"] |= _where(item)
             write_png(out / REFERENCE, item.frames[reference])
             write_png(out / REGISTRATION_MASK, (mask * 255).astype(np.uint8))
             write_png(out / FACE_MASK, (face * 255).astype(np.uint8))
@@ -263,10 +285,27 @@ def corpus_stabilizer(corpus_dir: str | Path):
     from miketalk.stabilize import Stabilizer
 
     corpus_dir = Path(corpus_dir)
+    regions = json.loads((corpus_dir / REGIONS).read_text(encoding="utf-8"))
+    crop = crop_from_doc(regions.get("crop"))
+    if crop is not None:
+        return crop_stabilizer(read_image(corpus_dir / REFERENCE), crop)
     face = read_image(corpus_dir / FACE_MASK)
     face = (face if face.ndim == 2 else face[..., 0]) > 127
     return Stabilizer.from_reference(
         read_image(corpus_dir / REFERENCE), face=face, mouth_box=mouth_box(corpus_dir)
+    )
+
+
+def crop_stabilizer(reference: np.ndarray, crop: FaceCropSettings):
+    """The stabilizer of a corpus in the face's crop: ECC on the crop's face mask outside
+    its mouth (:func:`~miketalk.track.crop.face_mask`, :func:`~miketalk.track.crop.
+    mouth_box`), refining the tracker's similarity; no conform field (the faces of other
+    sessions, light and days differ by more than a pose: the field followed the light)."""
+    from miketalk.stabilize import Stabilizer
+    from miketalk.track.crop import mouth_box as crop_mouth_box
+
+    return Stabilizer.from_reference(
+        reference, face=face_mask(crop) > 0.5, mouth_box=crop_mouth_box(crop), conform_degree=0
     )
 
 
@@ -304,6 +343,14 @@ def _decoded(
                 _skip(skipped, clip.id, str(result))
             else:
                 yield result
+
+
+def _where(item: DecodedClip) -> dict:
+    """Where a clip's frames are in its media file."""
+    if item.clip.span is None:
+        return {"media": str(item.clip.media)}
+    return {"media": str(item.clip.media), "first_frame": item.clip.span[0],
+            "frames": item.clip.span[1], "fps": item.fps}  # fmt: skip
 
 
 def _skip(skipped: list[tuple[str, str]], clip_id: str, why: str) -> None:

@@ -321,14 +321,19 @@ def face_clips(corpus: dict, split: str, *, segments: str | Path | None = None) 
     )
 
 
+def utterance_clip(segments: str | Path, clip: str, *, media: str | Path | None = None) -> Clip:
+    """Utterance ``clip`` of ``segments.json`` as a clip: where the corpus cut it."""
+    doc = json.loads(Path(segments).read_text(encoding="utf-8"))
+    for u in doc["utterances"]:
+        if u["id"] == clip:
+            return _utterance_clip(doc, u, media)
+    raise MiketalkError(f"{segments}: no utterance {clip}")
+
+
 def read_utterance(segments: str | Path, clip: str, *, media: str | Path | None = None):
     """The frames and frame rate of utterance ``clip`` of ``segments.json``, cut as the
     corpus cuts it (:func:`miketalk.corpus.clip_sources.decode_clip`)."""
     from miketalk.media.decode import read_video
 
-    doc = json.loads(Path(segments).read_text(encoding="utf-8"))
-    for u in doc["utterances"]:
-        if u["id"] == clip:
-            found = _utterance_clip(doc, u, media)
-            return read_video(found.media, start=found.start, frames=found.span[1])
-    raise MiketalkError(f"{segments}: no utterance {clip}")
+    found = utterance_clip(segments, clip, media=media)
+    return read_video(found.media, start=found.start, frames=found.span[1])

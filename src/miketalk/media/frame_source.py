@@ -1,0 +1,205 @@
+"""Frames read when they are needed: a video's, or a folder of images', as a sequence.
+
+A full-resolution background (``say --background VIDEO``, ``dub``, a model's own frames at
+HD) is played frame by frame, mostly forwards, sometimes backwards (the ping-pong loop).
+Holding all of it would make memory grow with the video's pixels and length (10 s of
+1080p is 1.9 GB); :class:`VideoFrames` and :class:`ImageFrames` hold a few frames:
+
+- :class:`VideoFrames` streams the video through ffmpeg
+  (:func:`~miketalk.media.decode.iter_video_frames`) and keeps the last ``keep`` frames
+  read; a frame before those reopens the stream ``keep`` frames before it, so that
+  playing backwards costs one reopening per ``keep`` frames.
+- :class:`ImageFrames` reads image files, keeping the last ``keep`` read.
+
+Both index like a read-only ``(N, H, W, 3)`` array by a whole number, and say their
+``shape``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import OrderedDict
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+
+__all__ = ["ImageFrames", "VideoFrames"]
+
+
+class _Cached:
+    """The last ``keep`` frames by index, and the sequence protocol over them."""
+
+    def __init__(self, count: int, shape: tuple[int, int], keep: int) -> None:
+        if count < 1:
+            raise MiketalkError("a frame sequence needs at least one frame")
+        self._count = int(count)
+        self._frame_shape = (int(shape[0]), int(shape[1]))
+        self._keep = max(1, int(keep))
+        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+
+    @property
+    def shape(self) -> tuple[int, int, int, int]:
+        """``(N, H, W, 3)``."""
+        return (self._count, *self._frame_shape, 3)
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        for i in range(self._count):
+            yield self[i]
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return _Slice(self, range(self._count)[index])
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)):
+            raise TypeError(f"frames are indexed by a whole number, not {index!r}")
+        i = int(index) + (self._count if index < 0 else 0)
+        if not 0 <= i < self._count:
+            raise IndexError(f"frame {index} of {self._count}")
+        if i in self._cache:
+            self._cache.move_to_end(i)
+            return self._cache[i]
+        return self._read(i)
+
+    def _remember(self, i: int, frame: np.ndarray) -> None:
+        frame.flags.writeable = False
+        self._cache[i] = frame
+        self._cache.move_to_end(i)
+        while len(self._cache) > self._keep:
+            self._cache.popitem(last=False)
+
+    def _read(self, i: int) -> np.ndarray:
+        raise NotImplementedError
+
+
+class _Slice:
+    """Some of a sequence's frames (a slice of it), read through it."""
+
+    def __init__(self, frames: _Cached, indices: range) -> None:
+        self._frames, self._indices = frames, indices
+
+    @property
+    def shape(self) -> tuple[int, int, int, int]:
+        """``(N, H, W, 3)``."""
+        return (len(self._indices), *self._frames.shape[1:])
+
+    def __len__(self) -> int:
+        return len(self._indices)
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        for i in self._indices:
+            yield self._frames[i]
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return _Slice(self._frames, self._indices[index])
+        return self._frames[self._indices[index]]
+
+
+class ImageFrames(_Cached):
+    """Image files as frames, read when asked for (the last ``keep`` kept).
+
+    Parameters
+    ----------
+    paths : sequence of path
+        One image per frame, in order, all of one size.
+    keep : int
+        Frames kept in memory.
+    """
+
+    def __init__(self, paths: Sequence[str | os.PathLike[str]], *, keep: int = 4) -> None:
+        from miketalk.media.images import read_image
+
+        self._paths = [Path(p) for p in paths]
+        if not self._paths:
+            raise MiketalkError("no image files to read frames from")
+        first = read_image(self._paths[0])
+        super().__init__(len(self._paths), first.shape[:2], keep)
+        self._remember(0, first)
+
+    def _read(self, i: int) -> np.ndarray:
+        from miketalk.media.images import read_image
+
+        frame = read_image(self._paths[i])
+        if frame.shape[:2] != self._frame_shape:
+            raise MiketalkError(
+                f"{self._paths[i]} is {frame.shape[1]}x{frame.shape[0]}, the frames before it "
+                f"{self._frame_shape[1]}x{self._frame_shape[0]}"
+            )
+        self._remember(i, frame)
+        return frame
+
+
+class VideoFrames(_Cached):
+    """A video's frames (``count`` of them from ``start``), decoded when asked for.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any video ffmpeg reads.
+    count : int
+        How many frames (from ``start``).
+    fps : float
+        Its frame rate (where frame ``i`` starts: ``start + i / fps``).
+    start : float
+        Seconds from the beginning of the file.
+    keep : int
+        Frames kept in memory (a step back within them reads nothing).
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        count: int,
+        fps: float,
+        start: float = 0.0,
+        keep: int = 32,
+    ) -> None:
+        from miketalk.media.decode import video_info
+
+        self._path = Path(path)
+        width, height, _ = video_info(self._path)
+        super().__init__(count, (height, width), keep)
+        self._fps = float(fps)
+        self._start = float(start)
+        self._stream: Iterator[np.ndarray] | None = None
+        self._next = 0  # the index the open stream yields next
+
+    def _open(self, i: int) -> None:
+        from miketalk.media.decode import iter_video_frames
+
+        self.close()
+        start = self._start + i / self._fps
+        self._stream = iter_video_frames(
+            self._path, start=start if start > 0 else None, frames=self._count - i
+        )
+        self._next = i
+
+    def _read(self, i: int) -> np.ndarray:
+        if self._stream is None or i < self._next or i > self._next + 4 * self._keep:
+            self._open(max(0, i - self._keep + 1) if i < self._next else i)
+        assert self._stream is not None
+        while self._next <= i:
+            try:
+                frame = next(self._stream)
+            except StopIteration:
+                raise MiketalkError(
+                    f"{self._path} ended at frame {self._next} of the {self._count} expected"
+                ) from None
+            self._remember(self._next, frame)
+            self._next += 1
+        return self._cache[i]
+
+    def close(self) -> None:
+        """Stop the decoder (it is started again when a frame is asked for)."""
+        if self._stream is not None:
+            self._stream.close()  # type: ignore[attr-defined]
+            self._stream = None
+
+    def __del__(self) -> None:
+        self.close()

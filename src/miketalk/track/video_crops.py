@@ -1,0 +1,189 @@
+"""A video (or part of one) read as canonical face crops: track, then crop, both streamed.
+
+:func:`crop_video` reads the frames twice through ffmpeg (:func:`~miketalk.media.decode.
+iter_video_frames`): once to track the face (:func:`~miketalk.track.track.track_frames`),
+once to warp each frame into the crop (:func:`~miketalk.track.crop.face_crop`). Memory
+holds one full-resolution frame at a time and the crops (``size``\\ :sup:`2` x 3 bytes a
+frame: 196 KB at 256 px, a minute at 30 fps is 350 MB), whatever the video's resolution.
+
+A frame the tracker left out (no frontal face, several, landmarks that do not fit) is
+cropped with its nearest tracked neighbour's transform, so that the crops stay one per
+frame and in time, and flagged in :attr:`CroppedVideo.tracked`: what uses the crops
+leaves such frames out (the corpus trims them around the speech or skips the clip;
+a background takes its neighbours' registration) and never treats them as the face.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from miketalk.errors import MiketalkError
+from miketalk.track.crop import FaceCropSettings, warp_to_crop
+from miketalk.track.result import Track
+from miketalk.track.similarity import invert_affine
+from miketalk.track.track import TrackerSettings, track_frames
+
+__all__ = ["CroppedVideo", "crop_video", "crops_of", "nearest_tracked"]
+
+
+@dataclass(frozen=True)
+class CroppedVideo:
+    """A video's frames as face crops, with where each crop came from.
+
+    Attributes
+    ----------
+    crops : numpy.ndarray
+        ``(N, size, size, 3)`` uint8 RGB: frame ``i``'s face crop.
+    to_crop : numpy.ndarray
+        ``(N, 2, 3)`` float64: frame ``i``'s pixels to its crop's pixels (a frame left
+        out has its nearest tracked neighbour's).
+    tracked : numpy.ndarray
+        ``(N,)`` bool: the frames the tracker followed the face in.
+    track : Track
+        The tracker's record (why frames were left out, segments, cuts).
+    fps : float
+        The frames' rate.
+    size : tuple of int
+        The video's ``(width, height)``.
+    """
+
+    crops: np.ndarray
+    to_crop: np.ndarray
+    tracked: np.ndarray
+    track: Track
+    fps: float
+    size: tuple[int, int]
+
+    def __len__(self) -> int:
+        return len(self.crops)
+
+    def to_frame(self, index: int) -> np.ndarray:
+        """``(2, 3)``: crop pixels of frame ``index`` to the frame's pixels."""
+        return invert_affine(self.to_crop[index])
+
+
+def nearest_tracked(transforms: np.ndarray) -> np.ndarray:
+    """Each NaN transform replaced by the nearest finite one's (the earlier one on a tie).
+
+    Parameters
+    ----------
+    transforms : numpy.ndarray
+        ``(N, 2, 3)``, NaN where left out; at least one finite.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, 2, 3)`` all finite.
+    """
+    transforms = np.asarray(transforms, dtype=np.float64)
+    ok = np.flatnonzero(np.isfinite(transforms).all(axis=(1, 2)))
+    if not ok.size:
+        raise MiketalkError("no frame has a transform")
+    where = np.searchsorted(ok, np.arange(len(transforms)))
+    before = ok[np.clip(where - 1, 0, len(ok) - 1)]
+    after = ok[np.clip(where, 0, len(ok) - 1)]
+    index = np.arange(len(transforms))
+    nearest = np.where(np.abs(index - before) <= np.abs(after - index), before, after)
+    return transforms[nearest]
+
+
+def crops_of(frames, to_crop: np.ndarray, settings: FaceCropSettings, count: int) -> np.ndarray:
+    """The crops of ``count`` frames of a stream, each by its transform.
+
+    Parameters
+    ----------
+    frames : iterable of numpy.ndarray
+        The frames, in order (consumed up to ``count``).
+    to_crop : numpy.ndarray
+        ``(count, 2, 3)`` their frame-to-crop-pixel transforms, all finite.
+    settings : FaceCropSettings
+        The crop.
+    count : int
+        How many frames.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(count, size, size, 3)`` uint8.
+
+    Raises
+    ------
+    MiketalkError
+        If the stream ends early.
+    """
+    n = settings.size
+    crops = np.empty((count, n, n, 3), np.uint8)
+    k = 0
+    for frame in frames:
+        if k == count:
+            break
+        crops[k] = warp_to_crop(frame, to_crop[k], settings)
+        k += 1
+    if k < count:
+        raise MiketalkError(
+            f"the video gave {k} frames on its second reading, {count} on its first"
+        )
+    return crops
+
+
+def crop_video(
+    path: str | os.PathLike[str],
+    *,
+    crop: FaceCropSettings | None = None,
+    tracker: TrackerSettings | None = None,
+    start: float | None = None,
+    frames: int | None = None,
+    source: str | None = None,
+) -> CroppedVideo:
+    """Track the face through a video (or ``frames`` of it from ``start``) and crop it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any video ffmpeg reads.
+    crop : FaceCropSettings, optional
+        The crop (the defaults otherwise).
+    tracker : TrackerSettings, optional
+        How the face is tracked.
+    start : float, optional
+        Seconds from the beginning.
+    frames : int, optional
+        At most this many frames.
+    source : str, optional
+        What to call the video in errors (its path by default).
+
+    Returns
+    -------
+    CroppedVideo
+
+    Raises
+    ------
+    MiketalkError
+        If the video cannot be read, or no frame shows one frontal face (the message
+        says why the frames were left out).
+    """
+    from miketalk.media.decode import iter_video_frames, video_info
+
+    crop = crop or FaceCropSettings()
+    source = source or str(path)
+    width, height, fps = video_info(path)
+    track = track_frames(iter_video_frames(path, start=start, frames=frames), fps=fps,
+                         settings=tracker)  # fmt: skip
+    if not len(track):
+        raise MiketalkError(f"{source}: no frame decoded")
+    tracked = track.tracked
+    if not tracked.any():
+        reasons = "; ".join(str(f) for f in track.failures()[:3])
+        raise MiketalkError(
+            f"{source}: no frame shows one frontal face ({reasons}): give a video of one "
+            "person facing the camera"
+        )
+    to_crop = np.stack([crop.transform(t) if ok else np.full((2, 3), np.nan)
+                        for t, ok in zip(track.transforms, tracked, strict=True)])  # fmt: skip
+    to_crop = nearest_tracked(to_crop)
+    crops = crops_of(iter_video_frames(path, start=start, frames=len(track)), to_crop, crop,
+                     len(track))  # fmt: skip
+    return CroppedVideo(crops, to_crop, tracked, track, float(fps), (int(width), int(height)))
