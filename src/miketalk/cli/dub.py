@@ -2,7 +2,8 @@
 
 ``miketalk dub VIDEO (--text T | --audio A [--text T]) -o OUT.mp4``: every frame
 of VIDEO is registered to the model's reference
-(:func:`miketalk.composite.background.background_from_video`), the mouth is
+(:func:`miketalk.composite.background_files.video_background`: through its face crops
+for a model built in one), the mouth is
 synthesized for the new speech at the video's own frame rate, and composited
 into every frame at the video's own size (:mod:`miketalk.composite.compositor`),
 with the new audio. Speech longer than the video plays the video forwards,
@@ -29,17 +30,14 @@ from miketalk.errors import MiketalkError
 
 __all__ = ["add_dub_parser", "cmd_dub"]
 
-#: Frames of work past which a progress bar is drawn on a terminal.
-_LONG_WORK = 300
-
 
 def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
     from miketalk.cli.common import festival_backend, has_text, read_text, seconds_since
     from miketalk.cli.say import check_lipsync_model, cli_inputs, lipsync_settings
-    from miketalk.composite.background import background_from_video, check_video
-    from miketalk.composite.background_files import has_background, model_stabilizer
+    from miketalk.composite.background_files import has_background, video_background
     from miketalk.lipsync.settings import check_fps
+    from miketalk.media.decode import video_info
     from miketalk.media.timing import check_constant_rate
     from miketalk.model.parts import default_model_dir
     from miketalk.talk.output import check_output
@@ -63,20 +61,20 @@ def cmd_dub(args: argparse.Namespace) -> int:
             f"the model {model_dir} was not built from video of a person: dub needs a model "
             "built from clips of the person in the video (e.g. --model results/model/s1)"
         )
-    frames, fps = check_video(args.video)
+    if not Path(args.video).is_file():
+        raise MiketalkError(f"video file not found: {args.video}")
+    _, _, fps = video_info(args.video)
     try:
         check_fps(fps)
     except MiketalkError as err:
         raise MiketalkError(f"{args.video}: its frame rate: {err}") from None
-    check_constant_rate(args.video, fps, len(frames))  # frames shown when they were taken
     settings = lipsync_settings(args, args.sampling, max_px, fps=fps)
-    long_work = len(frames) > _LONG_WORK and sys.stderr.isatty()
-    progress = args.progress or long_work
+    progress = args.progress or sys.stderr.isatty()
 
     def register():  # the video's frames registered to the model's reference
-        return background_from_video(
-            frames, fps, model_stabilizer(model_dir), source=str(args.video), progress=progress
-        )
+        background = video_background(model_dir, args.video, progress=progress)
+        check_constant_rate(args.video, fps, len(background))  # shown when they were taken
+        return background
 
     if args.audio is not None:
         with open_model(model_dir) as model:

@@ -4,7 +4,7 @@
 (:func:`miketalk.talk.say.say` with the lip-sync model settled by
 :func:`miketalk.draw.registry.choose_lipsync_model`, Festival started first with the voice
 asked for; a dub's video registered to the model by
-:func:`miketalk.composite.background.background_from_video`), and writes the mouth cues
+:func:`miketalk.composite.background_files.video_background`), and writes the mouth cues
 beside the mp4 (:mod:`miketalk.lipsync.cues`, Rhubarb's JSON and TSV). A build runs in a
 process of its own (:mod:`miketalk.serve.build`).
 """
@@ -147,9 +147,9 @@ def speak(
 
 def _dub(output, model_dir, text, audio, video, chosen, voice, warm):
     """``miketalk dub``'s library calls (:func:`miketalk.cli.dub.cmd_dub`)."""
-    from miketalk.composite.background import background_from_video, check_video
-    from miketalk.composite.background_files import has_background, model_stabilizer
+    from miketalk.composite.background_files import has_background, video_background
     from miketalk.lipsync.settings import LipsyncSettings, check_fps
+    from miketalk.media.decode import video_info
     from miketalk.speech import get_backend
     from miketalk.talk.say import Recorded, say
 
@@ -158,7 +158,7 @@ def _dub(output, model_dir, text, audio, video, chosen, voice, warm):
             f"the model {model_dir} was not built from video of a person: dub needs a model "
             "built from clips of the person in the video"
         )
-    frames, fps = check_video(video)
+    _, _, fps = video_info(video)
     try:
         check_fps(fps)
     except MiketalkError as err:
@@ -173,9 +173,7 @@ def _dub(output, model_dir, text, audio, video, chosen, voice, warm):
         if warm is None:
             warm = stack.enter_context(contextlib.closing(Warm(keep=1)))
         model = warm.get(model_dir)[0]
-        background = background_from_video(
-            frames, fps, model_stabilizer(model_dir), source=str(video)
-        )
+        background = video_background(model_dir, video)
         spoken = say(speech, output, model=model, settings=settings, background=background)
     loops = "looped" if spoken.motion.frames > len(background) else "cut to the speech"
     return spoken, {"fps": fps, "source_frames": len(background), "loops": loops}
