@@ -7,8 +7,9 @@ Holding all of it would make memory grow with the video's pixels and length (10 
 
 - :class:`VideoFrames` streams the video through ffmpeg
   (:func:`~miketalk.media.decode.iter_video_frames`) and keeps the last ``keep`` frames
-  read; a frame before those reopens the stream ``keep`` frames before it, so that
-  playing backwards costs one reopening per ``keep`` frames.
+  read; a frame before those reopens the stream at the start and decodes on to ``keep``
+  frames before it (not a seek: a seek into GRID's MPEG-1 decodes other pixels than
+  reading on does), so that playing backwards costs one reading per ``keep`` frames.
 - :class:`ImageFrames` reads image files, keeping the last ``keep`` read.
 
 Both index like a read-only ``(N, H, W, 3)`` array by a whole number, and say their
@@ -170,20 +171,24 @@ class VideoFrames(_Cached):
         self._stream: Iterator[np.ndarray] | None = None
         self._next = 0  # the index the open stream yields next
 
-    def _open(self, i: int) -> None:
+    def _open(self) -> None:
         from miketalk.media.decode import iter_video_frames
 
         self.close()
-        start = self._start + i / self._fps
-        self._stream = iter_video_frames(
-            self._path, start=start if start > 0 else None, frames=self._count - i
-        )
-        self._next = i
+        start = self._start if self._start > 0 else None
+        self._stream = iter_video_frames(self._path, start=start, frames=self._count)
+        self._next = 0
 
     def _read(self, i: int) -> np.ndarray:
-        if self._stream is None or i < self._next or i > self._next + 4 * self._keep:
-            self._open(max(0, i - self._keep + 1) if i < self._next else i)
+        if self._stream is None or i < self._next:
+            self._open()
         assert self._stream is not None
+        while self._next < i - self._keep + 1:  # on to the frames worth keeping
+            try:
+                next(self._stream)
+            except StopIteration:
+                break
+            self._next += 1
         while self._next <= i:
             try:
                 frame = next(self._stream)
