@@ -158,12 +158,8 @@ def write_background(
     crop = crop_from_doc(regions.get("crop"))
     stabilizer = corpus_stabilizer(corpus_dir)
     where, part = Path(media.replace("{id}", clip)), {}
-    reference = regions["reference"]
-    if "media" in reference:  # a face crop's: the reference's shot, where it is in its video
-        where = Path(reference["media"])
-        if "first_frame" in reference:
-            start = reference["first_frame"] / reference["fps"]
-            part = {"start": start, "frames": reference["frames"]}
+    if crop is not None:  # a face crop's: the longest shot (any registers through its crops)
+        clip, where, part = _longest_shot(corpus_dir)
     elif segments is not None:
         from miketalk.corpus.one_video import utterance_clip
 
@@ -199,6 +195,18 @@ def write_background(
         start=start,
         crop=crop,
     )
+
+
+def _longest_shot(corpus_dir: Path) -> tuple[str, Path, dict]:
+    """The face-crop corpus's longest clip: its id, video and span in it."""
+    import pandas as pd
+
+    from miketalk.corpus.clips import SOURCES_TABLE
+
+    table = pd.read_csv(corpus_dir / SOURCES_TABLE, sep="\t", keep_default_na=False)
+    row = table.iloc[int(np.argmax(table["frames"].to_numpy()))]  # the first on a tie
+    start = float(row["first_frame"]) / float(row["fps"])
+    return str(row["clip"]), Path(row["media"]), {"start": start, "frames": int(row["frames"])}
 
 
 def _read_part(media: Path, part: dict) -> tuple[np.ndarray, float]:

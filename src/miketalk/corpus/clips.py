@@ -91,6 +91,10 @@ STABILIZATION_TABLE = "stabilization.tsv"
 SKIPPED_TABLE = "skipped.tsv"
 
 
+#: A face crop's corpus: each clip's media file and span in it (its shot, cut by the tracker).
+SOURCES_TABLE = "sources.tsv"
+
+
 FACE_MASK = "face_mask.png"
 
 
@@ -163,6 +167,7 @@ def ingest_clips(
     stabilizer = None
     size = fps = None
     rows_clips, rows_phones, rows_stab, audio, words = [], [], [], [], []
+    rows_sources: list[tuple] = []  # a face crop's: where each clip is in its video
     n_total = 0
     regions: dict = {}
     for item in decoded:
@@ -218,6 +223,9 @@ def ingest_clips(
         audio.append(_fit(item.samples, round(duration * RATE)))
         phones = _clipped(item.phones, duration)
         rows_clips.append((clip.id, first, n, f"{offset:.6f}", f"{duration:.6f}", clip.text))
+        if crop is not None:
+            where = _where(item)
+            rows_sources.append((clip.id, where["media"], where.get("first_frame", 0), n, item.fps))
         for i, p in enumerate(phones):
             rows_phones.append(
                 (clip.id, i, p.name, f"{p.start + offset:.6f}", f"{p.end + offset:.6f}",
@@ -251,6 +259,9 @@ def ingest_clips(
         rows_stab,
     )
     write_table(out / SKIPPED_TABLE, ("clip", "reason"), skipped)
+    if crop is not None:
+        write_table(out / SOURCES_TABLE, ("clip", "media", "first_frame", "frames", "fps"),
+                    rows_sources)  # fmt: skip
     table = ["frame\ttime\tclip\tclip_frame"]
     for clip_id, first, n, *_ in rows_clips:
         table += [f"{first + k}\t{(first + k) / fps:.6f}\t{clip_id}\t{k}" for k in range(n)]
