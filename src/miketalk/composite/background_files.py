@@ -97,6 +97,11 @@ def model_compositor(
     if skin:
         face = read_image(where / FACE_MASK)[..., 0] > 127
         keep = skin_weight(read_image(where / REFERENCE), face)
+    crop = model_crop(model_dir)
+    if crop is not None:  # a face crop's: inside the jaw (the frames' jaws turn elsewhere)
+        from miketalk.track.crop import jaw_mask
+
+        keep = jaw_mask(crop) if keep is None else keep * jaw_mask(crop)
     return Compositor(mouth_box_of(model_dir), size, keep=keep, **settings)
 
 

@@ -69,6 +69,7 @@ from miketalk.corpus.folder import (
     frame_path,
     words_doc,
 )
+from miketalk.corpus.light import match_light
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.audio import write_wav
@@ -105,6 +106,10 @@ REFERENCE = "reference.png"
 
 
 REGISTRATION_MASK = "registration_mask.png"
+
+#: A face crop's clips matched to the reference's light by gain and offset (True) or
+#: offset only (False): see :mod:`miketalk.corpus.light`.
+LIGHT_SPREAD = False
 
 
 def ingest_clips(
@@ -215,6 +220,12 @@ def ingest_clips(
             stabilized.transforms,
             stabilized.correlations,
         )
+        if crop is not None:  # shots of other days and lamps: one light for the corpus
+            steady, gain, offset = match_light(
+                steady, stabilizer.reference, stabilizer.mask, spread=LIGHT_SPREAD
+            )
+            log.info("clip %s: light matched (gain %s, offset %s)", clip.id,
+                     np.round(gain, 2).tolist(), np.round(offset, 1).tolist())  # fmt: skip
         first, n = n_total, len(steady)
         for k, frame in enumerate(steady):
             write_png(frame_path(frames_dir, first + k), frame)

@@ -38,6 +38,7 @@ __all__ = [
     "face_crop",
     "face_mask",
     "iter_face_crops",
+    "jaw_mask",
     "mouth_box",
     "paste_back",
     "warp_to_crop",
@@ -224,6 +225,22 @@ def iter_face_crops(
             yield index, face_crop(frame, transforms[index], settings)
 
 
+def _ellipse(
+    settings: FaceCropSettings, centre_v: float, across: float, down: float, feather: float
+) -> np.ndarray:
+    """A feathered ellipse on the face's centre line, in eye distances (0.5 on its edge)."""
+    n, e = settings.size, settings.eye_distance
+    to_crop = settings.canonical_to_crop
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float64)
+    u = (xx - to_crop[0, 2]) / e
+    v = (yy - to_crop[1, 2]) / e
+    r = np.sqrt((u / across) ** 2 + ((v - centre_v) / down) ** 2)
+    # signed distance from the ellipse, roughly, in eye distances (the smaller semi-axis)
+    distance = (r - 1.0) * min(across, down)
+    mask = 0.5 * (1.0 - np.tanh(distance / max(feather, 1e-6) * 1.2))
+    return mask.astype(np.float32)
+
+
 def face_mask(settings: FaceCropSettings | None = None, *, feather: float = 0.15) -> np.ndarray:
     """A feathered ellipse over the face in the crop: where a crop replaces the frame.
 
@@ -244,17 +261,23 @@ def face_mask(settings: FaceCropSettings | None = None, *, feather: float = 0.15
     numpy.ndarray
         ``(size, size)`` float32 in [0, 1].
     """
-    settings = settings or FaceCropSettings()
-    n, e = settings.size, settings.eye_distance
-    to_crop = settings.canonical_to_crop
-    yy, xx = np.mgrid[0:n, 0:n].astype(np.float64)
-    u = (xx - to_crop[0, 2]) / e
-    v = (yy - to_crop[1, 2]) / e
-    r = np.sqrt((u / 1.2) ** 2 + ((v - 0.5) / 1.65) ** 2)
-    # signed distance from the ellipse, roughly, in eye distances (the smaller semi-axis)
-    distance = (r - 1.0) * 1.2
-    mask = 0.5 * (1.0 - np.tanh(distance / max(feather, 1e-6) * 1.2))
-    return mask.astype(np.float32)
+    return _ellipse(settings or FaceCropSettings(), 0.5, 1.2, 1.65, feather)
+
+
+def jaw_mask(settings: FaceCropSettings | None = None, *, feather: float = 0.1) -> np.ndarray:
+    """A feathered ellipse inside the lower face's outline: where a new mouth may show.
+
+    Centred 1.05 eye distances below the eye line, 0.95 across and 0.85 down: to 1.9
+    below the eyes (dlib's 68 points put the chin at 1.95 to 2.07 in the crops of s1 and
+    the weekly addresses) and inside the cheeks, so that a mouth drawn from another
+    session never carries its collar or backdrop over a jaw turned elsewhere.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(size, size)`` float32 in [0, 1].
+    """
+    return _ellipse(settings or FaceCropSettings(), 1.05, 0.95, 0.85, feather)
 
 
 def paste_back(
