@@ -125,3 +125,28 @@ def test_crops_of_a_moving_hd_face_keep_it_in_place(tmp_path: Path) -> None:
     back = apply_affine(cropped.to_frame(7), in_crop[7][None])[0]
     np.testing.assert_allclose(back, apply_affine(hard.truth[7], point)[0], atol=1e-6)
     assert np.allclose(invert_affine(cropped.to_frame(7)), cropped.to_crop[7])
+
+
+def test_a_clips_light_is_offset_to_the_references() -> None:
+    from miketalk.corpus.light import match_light
+
+    rng = np.random.default_rng(1)
+    reference = rng.integers(60, 200, (32, 32, 3)).astype(np.uint8)
+    darker = np.stack([reference.astype(int) - [30, 10, 20]] * 4).clip(0, 255).astype(np.uint8)
+    mask = np.zeros((32, 32), bool)
+    mask[4:28, 4:28] = True
+    out, gain, offset = match_light(darker, reference, mask, spread=False)
+    assert gain.tolist() == [1.0, 1.0, 1.0]
+    np.testing.assert_allclose(offset, [30, 10, 20], atol=0.01)
+    assert np.abs(out[0].astype(int) - reference).max() <= 1
+
+
+def test_the_jaw_mask_lies_inside_the_face_mask() -> None:
+    from miketalk.track.crop import face_mask, jaw_mask
+
+    settings = FaceCropSettings()
+    jaw, face = jaw_mask(settings), face_mask(settings)
+    assert (jaw <= face + 0.05).all()
+    x, y, w, h = mouth_box(settings)
+    assert jaw[y + h // 2, x + w // 2] > 0.99  # the mouth is inside
+    assert jaw[250, 128] < 0.01 and jaw[180, 20] < 0.01  # below the chin, beyond the cheek
