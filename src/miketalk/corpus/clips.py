@@ -165,9 +165,7 @@ def ingest_clips(
     skipped: list[tuple[str, str]] = []
     if decode is None:
         decode = functools.partial(decode_clip, crop=crop)
-    decoded = (
-        part for whole in _decoded(clips, decode, skipped, workers) for part in whole.shots()
-    )
+    decoded = _shots(_decoded(clips, decode, skipped, workers), skipped)
 
     stabilizer = None
     size = fps = None
@@ -365,6 +363,23 @@ def _decoded(
                 _skip(skipped, clip.id, str(result))
             else:
                 yield result
+
+
+#: A clip's part between two shot changes shorter than this (s) is left out: a few frames
+#: of a shot are no utterance (and no loop for the background).
+MIN_SHOT_SECONDS = 0.25
+
+
+def _shots(decoded: Iterable[DecodedClip], skipped: list[tuple[str, str]]) -> Iterable[DecodedClip]:
+    """Each clip cut at its shot changes (:meth:`DecodedClip.shots`), the too short parts
+    left out and named."""
+    for whole in decoded:
+        for part in whole.shots():
+            if whole.cuts and len(part.frames) < MIN_SHOT_SECONDS * part.fps:
+                why = f"a shot of {len(part.frames)} frames (less than {MIN_SHOT_SECONDS:g} s)"
+                _skip(skipped, part.clip.id, why)
+            else:
+                yield part
 
 
 def _where(item: DecodedClip) -> dict:
