@@ -304,7 +304,8 @@ def read_background(model_dir: str | os.PathLike[str]) -> Background:
             "use --background still or a video"
         )
     meta = json.loads((where / META).read_text(encoding="utf-8"))
-    frames = ImageFrames([where / f"{i:04d}.png" for i in range(meta["frames"])])
+    paths = [where / f"{i:04d}.png" for i in range(meta["frames"])]
+    frames = ImageFrames(paths, keep=len(paths))  # read once when first played, then kept
     field = np.load(where / FIELD)
     transforms = np.array(meta["transforms"], np.float64).reshape(-1, 2, 3)
     return Background(
