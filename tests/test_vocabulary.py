@@ -98,7 +98,12 @@ def test_command_line_choices_and_defaults_are_the_library_s(
         assert tuple(_choices(parser, command, "--voice").choices) == tuple(VOICES)
     assert tuple(_choices(parser, "say", "--sampling").choices) == SAMPLINGS
     assert list(_choices(parser, "dub", "--sampling").choices) == ["blur", "none"]
-    assert _choices(parser, "say", "--fps").default == LipsyncSettings().fps
+    # --fps is settled when the background is known: a face-crop model's video's own, else
+    # the library's default
+    from miketalk.cli.say import output_fps
+
+    assert _choices(parser, "say", "--fps").default is None
+    assert output_fps(argparse.Namespace(fps=None), None, None) == LipsyncSettings().fps
 
 
 def _spelled(names: tuple[str, ...]) -> list[str]:
