@@ -7,6 +7,7 @@ The video is made at test time from the committed GRID s1 clips
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,12 @@ import pandas as pd
 import pytest
 
 from miketalk.corpus.clip_sources import decode_clip
-from miketalk.corpus.one_video import face_clips, segment_video, video_clips
+from miketalk.corpus.one_video import (
+    check_video_inputs,
+    face_clips,
+    segment_video,
+    video_clips,
+)
 from miketalk.corpus.script import Cue, read_script, text_words
 from miketalk.errors import MiketalkError
 from miketalk.media.decode import read_media_audio, read_video
@@ -26,6 +32,9 @@ ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data" / "grid_s1"
 #: Three training clips then one held-out clip (3 s each).
 CLIPS = ["bbaf2n", "lgwg2n", "pric4p", "bbas3a"]
+#: Every clip's line, and the joined clips' lines.
+_TEXT = dict(line.split(" ", 1) for line in (DATA / "transcripts.txt").read_text().splitlines())
+_TRUE = [_TEXT[c] for c in CLIPS]
 
 
 def join(ids, out):
@@ -155,7 +164,7 @@ def test_a_word_that_is_not_said_is_reported_and_left_out(joined, tmp_path: Path
         ("Le renard brun saute par-dessus le chien paresseux. Il fait beau aujourd'hui.",
          "another language"),
         ("Where is the station please, I would like a ticket to the city centre tonight. "
-         * 3, "is the transcript this video's"),
+         * 3, "transcript is another video's|is the transcript this video's"),
     ],
 )  # fmt: skip
 def test_a_wrong_transcript_is_one_line(joined, tmp_path: Path, text: str, message: str) -> None:
@@ -214,3 +223,79 @@ def test_a_chunk_span_is_found_by_position_not_by_its_first_start() -> None:
     assert [len(g) for g in groups] == [1, 1]
     assert _chunk_span(first_pass, 0, 1, 3.0, missing) == pytest.approx((0.5, 1.2))
     assert _chunk_span(first_pass, 1, 1, 3.0, missing) == pytest.approx((1.2, 2.4))
+
+
+@pytest.fixture(scope="module")
+def checked(joined):
+    """The joined video read and checked once (its face, its sound): the tests below give it
+    other scripts."""
+    return check_video_inputs(joined.video, transcript=joined.transcript, heldout_seconds=3.0)
+
+
+def _segment(checked, tmp_path: Path, lines: list[str]) -> dict:
+    """``segment_video`` of the joined video with a transcript of ``lines`` (one per line)."""
+    script = tmp_path / "t.txt"
+    script.write_text("\n".join(lines) + "\n")
+    cues = read_script(transcript=script)
+    inputs = replace(checked, cues=cues, lines=tuple(len(text_words(x)) for x in lines))
+    return segment_video(
+        checked.media, tmp_path / "s.json", transcript=script, heldout_seconds=3.0, checked=inputs
+    )
+
+
+def test_caption_lines_longer_than_the_cut_build_from_what_fits(
+    checked, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Each clip's line with words of other sentences at its edges (a caption line longer
+    than the clip cut by it): the build goes on, the extra words are listed with their line,
+    the words said are all kept."""
+    lines = [
+        "Set red. Bin blue at f two now.",
+        "Lay green with g two now, bin.",
+        "Place red in c four please.",
+        "Bin blue at s three again.",
+    ]
+    doc = _segment(checked, tmp_path, lines)
+    assert [(u["line"], u["word"]) for u in doc["unaligned"]] == [
+        (1, "set"),
+        (1, "red"),
+        (2, "bin"),
+    ]
+    said = [w for u in doc["utterances"] for w, *_ in u["words"]]
+    assert said == text_words(" ".join(_TRUE))
+    assert doc["fit"]["kept_share"] == pytest.approx(24 / 27, abs=1e-4)
+    assert "3 of the 27 words left out" in caplog.text and "lines 1 (2 words), 2 (1)" in caplog.text
+
+
+def test_a_line_of_another_video_is_left_out(checked, tmp_path: Path) -> None:
+    """One line of four is another clip's: its words are listed, the others' kept."""
+    other = "Set white by p nine soon."
+    doc = _segment(checked, tmp_path, [_TRUE[0], other, *_TRUE[2:]])
+    assert [(u["line"], u["word"]) for u in doc["unaligned"]] == [(2, w) for w in text_words(other)]
+    assert [u["text"] for u in doc["utterances"]] == [_TRUE[0], *_TRUE[2:]]
+
+
+@pytest.mark.parametrize(
+    ("clips", "message"),
+    [
+        (["pbwx3a", "pgwe6n", "bgbb2p", "lrblzn"], r"only 5 of the 24 words \(21 %\) fit"),
+        (["bwbg8n", "sgbc7s", "bragzp", "lrblzn"], "none of the 24 words can be aligned"),
+    ],
+)
+def test_another_videos_transcript_is_refused(
+    checked, tmp_path: Path, clips: list[str], message: str
+) -> None:
+    """The lines of four other clips of the same talker (the same words and grammar)."""
+    with pytest.raises(MiketalkError, match=message) as refused:
+        _segment(checked, tmp_path, [_TEXT[c] for c in clips])
+    assert "video's" in str(refused.value) and "\n" not in str(refused.value)
+    assert not (tmp_path / "s.json").exists()
+
+
+def test_with_nothing_held_out_every_utterance_trains(checked, tmp_path: Path) -> None:
+    """An utterance that ends after the sound (a video's last frames can outlast it) is a
+    training one when nothing is held out, not one of neither split."""
+    short = replace(checked, duration=checked.duration - 1.0)
+    doc = segment_video(checked.media, tmp_path / "s.json", heldout_seconds=0, checked=short)
+    assert doc["utterances"][-1]["end"] > short.duration
+    assert {u["split"] for u in doc["utterances"]} == {"train"}

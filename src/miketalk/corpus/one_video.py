@@ -6,9 +6,12 @@
 1. the transcript or subtitles are read (:mod:`miketalk.corpus.script`), and a
    transcript whose words the aligner's English dictionary mostly lacks is
    refused (another language);
-2. the video's sound is aligned in pieces (:func:`miketalk.speech.long_align.align_long`);
-   words that cannot be placed are reported (``unaligned`` in the file, and the
-   log) and their audio left out;
+2. the video's sound is aligned in pieces (:func:`miketalk.speech.long_align.align_long`),
+   keeping only the words that fit the sound, in stretches of several
+   (:mod:`miketalk.corpus.script_fit`); the others are reported (``unaligned`` in
+   the file, each with its line and why, and the log) and their audio left out. A
+   script of which little fits and that explains little of the speech is taken for
+   another video's and refused;
 3. the second pass's chunks, cut at pauses, are the utterances: each is a span
    of whole frames of the video with its words (:class:`~miketalk.corpus.clip_sources.Clip`
    with ``span``), so the rest is the clip corpus's own code: stabilization,
@@ -46,9 +49,6 @@ SEGMENTS = "segments.json"
 #: Below this share of a transcript's words in the aligner's English dictionary,
 #: the transcript is taken for another language.
 MIN_ENGLISH_SHARE = 0.6
-
-#: Above this share of the words left unaligned, the transcript is taken for another video's.
-MAX_UNALIGNED_SHARE = 0.1
 
 #: A face's corpus needs at least this many of the 16 viseme classes spoken in its
 #: training part; the others borrow an image (data/viseme_fallbacks.tsv).
@@ -91,9 +91,11 @@ def segment_video(
     ------
     MiketalkError
         One line for: a missing or unreadable video, no sound or no speech, a
-        transcript in another language or of another video, nothing left to
-        train on.
+        transcript in another language or of another video
+        (:func:`miketalk.corpus.script_fit.judge`), nothing left to train on.
     """
+    from miketalk.corpus.script_fit import judge, line_of, measure_fit, trusted, where
+    from miketalk.speech.align.phones import FIT_LIMIT
     from miketalk.speech.long_align import align_long
 
     video = checked or check_video_inputs(
@@ -101,33 +103,31 @@ def segment_video(
     )
     media, cues, samples, fps = video.media, video.cues, video.samples, video.fps
     duration, voiced = video.duration, video.voiced_seconds
-    found = align_long(samples, RATE, cues)
+    found = trusted(align_long(samples, RATE, cues, fit_limit=FIT_LIMIT))
     total = sum(len(c.words) for c in cues)
-    if len(found.unaligned) == total:
-        raise MiketalkError(
-            f"none of the {total} words can be aligned to the sound of {media.name}: it has "
-            "no speech (music?), or the transcript is another video's"
-        )
-    if len(found.unaligned) > MAX_UNALIGNED_SHARE * total:
-        raise MiketalkError(
-            f"{len(found.unaligned)} of the {total} words cannot be aligned to the speech of "
-            f"{media.name}: is the transcript this video's?"
-        )
+    lines = video.lines or tuple(len(c.words) for c in cues)
+    fit = measure_fit(found, lines, samples, RATE)
+    refusal = judge(fit, media.name)
+    if refusal:
+        raise MiketalkError(refusal)
     if found.unaligned:
-        first = found.unaligned[0]
         log.warning(
-            "%d of the %d words not aligned, their audio left out (listed in %s; the first: "
-            "word %d %r, %s)", len(found.unaligned), total, Path(out).name, first.index + 1,
-            first.word, first.why,
+            "%d of the %d words left out, and their audio: they do not fit the sound (%s; "
+            "each listed in %s with why)", len(found.unaligned), total,
+            where(found.unaligned, lines), Path(out).name,
         )  # fmt: skip
     boundary = duration - heldout_seconds
+    line = line_of(lines)
     utterances, k = [], 0
     for number, (lo, hi, n) in enumerate(found.chunks, 1):
         words = [w for _, w in found.words[k : k + n]]
         k += n
         a = min(math.ceil(lo * fps - 1e-6), math.floor(words[0].start * fps + 1e-6))
         b = max(math.floor(hi * fps + 1e-6), math.ceil(words[-1].end * fps - 1e-6))
-        split = "train" if b / fps <= boundary + 1e-9 else "test" if a / fps >= boundary else None
+        # nothing held out: all is training, also an utterance whose last frame outlasts
+        # the sound (a video's frames can end a little after its sound)
+        ends_before = heldout_seconds <= 0 or b / fps <= boundary + 1e-9
+        split = "train" if ends_before else "test" if a / fps >= boundary else None
         utterances.append(
             {
                 "id": f"u{number:04d}",
@@ -156,7 +156,15 @@ def segment_video(
         "words": total,
         "voiced_seconds": round(voiced, 3),
         "utterances": utterances,
-        "unaligned": [{"index": u.index, "word": u.word, "why": u.why} for u in found.unaligned],
+        "fit": {
+            "kept_share": round(fit.kept_share, 4),
+            "explained_share": round(fit.explained_share, 4),
+            "left_out_at_line_edges": fit.at_edges,
+        },
+        "unaligned": [
+            {"index": u.index, "line": int(line[u.index]) + 1, "word": u.word, "why": u.why}
+            for u in found.unaligned
+        ],
     }
     write_text_atomic(Path(out), json.dumps(doc, indent=1) + "\n")
     return doc
@@ -173,6 +181,8 @@ class VideoInputs:
     size: tuple[int, int]
     duration: float
     voiced_seconds: float
+    #: How many words each line of the script has: a plain transcript's lines, or the cues.
+    lines: tuple[int, ...] = ()
 
 
 def check_video_inputs(
@@ -212,7 +222,19 @@ def check_video_inputs(
     if voiced < MIN_VOICED_SECONDS:
         raise MiketalkError(f"{media} has no speech ({voiced:.1f} s of voiced sound)")
     size = (int(first.shape[1]), int(first.shape[2]))
-    return VideoInputs(media, cues, samples, fps, size, duration, voiced)
+    lines = _lines(transcript, cues) if transcript is not None else ()
+    return VideoInputs(media, cues, samples, fps, size, duration, voiced, lines)
+
+
+def _lines(transcript: str | Path, cues) -> tuple[int, ...]:
+    """How many words each line of a plain transcript has (its empty lines left out): where
+    its words that do not fit are (one line for all when its lines split a word)."""
+    from miketalk.corpus.script import text_words
+
+    text = Path(transcript).read_text(encoding="utf-8-sig")
+    counts = tuple(n for n in (len(text_words(line)) for line in text.splitlines()) if n)
+    total = sum(len(c.words) for c in cues)
+    return counts if sum(counts) == total else (total,)
 
 
 def video_clips(segments: str | Path, split: str, *, media: str | Path | None = None) -> list[Clip]:

@@ -9,7 +9,10 @@ align the pieces between them. Here:
    span, widened by :data:`CUE_MARGIN`). A plain transcript is aligned whole by
    a coarse aligner (pocketsphinx with its default beams:
    :func:`miketalk.speech.align.decoder.coarse_word_spans`, 18 s and 190 MB for
-   10 minutes of speech); when that fails, the audio is split
+   10 minutes of speech); when that fails, a piece under
+   :data:`~miketalk.speech.long_trim.TRIM_SECONDS` is tried without up to three
+   words at its edges (:func:`miketalk.speech.long_trim.trim_edges`: a caption
+   line longer than its cut), else the audio is split
    at the pause nearest its middle and the words in proportion to their letters,
    as the voiced sound is on either side of the pause, and each half is aligned
    the same way, down to pieces of one word, which are then reported as
@@ -24,6 +27,10 @@ align the pieces between them. Here:
    leave more than :data:`~miketalk.speech.coverage.UNEXPLAINED_LIMIT` of its
    voiced audio unexplained, loses its words: they are reported as unaligned
    (:attr:`LongAlignment.unaligned`) and their span is left out, never forced.
+   With ``fit_limit``, a chunk whose words fit the sound badly (their score per
+   frame under it) is halved and each half aligned again, down to single words
+   (:func:`miketalk.speech.long_trim.misfit_split`): words of another script, or
+   placed where they are not said, are left out too.
 """
 
 from __future__ import annotations
@@ -31,10 +38,12 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.speech import long_trim
 from miketalk.speech.align.phones import SILENCE
 from miketalk.speech.long_cuts import pause_near_middle, settle_cut, voiced_share
 from miketalk.speech.types import Phone
@@ -89,18 +98,25 @@ class LongAlignment:
         The phones of the second pass, in recording time, contiguous from 0 to the end
         of the audio (silence as ``pau``, also between the chunks and over what was left
         out): :func:`stitch_phones` of the chunks' own.
+    scores : tuple of float or None
+        Each chunk's acoustic score per frame of its words in the second pass
+        (:attr:`miketalk.speech.align.phones.Alignment.score_per_frame`; None when the
+        aligner gave none): how well the words fit the sound.
     """
 
     words: tuple[tuple[int, WordTiming], ...]
     unaligned: tuple[Unaligned, ...]
     chunks: tuple[tuple[float, float, int], ...]
     phones: tuple[Phone, ...] = ()
+    scores: tuple[float | None, ...] = ()
 
 
 def align_long(
     samples: np.ndarray,
     rate: int,
     cues: Sequence,
+    *,
+    fit_limit: float | None = None,
 ) -> LongAlignment:
     """Place the words of ``cues`` (:class:`miketalk.corpus.script.Cue`) in a long recording.
 
@@ -112,6 +128,11 @@ def align_long(
         Its sample rate.
     cues : sequence of Cue
         A plain transcript (one cue without times) or subtitle cues.
+    fit_limit : float, optional
+        A chunk of the second pass whose words score under this per frame
+        (:data:`miketalk.speech.align.phones.FIT_LIMIT`) is halved where its words
+        are farthest apart, and each half aligned again, down to single words: the
+        words that still fit badly are left out (unaligned). None: all are kept.
 
     Returns
     -------
@@ -141,26 +162,25 @@ def align_long(
             unaligned += [Unaligned(i, words[i], "its cue lies outside the audio") for i in indices]
             continue
         first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned)
-    placed, chunks, phones = [], [], []
+    placed, chunks, phones, scores = [], [], [], []
     missing = {u.index for u in unaligned}
     at = 0  # the chunks are consecutive runs of the first pass: where this one begins
     for group in _chunks(first_pass, missing):
         lo, hi = _chunk_span(first_pass, at, len(group), duration, missing)
         at += len(group)
-        try:
-            group, spans, own = _second_pass(samples, rate, lo, hi, group, words, unaligned)
-        except MiketalkError as err:
-            why = f"the second pass failed in {lo:.2f}..{hi:.2f} s ({err})"
-            unaligned += [Unaligned(i, words[i], why) for i, _ in group]
-            continue
-        placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
-        chunks.append((lo, hi, len(group)))
-        phones.append(own)
+        for part in _fitting(samples, rate, (lo, hi), group, words, unaligned, fit_limit):
+            (a, b), group, spans, own, score = part
+            placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
+            chunks.append((a, b, len(group)))
+            phones.append(own)
+            scores.append(score)
     unaligned.sort(key=lambda u: u.index)
     for u in unaligned:
         log.info("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
     stitched = stitch_phones(phones, duration)
-    return LongAlignment(tuple(placed), tuple(unaligned), tuple(chunks), tuple(stitched))
+    return LongAlignment(
+        tuple(placed), tuple(unaligned), tuple(chunks), tuple(stitched), tuple(scores)
+    )
 
 
 def stitch_phones(chunks: Sequence[Sequence[Phone]], duration: float) -> list[Phone]:
@@ -189,6 +209,44 @@ def stitch_phones(chunks: Sequence[Sequence[Phone]], duration: float) -> list[Ph
     return out
 
 
+def _fitting(
+    samples: np.ndarray,
+    rate: int,
+    span: tuple[float, float],
+    group: list[tuple[int, WordTiming]],
+    words: list[str],
+    unaligned: list[Unaligned],
+    fit_limit: float | None,
+) -> list[tuple[tuple[float, float], list, list[WordTiming], list[Phone], float | None]]:
+    """A chunk's second pass; under ``fit_limit``, its halves' (see :func:`align_long`).
+    Each part: its span, its words, their spans, its phones and its score."""
+    lo, hi = span
+    try:
+        group, spans, own, score = _second_pass(samples, rate, lo, hi, group, words, unaligned)
+    except MiketalkError as err:
+        why = f"the second pass failed in {lo:.2f}..{hi:.2f} s ({err})"
+        reported = {u.index for u in unaligned}  # the words over silence, if it got that far
+        unaligned += [Unaligned(i, words[i], why) for i, _ in group if i not in reported]
+        return []
+    if fit_limit is None or score is None or score >= fit_limit:
+        return [(span, group, spans, own, score)]
+    if len(group) == 1:
+        why = (
+            f"it fits the sound in {lo:.2f}..{hi:.2f} s badly ({score:.1f} per frame, "
+            f"under {fit_limit:g})"
+        )
+        unaligned.append(Unaligned(group[0][0], words[group[0][0]], why))
+        return []
+    k = long_trim.misfit_split(spans)
+    cut = (spans[k - 1].end + spans[k].start) / 2
+    halves = (((lo, cut), group[:k]), ((cut, hi), group[k:]))
+    return [
+        part
+        for half, words_of in halves
+        for part in _fitting(samples, rate, half, words_of, words, unaligned, fit_limit)
+    ]
+
+
 class _SilentWords(MiketalkError):
     """Words the aligner put where there is no voiced sound (their positions in the chunk)."""
 
@@ -205,10 +263,11 @@ def _second_pass(
     group: list[tuple[int, WordTiming]],
     words: list[str],
     unaligned: list[Unaligned],
-) -> tuple[list[tuple[int, WordTiming]], list[WordTiming], list[Phone]]:
+) -> tuple[list[tuple[int, WordTiming]], list[WordTiming], list[Phone], float | None]:
     """A chunk aligned again in its own audio; a word placed over silence (a word of the
     script that is not said) is dropped, reported, and the rest aligned once more. Its
-    words' spans and its phones (recording time, inside ``[lo, hi]``)."""
+    words' spans, its phones (recording time, inside ``[lo, hi]``) and their score per
+    frame."""
     try:
         return (group, *_align_span(samples, rate, lo, hi, [words[i] for i, _ in group]))
     except _SilentWords as err:
@@ -226,8 +285,9 @@ def _align_span(
     lo: float,
     hi: float,
     words: Sequence[str],
-) -> tuple[list[WordTiming], list[Phone]]:
-    """``words`` aligned in ``[lo, hi)`` of the audio, and their phones, in recording time.
+) -> tuple[list[WordTiming], list[Phone], float | None]:
+    """``words`` aligned in ``[lo, hi)`` of the audio, their phones, in recording time, and
+    the aligner's score per frame of them.
 
     Raises
     ------
@@ -262,7 +322,8 @@ def _align_span(
         names = ", ".join(repr(words[k]) for k in silent)
         raise _SilentWords(f"{names} would lie over silence", silent)
     spans = [WordTiming(w.word, w.start + lo, w.end + lo) for w in result.words]
-    return spans, [Phone(p.name, p.start + lo, p.end + lo) for p in result.phones]
+    phones = [Phone(p.name, p.start + lo, p.end + lo) for p in result.phones]
+    return spans, phones, result.score_per_frame
 
 
 def _first_pass(
@@ -283,6 +344,16 @@ def _first_pass(
             return list(zip(indices, spans, strict=True))
         except MiketalkError as err:
             failure = str(err)
+        if hi - lo <= long_trim.TRIM_SECONDS and len(indices) > 1:
+            piece = [words[i] for i in indices]
+            place = partial(_coarse_span, samples, rate, lo, hi)
+            trimmed = long_trim.trim_edges(samples, rate, (lo, hi), piece, place)
+            if trimmed is not None:
+                a, b, spans = trimmed
+                why = f"the words around it fit {lo:.2f}..{hi:.2f} s without it"
+                dropped = indices[:a] + indices[len(indices) - b :]
+                unaligned += [Unaligned(i, words[i], why) for i in dropped]
+                return list(zip(indices[a : len(indices) - b], spans, strict=True))
     else:  # the coarse aligner's memory grows with the audio: halves first
         failure = f"longer than {COARSE_SECONDS:.0f} s"
     from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
