@@ -350,12 +350,3 @@ def utterance_clip(segments: str | Path, clip: str, *, media: str | Path | None 
         if u["id"] == clip:
             return _utterance_clip(doc, u, media)
     raise MiketalkError(f"{segments}: no utterance {clip}")
-
-
-def read_utterance(segments: str | Path, clip: str, *, media: str | Path | None = None):
-    """The frames and frame rate of utterance ``clip`` of ``segments.json``, cut as the
-    corpus cuts it (:func:`miketalk.corpus.clip_sources.decode_clip`)."""
-    from miketalk.media.decode import read_video
-
-    found = utterance_clip(segments, clip, media=media)
-    return read_video(found.media, start=found.start, frames=found.span[1])
