@@ -20,6 +20,14 @@ between making a temporary file and recording it for clean-up) the signal,
 Ctrl-C included, is held and raised when the block ends: blocking it with
 ``pthread_sigmask`` alone is not enough, since the kernel then hands it to
 another thread and Python still runs the handler in the main thread at once.
+
+The exception stops the main thread only: work in other threads (a thread pool's
+clips being decoded) runs on, and the pool's shutdown waits for it. So a signal
+that stops the run first kills, in its handler, every process started through
+:func:`child_process` (the ffmpeg decoders of :mod:`miketalk.media.decode`): the
+threads waiting for them return at once. Until the block ends
+(:func:`stopping`), no thread but the main one starts another: the queued clips
+fail at once instead of being decoded.
 """
 
 from __future__ import annotations
@@ -30,11 +38,13 @@ import io
 import logging
 import os
 import signal
+import subprocess
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
+from pathlib import Path
 from types import FrameType
-from typing import TextIO
+from typing import IO, TextIO
 
 native_log = logging.getLogger("miketalk.native")
 
@@ -50,6 +60,73 @@ class Terminated(KeyboardInterrupt):
 #: Signals held by :func:`signals_held` (the main thread's), raised when it ends.
 _held: list[int] = []
 _holding = [0]
+
+
+#: The child processes of :func:`child_process` running now: a stop kills them.
+_children: set[subprocess.Popen] = set()
+#: Whether a signal has stopped the run of the current :func:`handle_termination` block.
+_stopped = [False]
+
+
+def stopping() -> bool:
+    """Whether a signal has stopped the run (inside :func:`handle_termination`).
+
+    False again once the :func:`handle_termination` block ends.
+    """
+    return _stopped[0]
+
+
+@contextlib.contextmanager
+def child_process(
+    args: Sequence[str], *, stderr: int | IO[bytes] | None = subprocess.PIPE
+) -> Iterator[subprocess.Popen]:
+    """A child process that a signal stopping the run kills at once (module docstring).
+
+    Started with ``args`` (no shell), no standard input, its stdout a pipe; killed if
+    the body raises; its pipes closed and the process waited for on leaving.
+
+    Parameters
+    ----------
+    args : sequence of str
+        The program and its arguments.
+    stderr : int or file, optional
+        Where its stderr goes (default: a pipe).
+
+    Raises
+    ------
+    MiketalkError
+        In a thread other than the main one once the run is stopping: nothing is
+        started (the main thread is stopped by the signal's exception).
+    """
+    from miketalk.errors import MiketalkError
+
+    def refused() -> bool:
+        return _stopped[0] and threading.current_thread() is not threading.main_thread()
+
+    if refused():
+        raise MiketalkError(f"{Path(args[0]).name} not started: the run is stopping")
+    proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=stderr)
+    _children.add(proc)
+    try:
+        if refused():  # the stop came while it started, and did not see it
+            proc.kill()
+        with proc:
+            try:
+                yield proc
+            except BaseException:
+                proc.kill()
+                raise
+    finally:
+        _children.discard(proc)
+
+
+def _stop() -> None:
+    """Mark the run stopped and kill the children of :func:`child_process` (in a
+    signal's handler: no lock is taken)."""
+    _stopped[0] = True
+    for proc in list(_children):
+        with contextlib.suppress(OSError):
+            proc.kill()
 
 
 @contextlib.contextmanager
@@ -81,7 +158,8 @@ def handle_termination() -> Iterator[None]:
     """Raise :class:`Terminated` on SIGTERM and SIGHUP while the body runs (main thread only).
 
     A second signal while the first one's clean-up runs is ignored, so the
-    clean-up is not itself cut short.
+    clean-up is not itself cut short. A signal that stops the run (Ctrl-C too, when
+    Python's own handler has it) first kills the children of :func:`child_process`.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -94,6 +172,7 @@ def handle_termination() -> Iterator[None]:
         if fired:
             return
         if _holding[0]:
+            _stop()
             _held.append(signum)
             fired.append(signum)
             return
@@ -102,10 +181,13 @@ def handle_termination() -> Iterator[None]:
             # in ..."): ask again once the finalizer is done
             threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
             return
+        _stop()
         fired.append(signum)
         raise Terminated(signum)
 
     def interrupt(signum: int, frame: FrameType | None) -> None:
+        if not _in_finalizer(frame):  # (raised there, Ctrl-C is lost: the run goes on)
+            _stop()
         if _holding[0]:
             if not _held:
                 _held.append(signum)
@@ -120,6 +202,7 @@ def handle_termination() -> Iterator[None]:
     finally:
         for n, previous in old.items():
             signal.signal(n, previous)
+        _stopped[0] = False
 
 
 def _in_finalizer(frame: FrameType | None) -> bool:

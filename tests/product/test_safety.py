@@ -557,6 +557,112 @@ def test_a_signal_ends_every_worker_within_two_seconds(signum: int) -> None:
         proc.wait()
 
 
+def test_a_stop_kills_the_children_and_threads_start_no_more_until_the_block_ends() -> None:
+    import signal
+    import threading
+
+    from miketalk.console import Terminated, child_process, handle_termination, stopping
+
+    def in_a_thread(work):
+        found: list[object] = []
+        thread = threading.Thread(target=lambda: found.append(work()))
+        thread.start()
+        thread.join(10)
+        return found[0]
+
+    def start_sleep() -> object:
+        try:
+            with child_process(["sleep", "0"]) as proc:
+                proc.communicate()
+            return proc.returncode
+        except MiketalkError as err:
+            return str(err)
+
+    running = threading.Event()
+    status: list[int] = []
+
+    def wait_for_sleep() -> None:
+        with child_process(["sleep", "60"]) as proc:
+            running.set()
+            proc.communicate()
+        status.append(proc.returncode)
+
+    waiting = threading.Thread(target=wait_for_sleep)
+    with handle_termination():
+        waiting.start()
+        assert running.wait(10)
+        with pytest.raises(Terminated):
+            signal.getsignal(signal.SIGTERM)(signal.SIGTERM, None)  # as the main thread runs it
+        waiting.join(5)
+        assert status == [-signal.SIGKILL]  # killed, and the thread returned at once
+        assert stopping() and in_a_thread(start_sleep) == "sleep not started: the run is stopping"
+    assert not stopping() and in_a_thread(start_sleep) == 0
+
+
+def _children(pid: int) -> dict[int, list[bytes]]:
+    """The processes whose parent is ``pid``, with their command lines."""
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            if int(stat[stat.rindex(")") + 2 :].split()[1]) == pid:
+                found[int(entry.name)] = (entry / "cmdline").read_bytes().split(b"\0")
+        except (OSError, ValueError, IndexError):  # gone meanwhile
+            continue
+    return found
+
+
+def _decodes_frames(args: list[bytes]) -> bool:
+    """Whether a command line is ffmpeg decoding more than one frame to raw video."""
+    if b"rawvideo" not in args or b"-frames:v" not in args:
+        return False
+    return int(args[args.index(b"-frames:v") + 1]) > 1
+
+
+@pytest.mark.parametrize("signum", [15, 2])
+def test_a_signal_while_the_corpus_decodes_stops_the_build_within_two_seconds(
+    s1_joined, tmp_path: Path, signum: int
+) -> None:
+    """Issue 40: the corpus stage's threads wait for their ffmpeg; a stop kills it."""
+    import time
+
+    out, scratch = tmp_path / "out", tmp_path / "tmp"
+    out.mkdir()
+    scratch.mkdir()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "miketalk.cli", "build", str(s1_joined.video), "--transcript",
+         str(s1_joined.transcript), "-o", str(out / "model"), "--heldout-seconds", "0", "--quiet"],
+        cwd=tmp_path, env={**os.environ, "TMPDIR": str(scratch)}, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        decoding: list[int] = []
+        while not decoding:  # in the corpus stage, a clip's frames being decoded
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "the corpus stage never decoded a clip"
+            if list(out.glob("miketalk-build-*/corpus/frames")):
+                decoding = [p for p, a in _children(proc.pid).items() if _decodes_frames(a)]
+            time.sleep(0.005)
+        started = time.monotonic()
+        proc.send_signal(signum)
+        stdout, stderr = proc.communicate(timeout=30)
+        took = time.monotonic() - started
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert took < 2.0, f"{took:.2f} s"
+    assert proc.returncode == 128 + signum, stderr
+    word = "terminated" if signum == 15 else "interrupted"
+    assert stderr.strip() == f"miketalk: {word}" and stdout == ""
+    assert not any(_alive(p) for p in decoding)  # killed, not orphaned
+    assert list(out.iterdir()) == []  # no model, no work folder
+    assert list(scratch.iterdir()) == []
+
+
 @pytest.mark.parametrize("workers", [0, -1, 1000, 2.5, True])
 def test_a_worker_count_outside_the_cores_is_one_line(workers: object) -> None:
     from miketalk.workers import available_cores, check_workers

@@ -267,3 +267,66 @@ def test_a_directory_that_cannot_be_written_is_reported_before_writing(tmp_path)
         check_writable(tmp_path / "file" / "v.mp4")
     check_writable(tmp_path / "new" / "v.mp4")  # made on the way
     assert list((tmp_path / "new").iterdir()) == []
+
+
+# ---------------------------------------------------------------------------
+# a variable frame rate, read by the frames' timestamps
+# ---------------------------------------------------------------------------
+
+GRID_CLIP = Path(__file__).resolve().parents[2] / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
+
+
+def _variable_rate_clip(path: Path) -> list[float]:
+    """A GRID clip with its sound, its first 1.2 s at 25 fps and the rest at 10 fps (48
+    frames over 3 s; ffmpeg states 50 fps); the times its frames are shown."""
+    import subprocess
+
+    from miketalk.media.video import ffmpeg_exe
+
+    graph = (
+        "[0:v]trim=0:1.2,setpts=PTS-STARTPTS[a];"
+        "[0:v]trim=1.2:3,setpts=PTS-STARTPTS,fps=10[b];[a][b]concat=n=2:v=1:a=0[v]"
+    )
+    subprocess.run(
+        [ffmpeg_exe(), "-loglevel", "error", "-y", "-i", str(GRID_CLIP), "-filter_complex", graph,
+         "-map", "[v]", "-map", "0:a", "-fps_mode", "vfr", "-c:v", "libx264", "-c:a", "aac",
+         str(path)],
+        check=True,
+    )  # fmt: skip
+    return [0.04 * i for i in range(30)] + [1.2 + 0.1 * i for i in range(18)]
+
+
+def test_a_variable_frame_rate_video_is_read_by_its_timestamps(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import subprocess
+
+    from miketalk.media import decode
+    from miketalk.media.decode import iter_video_frames, read_media_audio, read_video
+    from miketalk.media.timing import check_constant_rate
+
+    path = tmp_path / "vfr.mp4"
+    shown = _variable_rate_clip(path)
+    with caplog.at_level("WARNING", logger="miketalk.media.decode"):
+        frames, fps = read_video(path)
+        samples = read_media_audio(path, rate=RATE)
+        again, _ = read_video(path, start=20 / fps, frames=10)
+    assert fps == 16.0  # its average: 48 frames over 3 s
+    assert abs(len(frames) - 3.0 * fps) <= 1
+    assert abs(len(frames) / fps - len(samples) / RATE) <= 1 / fps  # the sound in sync
+    said = [r.getMessage() for r in caplog.records]
+    assert len(said) == 1 and "vfr.mp4 has a variable frame rate" in said[0], said
+    assert "read at a constant 16 fps" in said[0]
+    # frame k is the one on screen at k / fps: the file's frames as they are, picked by time
+    plain = subprocess.run(
+        decode._video_args(path, "error", None, None), capture_output=True, check=True
+    ).stdout
+    stored = np.frombuffer(plain, np.uint8).reshape(len(shown), *frames.shape[1:])
+    on_screen = [max(i for i, t in enumerate(shown) if t <= k / fps + 1e-9) for k in range(48)]
+    assert all((frames[k] == stored[i]).all() for k, i in enumerate(on_screen))
+    dropped, repeated = set(range(48)) - set(on_screen), 48 - len(set(on_screen))
+    assert dropped and max(dropped) < 30 and repeated > 0  # dropped where 25 fps, repeated where 10
+    # a part is the same frames as the whole; the stream gives the same; dub accepts it
+    assert (again == frames[20:30]).all()
+    assert all((a == b).all() for a, b in zip(iter_video_frames(path), frames, strict=True))
+    check_constant_rate(path, fps, len(frames))

@@ -5,7 +5,10 @@ Festival cannot read, a broken model, an output miketalk did not write) is one l
 stderr and exit status 2,
 found before the work starts where it can be. stdout carries only the result
 (:mod:`miketalk.console`); ``-v`` logs progress and timings on stderr.
-SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind. A full disk
+SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind; run as the
+command (no ``argv`` given), a run so stopped then ends at once (``os._exit``, its
+clean-up done), instead of waiting for the interpreter to free its memory (the
+aligner's decoders: most of a second on a busy machine). A full disk
 or a worker process killed under it (by the kernel, when memory runs out) is one line and
 exit status 1: not the user's mistake, but not a traceback either; outputs are written
 atomically, so nothing half-written is left.
@@ -25,7 +28,39 @@ from miketalk.errors import MachineFailure, MiketalkError
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; user mistakes print one clear line and exit with status 2."""
+    """Run the CLI; user mistakes print one clear line and exit with status 2.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments (default: the command line's, and a run stopped by a signal
+        ends the process at once, see the module docstring).
+
+    Returns
+    -------
+    int
+        The exit status: 0, 1 (the machine), 2 (a mistake), 128 + the signal.
+    """
+    code = _main(argv)
+    if argv is None and code > 128:
+        _end_now(code)
+    return code
+
+
+def _end_now(code: int) -> None:
+    """End the process with ``code`` now: its output flushed, nothing else run."""
+    import contextlib
+    import os
+
+    with contextlib.suppress(Exception):
+        logging.shutdown()
+        sys.stdout.flush()
+        sys.stderr.flush()
+    os._exit(code)
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    """:func:`main` but for its end."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if hasattr(args, "voice"):

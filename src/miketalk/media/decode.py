@@ -15,26 +15,62 @@ and accurate rounding (``-sws_flags bicubic+accurate_rnd+full_chroma_int``).
 The frame rate is the stream's own rational rate as ffmpeg's filter graph
 receives it (``fr:25/1`` in ffmpeg's verbose log), not the rounded figure of
 its summary line: an NTSC stream gives 30000/1001 exactly (as a float).
+
+A variable-frame-rate video (a phone's recording, a screen capture, clips of
+different rates joined) is read by its frames' timestamps instead: the first
+time a file is read, its video packets' timestamps are listed (``-c copy -f
+framemd5``: nothing decoded), and when the frames do not span ``frames / rate``
+seconds (within :data:`SLACK_FRAMES` frames), or the stream states no rate, the
+file is decoded at its average rate R (its frames over the seconds they span),
+constant: ffmpeg's fps filter (``fps=R:round=up:start_time=0``) makes frame k
+the one on screen at ``k / R``, so frames are repeated where they came slower
+and dropped where they came faster, and the sound, decoded by its own
+timestamps, stays in sync. A part from ``start`` is the same frames as the whole
+read's: the seek keeps the frames before ``start`` (``-noaccurate_seek``, the
+filter picks the one on screen), and ``start`` is rounded up to ffmpeg's
+microsecond. One warning says so; R is the rate :func:`read_video` returns. What
+each file was found to be is remembered for the process (by its path, size and
+modification time).
+
+Every ffmpeg runs as a :func:`miketalk.console.child_process`: a signal that
+stops the run kills it at once, so the threads decoding clips for the corpus
+return at once instead of keeping the stopped run alive, and start no other.
 """
 
 from __future__ import annotations
 
+import logging
+import math
 import os
 import re
 import subprocess
 import tempfile
+import threading
 from collections.abc import Iterator
 from fractions import Fraction
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
 
+from miketalk.console import child_process
 from miketalk.errors import MiketalkError
 
-__all__ = ["iter_video_frames", "read_media_audio", "read_video", "video_info"]
+__all__ = [
+    "SLACK_FRAMES",
+    "iter_video_frames",
+    "read_media_audio",
+    "read_video",
+    "video_info",
+]
+
+log = logging.getLogger(__name__)
 
 #: Seconds ffmpeg may take to decode one file's sound.
 _TIMEOUT = 300.0
+#: Frames (of the stated rate) by which the frames' timestamps may span more or less
+#: than ``frames / rate`` before the video counts as having a variable frame rate.
+SLACK_FRAMES = 1.5
 _STDERR_TAIL = 6  # lines of ffmpeg's log quoted in an error
 # the filter graph's input: "... w:360 h:288 pixfmt:yuv420p tb:1/90000 fr:25/1 sar:1/1 ..."
 _RATE_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bfr:(\d+)/(\d+)")
@@ -46,6 +82,9 @@ def read_video(
     path: str | os.PathLike[str], *, start: float | None = None, frames: int | None = None
 ) -> tuple[np.ndarray, float]:
     """Decode every frame of the first video stream of ``path`` (or ``frames`` from ``start``).
+
+    A video with a variable frame rate is decoded at its average rate, constant, by its
+    frames' timestamps (see the module docstring).
 
     Parameters
     ----------
@@ -64,45 +103,69 @@ def read_video(
         ``(N, H, W, 3)`` uint8 RGB, in display order; ``H, W`` the stream's
         stored size (after any rotation the file asks for).
     fps : float
-        The stream's frame rate (25.0 for GRID).
+        The stream's frame rate (25.0 for GRID); for a variable frame rate, the
+        constant rate it was decoded at.
 
     Raises
     ------
     MiketalkError
         If the file is missing, ffmpeg cannot decode it, it has no video
-        stream, no frame decodes, or its frame rate is unknown.
+        stream, no frame decodes, or its frame rate is unknown (stated by
+        neither the stream nor its timestamps).
     """
     path = Path(path)
     if not path.is_file():
         raise MiketalkError(f"video file not found: {path}")
-    args = _video_args(path, "verbose", start, frames)
-    proc = subprocess.run(args, capture_output=True, check=False)
-    log = proc.stderr.decode("utf-8", "replace")
-    if proc.returncode != 0:
-        if "matches no streams" in log:
+    known = _constant_rates.get(_file_key(path), _UNKNOWN)
+    resample = None if known is _UNKNOWN else known
+    args = _video_args(path, "verbose", start, frames, resample)
+    code, out, err = _run(args)
+    log_text = err.decode("utf-8", "replace")
+    if code != 0:
+        if "matches no streams" in log_text:
             raise MiketalkError(f"{path} has no video stream")
-        raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(log)}")
-    size = _SIZE_RE.search(log)
-    rate = _RATE_RE.search(log)
-    if size is None or not proc.stdout:
-        raise MiketalkError(f"no video frame decoded from {path}: {_tail(log)}")
+        raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(log_text)}")
+    size = _SIZE_RE.search(log_text)
+    rate = _RATE_RE.search(log_text)
+    if size is None or not out:
+        raise MiketalkError(f"no video frame decoded from {path}: {_tail(log_text)}")
     width, height = int(size[1]), int(size[2])
-    if rate is None or int(rate[1]) == 0 or int(rate[2]) == 0:
+    stated = None
+    if rate is not None and int(rate[1]) != 0 and int(rate[2]) != 0:
+        stated = Fraction(int(rate[1]), int(rate[2]))
+    if known is _UNKNOWN:
+        resample = _constant_rate(path, stated)
+        if resample is not None:  # decoded at the stated pace: again, by the timestamps
+            return read_video(path, start=start, frames=frames)
+    fps = resample if resample is not None else stated
+    if fps is None:
         raise MiketalkError(f"{path}: the video stream does not state its frame rate")
     frame_bytes = width * height * 3
-    if len(proc.stdout) % frame_bytes:
+    if len(out) % frame_bytes:
         raise MiketalkError(
-            f"{path}: ffmpeg's output ({len(proc.stdout)} bytes) is not a whole number of "
+            f"{path}: ffmpeg's output ({len(out)} bytes) is not a whole number of "
             f"{width}x{height} RGB frames"
         )
-    frames = np.frombuffer(proc.stdout, np.uint8).reshape(-1, height, width, 3).copy()
-    return frames, float(Fraction(int(rate[1]), int(rate[2])))
+    decoded = np.frombuffer(out, np.uint8).reshape(-1, height, width, 3).copy()
+    return decoded, float(fps)
 
 
-def _video_args(path: Path, loglevel: str, start: float | None, frames: int | None) -> list[str]:
-    """ffmpeg's arguments decoding ``path``'s first video stream to raw RGB on its stdout."""
+def _video_args(
+    path: Path,
+    loglevel: str,
+    start: float | None,
+    frames: int | None,
+    resample: Fraction | None = None,
+) -> list[str]:
+    """ffmpeg's arguments decoding ``path``'s first video stream to raw RGB on its stdout
+    (every frame as it is, or at the constant rate ``resample``)."""
     import imageio_ffmpeg
 
+    seek, pace = (["-ss", f"{start:.6f}"] if start else []), []
+    if resample is not None:  # frame k: the one on screen at k / resample (module docstring)
+        pace = ["-vf", f"fps={resample}:round=up:start_time=0"]
+        if start:  # the frames before start kept for the filter; start not before k / rate
+            seek = ["-noaccurate_seek", "-ss", f"{math.ceil(start * 1e6 - 1e-6) / 1e6:.6f}"]
     return [
         imageio_ffmpeg.get_ffmpeg_exe(),
         "-hide_banner",
@@ -111,7 +174,7 @@ def _video_args(path: Path, loglevel: str, start: float | None, frames: int | No
         loglevel,
         "-threads",
         "1",
-        *(["-ss", f"{start:.6f}"] if start else []),
+        *seek,
         "-i",
         str(path),
         *(["-frames:v", str(int(frames))] if frames is not None else []),
@@ -120,6 +183,7 @@ def _video_args(path: Path, loglevel: str, start: float | None, frames: int | No
         "-an",
         "-sn",
         "-dn",
+        *pace,
         "-fps_mode",
         "passthrough",
         "-filter_threads",
@@ -197,12 +261,10 @@ def iter_video_frames(
     path = Path(path)
     width, height, _ = video_info(path)
     frame_bytes = width * height * 3
-    args = _video_args(path, "error", start, frames)
-    with tempfile.TemporaryFile() as log:
-        proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log)
-        assert proc.stdout is not None
-        finished = False
-        try:
+    args = _video_args(path, "error", start, frames, _constant_rates.get(_file_key(path)))
+    with tempfile.TemporaryFile() as errors:
+        with child_process(args, stderr=errors) as proc:  # killed if the consumer stops early
+            assert proc.stdout is not None
             while True:
                 data = proc.stdout.read(frame_bytes)
                 if not data:
@@ -212,15 +274,9 @@ def iter_video_frames(
                         f"{path}: the video stream ended inside a {width}x{height} frame"
                     )
                 yield np.frombuffer(data, np.uint8).reshape(height, width, 3).copy()
-            finished = True
-        finally:
-            if not finished:
-                proc.kill()
-            proc.stdout.close()
-            code = proc.wait()
-        if code != 0:
-            log.seek(0)
-            text = log.read().decode("utf-8", "replace")
+        if proc.returncode != 0:
+            errors.seek(0)
+            text = errors.read().decode("utf-8", "replace")
             raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(text)}")
 
 
@@ -279,15 +335,109 @@ def read_media_audio(
         "pipe:1",
     ]  # fmt: skip
     try:
-        proc = subprocess.run(command, capture_output=True, timeout=_TIMEOUT, check=False)
+        code, out, err = _run(command, timeout=_TIMEOUT)
     except subprocess.TimeoutExpired:
         raise MiketalkError(f"ffmpeg took longer than {_TIMEOUT:.0f} s to decode {path}") from None
-    errors = proc.stderr.decode(errors="replace").strip()
-    if proc.returncode != 0:
+    errors = err.decode(errors="replace").strip()
+    if code != 0:
         if "matches no streams" in errors:
             raise MiketalkError(f"{path} has no audio stream")
-        tail = errors.splitlines()[-1] if errors else f"exit status {proc.returncode}"
+        tail = errors.splitlines()[-1] if errors else f"exit status {code}"
         raise MiketalkError(f"ffmpeg cannot decode the audio of {path}: {tail}")
-    if len(proc.stdout) < 2:
+    if len(out) < 2:
         raise MiketalkError(f"{path} has an empty audio stream")
-    return np.frombuffer(proc.stdout[: len(proc.stdout) // 2 * 2], dtype="<i2").astype(np.int16)
+    return np.frombuffer(out[: len(out) // 2 * 2], dtype="<i2").astype(np.int16)
+
+
+# ---------------------------------------------------------------------------
+# the frames' timestamps: a variable frame rate read at a constant one
+# ---------------------------------------------------------------------------
+
+_UNKNOWN = object()
+#: Per file (:func:`_file_key`): the constant rate its frames are read at, or None
+#: when they are read as they are (their timestamps follow the stated rate).
+_constant_rates: dict[tuple[str, int, int], Fraction | None] = {}
+_constant_rates_lock = threading.Lock()
+#: ffmpeg's AV_NOPTS_VALUE: a packet without a timestamp.
+_NO_PTS = -(2**63)
+
+
+def _file_key(path: Path) -> tuple[str, int, int]:
+    """What names one version of a file: its real path, size and modification time."""
+    info = path.stat()
+    return str(path.resolve()), info.st_size, info.st_mtime_ns
+
+
+def _constant_rate(path: Path, stated: Fraction | None) -> Fraction | None:
+    """The rate ``path``'s frames are to be read at, or None: they follow ``stated``.
+
+    Found once per file (see the module docstring) and warned about when the frames
+    are resampled.
+    """
+    key = _file_key(path)
+    with _constant_rates_lock:
+        if key not in _constant_rates:
+            found = _timestamps(path)
+            rate = None
+            if found is not None:
+                count, span = found
+                slack = SLACK_FRAMES / stated if stated else 0
+                if stated is None or abs(span - count / stated) > slack:
+                    rate = (count / span).limit_denominator(1001)
+                    said = f"at its stated {float(stated):g} fps" if stated else "at no stated rate"
+                    log.warning(
+                        "%s has a variable frame rate (%d frames over %.2f s by their "
+                        "timestamps, %s): read at a constant %g fps, frames repeated or "
+                        "dropped by their timestamps",
+                        path.name, count, float(span), said, float(rate),
+                    )  # fmt: skip
+            _constant_rates[key] = rate
+        return _constant_rates[key]
+
+
+def _timestamps(path: Path) -> tuple[int, Fraction] | None:
+    """The number of video packets of ``path`` and the seconds they span (the first's
+    start to the last's end); None when they cannot tell (no timestamps, fewer than two
+    packets, a stream ffmpeg cannot copy: the decode itself then says what is wrong)."""
+    import imageio_ffmpeg
+
+    code, out, _ = _run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-loglevel", "error",
+            "-i", str(path), "-map", "0:v:0", "-c", "copy", "-f", "framemd5", "pipe:1",
+        ]
+    )  # fmt: skip
+    if code != 0:
+        return None
+    base, rows = Fraction(1), []
+    for line in out.decode("ascii", "replace").splitlines():
+        if line.startswith("#tb 0:"):
+            base = Fraction(line.split(":", 1)[1].strip())
+        elif line and not line.startswith("#"):
+            fields = [f.strip() for f in line.split(",")]
+            if fields[0] == "0":
+                rows.append((int(fields[2]), int(fields[3])))
+    if len(rows) < 2 or any(pts == _NO_PTS for pts, _ in rows):
+        return None
+    rows.sort()
+    gaps = sorted(b - a for (a, _), (b, _) in pairwise(rows))
+    last = rows[-1][1] if rows[-1][1] > 0 else gaps[len(gaps) // 2]  # else a usual gap
+    span = (rows[-1][0] + last - rows[0][0]) * base
+    return (len(rows), span) if span > 0 else None
+
+
+def _run(args: list[str], *, timeout: float | None = None) -> tuple[int, bytes, bytes]:
+    """ffmpeg run with ``args`` to its end: its exit status, stdout and stderr.
+
+    A signal stopping the run kills it (:func:`miketalk.console.child_process`).
+
+    Raises
+    ------
+    subprocess.TimeoutExpired
+        When it runs longer than ``timeout`` seconds (it is killed).
+    MiketalkError
+        Outside the main thread once the run is stopping: nothing is started.
+    """
+    with child_process(args) as proc:
+        out, err = proc.communicate(timeout=timeout)
+    return proc.returncode, out, err
