@@ -11,7 +11,8 @@ backwards, forwards (no jump); shorter speech ends the video with it.
 
 The same promises as ``say``: a mistake is one line and exit status 2, found
 before the work where it can be (a model not built from a person, a video
-that cannot be read or lasts less than a second or has a variable frame rate,
+that cannot be read or lasts less than a second (a variable frame rate is read at its
+average rate, :mod:`miketalk.media.decode`),
 then a video whose frames do not show the model's person); the mp4 and its
 timeline JSON replace an older pair together or not at all; the same inputs give
 byte-identical files.

@@ -347,7 +347,8 @@ def _decoded(
     from collections import deque
 
     ahead = 2 * max(1, workers)  # decoded clips wait in memory: a few, not all of them
-    with ThreadPoolExecutor(max(1, workers), thread_name_prefix="clip") as pool:
+    pool = ThreadPoolExecutor(max(1, workers), thread_name_prefix="clip")
+    try:
         pending: deque = deque()
         queue = iter(clips)
         for clip in queue:
@@ -363,6 +364,10 @@ def _decoded(
                 _skip(skipped, clip.id, str(result))
             else:
                 yield result
+    except BaseException:  # a stop, an error, the consumer gone: wait for no clip
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
 
 
 #: A clip's part between two shot changes shorter than this (s) is left out: a few frames
