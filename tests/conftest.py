@@ -55,9 +55,10 @@ def s1_joined(tmp_path_factory: pytest.TempPathFactory):
 
 @pytest.fixture(scope="session")
 def s1_built(s1_joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The model ``miketalk build`` makes of the joined video with its plain transcript, its
-    last 6 s (the two held-out clips) held out, with the .test workflow's flow settings (so
-    that it compares with the .test face s1); its corpus kept beside it (``corpus/``)."""
+    """The model ``miketalk build --frame full`` makes of the joined video with its plain
+    transcript, its last 6 s (the two held-out clips) held out, with the .test workflow's flow
+    settings (so that it compares with the .test face s1, in the frames' own pixels); its
+    corpus kept beside it (``corpus/``)."""
     from miketalk.building.from_video import build_model_from_video
 
     config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["flow"]
@@ -71,6 +72,7 @@ def s1_built(s1_joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
         flow=config["methods"][config["method"]],
         mixed_window=config["mixed_window"],
         keep_corpus=where / "corpus",
+        crop=None,
     )
     return where / "model"
 

@@ -52,9 +52,9 @@ def built(s1_built: Path) -> Path:
 @pytest.mark.slow
 def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
     manifest = json.loads((built / "manifest.json").read_text())
-    assert manifest["size"] == [256, 256]  # the face crop's (the build's default)
+    assert manifest["size"] == [288, 360]  # --frame full: the frames' own
     background = json.loads((built / "background" / "background.json").read_text())
-    assert background["crop"]["size"] == 256
+    assert "crop" not in background
     segments = json.loads((built / "build" / "segments.json").read_text())
     splits = [u["split"] for u in segments["utterances"]]
     assert splits == ["train"] * 4 + ["test"] * 2

@@ -150,3 +150,42 @@ def test_the_jaw_mask_lies_inside_the_face_mask() -> None:
     x, y, w, h = mouth_box(settings)
     assert jaw[y + h // 2, x + w // 2] > 0.99  # the mouth is inside
     assert jaw[250, 128] < 0.01 and jaw[180, 20] < 0.01  # below the chin, beyond the cheek
+
+
+@pytest.mark.slow
+def test_a_face_crop_model_speaks_into_the_videos_own_frames(s1_joined, tmp_path: Path) -> None:
+    """``miketalk build``'s default (the face crop) end to end: the model works in the crop,
+    its own background plays at the video's size and rate, and a dub of an HD video of the
+    same man, moving, comes out at that video's size with its frames outside the mouth kept."""
+    import json
+
+    import yaml
+
+    from miketalk import cli
+    from miketalk.building.from_video import build_model_from_video
+
+    root = Path(__file__).parents[2]
+    flow = yaml.safe_load((root / ".test" / "config.yaml").read_text())["flow"]
+    model = tmp_path / "model"
+    build_model_from_video(
+        s1_joined.video, model, transcript=s1_joined.transcript, heldout_seconds=6,
+        progress=False, flow=flow["methods"][flow["method"]], mixed_window=flow["mixed_window"],
+    )  # fmt: skip
+    assert json.loads((model / "manifest.json").read_text())["size"] == [256, 256]
+    assert json.loads((model / "background" / "background.json").read_text())["crop"]
+    said = tmp_path / "said.mp4"
+    assert cli.main(["say", "Bin blue at F two now.", "--model", str(model), "-o", str(said)]) == 0
+    frames, fps = read_video(said)
+    assert frames.shape[1:3] == (288, 360) and fps == 25.0  # the video's own
+    hard = make_hard_clip(CLIP, tmp_path / "hard.mp4", seed=5)
+    dubbed = tmp_path / "dubbed.mp4"
+    args = ["dub", str(hard.path), "--text", "Bin blue.", "--model", str(model), "-o", str(dubbed)]
+    assert cli.main(args) == 0
+    out, _ = read_video(dubbed)
+    source, _ = read_video(hard.path)
+    assert out.shape[1:] == (720, 1280, 3)
+    changed = np.abs(out[20].astype(int) - source[20].astype(int)).max(axis=2) > 12
+    ys, xs = np.nonzero(changed)
+    mouth = apply_affine(hard.truth[20], np.array([[160.0, 221.0]]))[0]  # s1's lips
+    assert changed.mean() < 0.02  # the mouth's pixels only
+    assert abs(np.median(xs) - mouth[0]) < 30 and abs(np.median(ys) - mouth[1]) < 30
