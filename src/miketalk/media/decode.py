@@ -55,6 +55,7 @@ import numpy as np
 
 from miketalk.console import child_process
 from miketalk.errors import MiketalkError
+from miketalk.media.timing import framemd5_packets
 
 __all__ = [
     "SLACK_FRAMES",
@@ -409,14 +410,7 @@ def _timestamps(path: Path) -> tuple[int, Fraction] | None:
     )  # fmt: skip
     if code != 0:
         return None
-    base, rows = Fraction(1), []
-    for line in out.decode("ascii", "replace").splitlines():
-        if line.startswith("#tb 0:"):
-            base = Fraction(line.split(":", 1)[1].strip())
-        elif line and not line.startswith("#"):
-            fields = [f.strip() for f in line.split(",")]
-            if fields[0] == "0":
-                rows.append((int(fields[2]), int(fields[3])))
+    base, rows = framemd5_packets(out.decode("ascii", "replace"))
     if len(rows) < 2 or any(pts == _NO_PTS for pts, _ in rows):
         return None
     rows.sort()

@@ -18,11 +18,25 @@ from pathlib import Path
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["check_constant_rate", "frame_times"]
+__all__ = ["check_constant_rate", "frame_times", "framemd5_packets"]
 
 #: How far (seconds, and as a share of the video's length) the frames' timestamps may
 #: end from where the stated rate puts them.
 TOLERANCE_SECONDS, TOLERANCE_SHARE = 1.5, 0.02
+
+
+def framemd5_packets(text: str) -> tuple[Fraction, list[tuple[int, int]]]:
+    """ffmpeg's ``framemd5`` listing of stream 0: its time base and each packet's
+    ``(pts, duration)`` in that base, in the listing's order."""
+    base, rows = Fraction(1), []
+    for line in text.splitlines():
+        if line.startswith("#tb 0:"):
+            base = Fraction(line.split(":", 1)[1].strip())
+        elif line and not line.startswith("#"):
+            fields = [f.strip() for f in line.split(",")]
+            if fields[0] == "0":
+                rows.append((int(fields[2]), int(fields[3])))
+    return base, rows
 
 
 def frame_times(path: str | os.PathLike[str]) -> tuple[list[float], float]:
@@ -45,14 +59,7 @@ def frame_times(path: str | os.PathLike[str]) -> tuple[list[float], float]:
     )  # fmt: skip
     if proc.returncode != 0:
         raise MiketalkError(f"ffmpeg could not read the frames of {path}")
-    base, rows = Fraction(1), []
-    for line in proc.stdout.splitlines():
-        if line.startswith("#tb 0:"):
-            base = Fraction(line.split(":", 1)[1].strip())
-        elif line and not line.startswith("#"):
-            fields = [f.strip() for f in line.split(",")]
-            if fields[0] == "0":
-                rows.append((int(fields[2]), int(fields[3])))
+    base, rows = framemd5_packets(proc.stdout)
     if not rows:
         raise MiketalkError(f"{path} has no video frames")
     rows.sort()
