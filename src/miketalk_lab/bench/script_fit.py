@@ -1,8 +1,8 @@
 """Right, cut-apart and wrong scripts of joined clips: which words fit the sound, and how.
 
-``python -m miketalk_lab.bench.script_fit [--grid DIR] [--obama DIR] [--out OUT] [--limit N]``
-joins clips' sound (GRID talker s1's, ``--grid``, default ``../shared/data/grid_s1``; the
-weekly-address clips, ``--obama``, default ``../shared/data/obama``) one after the other,
+``python -m miketalk_lab.bench.script_fit --grid DIR --obama DIR [--out OUT] [--limit N]``
+joins clips' sound (GRID talker s1's, ``--grid``, e.g. ``../shared/data/grid_s1``; the
+weekly-address clips, ``--obama``, e.g. ``../shared/data/obama``) one after the other,
 as a video made of them holds it, and aligns it as :func:`miketalk.corpus.one_video.segment_video`
 does (:func:`miketalk.speech.long_align.align_long` with the fit limit, then
 :func:`miketalk.corpus.script_fit.trusted`) to scripts of five kinds:
@@ -58,10 +58,6 @@ import numpy as np
 from miketalk.media.atomic import write_text_atomic
 from miketalk_lab.bench.command import bench_parser, run_bench
 
-ROOT = Path(__file__).resolve().parents[3]
-#: The shared data beside the repository's folder.
-SHARED = ROOT.parent / "shared" / "data"
-
 #: Everyday words put in for GRID's (the misheard case).
 _MISHEARD = "table window yellow morning coffee people garden number".split()
 
@@ -81,8 +77,8 @@ class Case:
 def main(argv: Sequence[str] | None = None) -> int:
     """Measure every case; see the module docstring."""
     parser = bench_parser(__name__, __doc__, limit_help="GRID clips in the long cases (40)")
-    parser.add_argument("--grid", type=Path, default=SHARED / "grid_s1", help="GRID s1 folder")
-    parser.add_argument("--obama", type=Path, default=SHARED / "obama", help="weekly addresses")
+    parser.add_argument("--grid", type=Path, required=True, help="GRID s1 clips' folder")
+    parser.add_argument("--obama", type=Path, required=True, help="weekly addresses' folder")
     parser.add_argument("--out", type=Path, default=Path("results/bench/script_fit"))
     return run_bench(parser, argv, _run)
 
