@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 import wave
 from collections.abc import Iterator
@@ -330,3 +331,47 @@ def test_a_variable_frame_rate_video_is_read_by_its_timestamps(
     assert (again == frames[20:30]).all()
     assert all((a == b).all() for a, b in zip(iter_video_frames(path), frames, strict=True))
     check_constant_rate(path, fps, len(frames))
+
+
+def test_a_single_file_write_does_not_list_its_directory(tmp_path, monkeypatch):
+    """A frame's write is one rename: it must not scan the folder (quadratic in a video)."""
+    from miketalk.media import atomic
+    from miketalk.media.atomic import write_bytes_atomic
+
+    for i in range(50):
+        (tmp_path / f"{i:05d}.png").write_bytes(b"x")
+    listed = []
+    real = os.listdir
+    monkeypatch.setattr(atomic.os, "listdir", lambda d=".": listed.append(d) or real(d))
+    write_bytes_atomic(tmp_path / "00050.png", b"frame")
+    assert listed == [] and (tmp_path / "00050.png").read_bytes() == b"frame"
+
+
+def test_a_stale_journal_does_not_undo_a_newer_file(tmp_path):
+    """A unit killed mid-commit, then its first file written anew by itself: the next
+    sweep rolls the unit back around the newer file instead of forward over it."""
+    from miketalk.media.atomic import sweep_beside, write_bytes_atomic
+
+    tag = _dead_tag()
+    (tmp_path / "v.mp4").write_bytes(b"old video")
+    (tmp_path / "v.json").write_bytes(b"old json")
+    backup = f".v.mp4.miketalk-{tag}.aa.old"
+    os.link(tmp_path / "v.mp4", tmp_path / backup)
+    new_video = tmp_path / f".v.mp4.miketalk-{tag}.abc.mp4"
+    new_video.write_bytes(b"killed unit's video")
+    new_json = tmp_path / f".v.json.miketalk-{tag}.def.json"
+    new_json.write_bytes(b"killed unit's json")
+    files = [
+        {"temporary": new_video.name, "final": "v.mp4", "inode": new_video.stat().st_ino,
+         "backup": backup},
+        {"temporary": new_json.name, "final": "v.json", "inode": new_json.stat().st_ino,
+         "backup": f".v.json.miketalk-{tag}.bb.old"},
+    ]  # fmt: skip
+    (tmp_path / f".v.mp4.miketalk-{tag}.commit").write_text(
+        json.dumps({"format": "miketalk-journal/2", "files": files})
+    )
+    write_bytes_atomic(tmp_path / "v.mp4", b"newer video")
+    sweep_beside(tmp_path / "v.mp4")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == {
+        "v.mp4": b"newer video", "v.json": b"old json",
+    }  # fmt: skip

@@ -148,11 +148,19 @@ def atomic_paths(
             with deferred_signals():  # made and recorded for clean-up, or neither
                 temps.append(_temporary(final, suffix))
         yield temps
+        renames = list(zip(temps, finals, strict=True))
+        if len(renames) == 1 and guard is None:
+            # One rename is atomic by itself: no lock, and no listing of the directory for
+            # journals (a frames folder's thousands of files made that quadratic in its
+            # length). A killed unit's journal naming this file is settled by the next
+            # unit or sweep of it, which will not undo this newer file (roll_forward).
+            _commit(renames)
+            return
         with output_lock(finals[0]):
             _recover_beside(finals[0])  # a unit of a killed run settled first
             if guard is not None:
                 guard()
-            _commit(list(zip(temps, finals, strict=True)))
+            _commit(renames)
     except BaseException:
         for tmp in temps:
             tmp.unlink(missing_ok=True)
@@ -357,6 +365,8 @@ def roll_forward(journal: str | os.PathLike[str]) -> bool:
     pending = []
     for entry in entries:
         final, tmp = directory / entry["final"], directory / entry["temporary"]
+        if _replaced_since(directory, entry):
+            return False
         if tmp.is_file():
             pending.append((tmp, final))
         elif not _is_new(final, entry) and entry.get("inode") is not None:
@@ -369,6 +379,23 @@ def roll_forward(journal: str | os.PathLike[str]) -> bool:
         if entry.get("backup"):
             (directory / entry["backup"]).unlink(missing_ok=True)
     return True
+
+
+def _replaced_since(directory: Path, entry: dict) -> bool:
+    """Whether ``entry``'s final file was published by someone else after its unit was
+    killed: it is neither the unit's new file nor the old one its backup links to."""
+    if entry.get("inode") is None:  # a first-format journal: no way to tell
+        return False
+    try:
+        now = os.stat(directory / entry["final"]).st_ino
+    except OSError:
+        return False
+    if now == entry["inode"]:
+        return False
+    try:
+        return now != os.stat(directory / entry["backup"]).st_ino if entry.get("backup") else True
+    except OSError:
+        return True
 
 
 def _recover(journal: Path) -> None:
