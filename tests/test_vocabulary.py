@@ -88,6 +88,17 @@ def test_schema_flow_vocabularies_are_the_library_s() -> None:
     assert _schema("sweeps", "level_estimators")["items"]["enum"] == list(ESTIMATORS)
 
 
+def test_the_frames_a_face_is_built_in_are_the_library_s(parser: argparse.ArgumentParser) -> None:
+    from miketalk.building.frame import CROP, FRAMES, FULL
+
+    face = _schema("faces")["additionalProperties"]["properties"]
+    assert face["frame"]["enum"] == list(FRAMES)
+    assert face["frame"]["default"] == FULL  # the workflow's faces: their video's own pixels
+    assert face["crop_size"]["default"] is None  # the crop's own size
+    assert tuple(_choices(parser, "build", "--frame").choices) == FRAMES
+    assert _choices(parser, "build", "--frame").default == CROP  # miketalk build: the crop
+
+
 def test_command_line_choices_and_defaults_are_the_library_s(
     parser: argparse.ArgumentParser,
 ) -> None:

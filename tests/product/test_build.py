@@ -9,6 +9,7 @@ Bad input is one line, exit status 2, and nothing written.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -31,6 +32,25 @@ def test_the_build_flows_are_the_workflows_defaults() -> None:
     assert flow["methods"]["default"]["bergen"] == defaults.BUILD_FLOW_METHOD
     assert flow["strategy"]["default"] == defaults.BUILD_FLOW_STRATEGY
     assert flow["mixed_window"]["default"] == defaults.BUILD_MIXED_WINDOW
+
+
+def test_the_frame_a_face_is_built_in() -> None:
+    """``--frame``/``--crop-size`` and the workflow's ``frame``/``crop_size``, read alike."""
+    from miketalk.building.frame import FrameSettings
+    from miketalk.errors import MiketalkError
+    from miketalk.track.crop import FaceCropSettings
+
+    assert FrameSettings("full").crop is None
+    assert FrameSettings("crop").crop == FaceCropSettings()
+    half = FrameSettings("crop", 128).crop
+    assert (half.size, half.eye_distance, half.eyes_y) == (128, 36.0, FaceCropSettings().eyes_y)
+    for frame, size, message in [
+        ("full", 128, "a crop size goes with the crop frame"),
+        ("crop", 8, "the crop's size must be a whole number >= 16"),
+        ("face", None, "the frame must be one of ['crop', 'full']"),
+    ]:
+        with pytest.raises(MiketalkError, match=re.escape(message)):
+            FrameSettings(frame, size)
 
 
 def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:

@@ -187,6 +187,62 @@ def test_a_faces_settings_are_the_configs_with_its_own_overrides() -> None:
     assert exp.grouping == {}
 
 
+def test_a_faces_frame_is_its_videos_pixels_unless_its_crop_is_configured() -> None:
+    from miketalk.building.frame import FrameSettings
+    from miketalk.track.crop import FaceCropSettings, crop_from_doc
+
+    exp = experiment()
+    assert (
+        exp.frame_settings("s1") == FrameSettings("full") and exp.frame_settings("s1").crop is None
+    )
+    # no crop key: the corpus rule's params are what they were before the setting existed
+    assert exp.corpus_build_settings("s1") == exp.corpus_settings("s1")
+    assert "crop" not in exp.corpus_build_settings("s1")
+    config = dot_test()
+    config["faces"]["s1"] |= {"frame": "crop"}
+    assert experiment(config).frame_settings("s1").crop == FaceCropSettings()  # the crop's own
+    config = dot_test()
+    config["faces"]["s1"] |= {"frame": "crop", "crop_size": 192}
+    config["sweeps"]["training_clips"] = [2]
+    exp = experiment(config)
+    crop = exp.frame_settings("s1").crop
+    assert (crop.size, crop.eye_distance) == (192, 54.0)  # the eye distance in proportion
+    built = exp.corpus_build_settings("s1")
+    assert crop_from_doc(built.pop("crop")) == crop
+    assert built == exp.corpus_settings("s1")
+    assert exp.frame_settings("s1-n2").crop == crop  # the training-clips sweep's face too
+
+
+@pytest.mark.parametrize(
+    ("face", "change", "problem"),
+    [
+        ("s1", {"crop_size": 192}, "faces.s1: crop_size goes with frame crop"),
+        ("synthetic", {"frame": "crop"}, "faces.synthetic: frame crop needs a face from clips"),
+        ("v", {"frame": "crop", "corpus": {"source": "video", "video": JOINED}},
+         "faces.v: frame crop needs a face from clips or from one video of any speech"),
+        ("s1", {"frame": "crop", "crop_size": 8},
+         "config: faces.s1.crop_size: 8 is less than the minimum of 16"),
+        ("s1", {"frame": "face"}, "config: faces.s1.frame: 'face' is not one of ['crop', 'full']"),
+    ],
+    ids=["size-without-crop", "synthetic", "corpus-words-video", "too-small", "unknown"],
+)  # fmt: skip
+def test_a_faces_frame_is_checked_before_any_job(face: str, change: dict, problem: str) -> None:
+    config = dot_test()
+    config["faces"].setdefault(face, {}).update(change)
+    assert refused(config).startswith(problem)
+
+
+def test_a_crop_face_from_one_video_builds_in_its_crop_and_is_not_dubbed() -> None:
+    config = with_video_face(dot_test())
+    config["faces"]["v"]["frame"] = "crop"
+    exp = experiment(config)
+    assert exp.corpus_build_settings("v")["crop"]["size"] == 256
+    wanted = targets.all_outputs(exp)
+    assert paths.at(paths.HELDOUT_SUMMARY, "v") in wanted
+    assert paths.at(paths.DUB_SUMMARY, "v") not in wanted
+    assert paths.at(paths.DUB_SUMMARY, "s1") in wanted  # s1's own pixels: dubbed
+
+
 # -- checks --------------------------------------------------------------------------------
 
 

@@ -86,6 +86,6 @@ rule corpus_clips:
         mem_mb=4000,
         runtime=30,
     params:
-        corpus=lambda wildcards: experiment.corpus_settings(wildcards.face),
+        corpus=lambda wildcards: experiment.corpus_build_settings(wildcards.face),
     script:
         "../scripts/corpus_clips.py"

@@ -40,16 +40,12 @@ def cmd_build(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"miketalk build: {stage}: {seconds:.1f} s, peak {peak:.0f} MB", file=sys.stderr)
 
+    from miketalk.building.frame import CROP, FrameSettings
     from miketalk.building.from_video import build_model_from_video
-    from miketalk.track.crop import FaceCropSettings
 
-    crop = None
-    if args.frame == "crop":
-        crop = FaceCropSettings() if args.crop_size is None else FaceCropSettings(
-            size=args.crop_size, eye_distance=FaceCropSettings.eye_distance * args.crop_size / 256
-        )  # fmt: skip
-    elif args.crop_size is not None:
+    if args.crop_size is not None and args.frame != CROP:
         raise MiketalkError("--crop-size goes with --frame crop (the face crop's size)")
+    crop = FrameSettings(args.frame, args.crop_size).crop
     seconds = build_model_from_video(
         args.video,
         args.output,
@@ -89,6 +85,7 @@ def cmd_build(args: argparse.Namespace) -> int:
 
 def add_build_parser(sub) -> None:
     """The ``build`` subcommand."""
+    from miketalk.building.frame import CROP, FRAMES
     from miketalk.cli.options import verbose_option
 
     build = sub.add_parser(
@@ -116,8 +113,8 @@ def add_build_parser(sub) -> None:
     )
     build.add_argument(
         "--frame",
-        choices=("crop", "full"),
-        default="crop",
+        choices=FRAMES,
+        default=CROP,
         help="crop: track the face and work in a face crop of fixed size, the output at the "
         "video's own resolution (default; any video of one person); full: work in the "
         "video's own pixels (a still head before a plain backdrop, as GRID's)",

@@ -316,6 +316,13 @@ def corpus_stabilizer(corpus_dir: str | Path):
     )
 
 
+def corpus_decoder(corpus_dir: str | Path) -> Callable[[Clip], DecodedClip]:
+    """How the corpus's clips were read, for other clips of the same person (a held-out
+    test): :func:`decode_clip` tracked and cropped in the corpus's face crop, or as recorded."""
+    regions = json.loads((Path(corpus_dir) / REGIONS).read_text(encoding="utf-8"))
+    return functools.partial(decode_clip, crop=crop_from_doc(regions.get("crop")))
+
+
 def crop_stabilizer(reference: np.ndarray, crop: FaceCropSettings):
     """The stabilizer of a corpus in the face's crop: ECC on the crop's face mask outside
     its mouth (:func:`~miketalk.track.crop.face_mask`, :func:`~miketalk.track.crop.

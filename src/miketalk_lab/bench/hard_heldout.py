@@ -17,12 +17,12 @@ them, the pool's other clips in name order), and
    (:func:`miketalk_lab.evaluation.heldout.prepare_heldout`, ``evaluate_clip``): the
    model built from plain clips on the plain test clips, the one built from hard clips on
    the hard test clips (with ``--cross``, also each on the other kind). The only change
-   to the workflow's held-out evaluation (:func:`heldout_of`): a crop model's test clips
-   are read as its corpus's were, tracked and cropped
-   (:func:`miketalk.corpus.clip_sources.decode_clip` with the corpus's crop), then
-   registered to its corpus's reference (its stabilizer), so that the rendered frames
-   (crop pixels) and the real ones are compared in the same crop pixels: opening r, mouth
-   LMD (dlib's 68 points), PSNR and eigenlips all in the 256-pixel crop;
+   to the workflow's held-out evaluation (:func:`heldout_of`): its models, table and
+   strip; as there, a crop model's test clips are read as its corpus's were, tracked and
+   cropped (:func:`miketalk.corpus.clips.corpus_decoder`), then registered to its
+   corpus's reference (its stabilizer), so that the rendered frames (crop pixels) and the
+   real ones are compared in the same crop pixels: opening r, mouth LMD (dlib's 68
+   points), PSNR and eigenlips all in the 256-pixel crop;
 4. pairs the two models clip by clip (:func:`paired`): means, standard deviations, the
    paired difference's mean with its 95 % t interval, against the issue's target
    (|difference of lip-opening r| <= 0.03, |difference of mouth LMD| <= 0.1 px).
@@ -37,7 +37,6 @@ there (delete it to start again).
 from __future__ import annotations
 
 import argparse
-import functools
 import json
 import math
 import pathlib
@@ -154,27 +153,24 @@ def pair_models(table: pd.DataFrame, a: tuple[str, str], b: tuple[str, str], *,
 def heldout_of(model_dir: pathlib.Path, corpus_dir: pathlib.Path, clips: Sequence, *,
                name: str, keep: str | None = None) -> tuple[pd.DataFrame, dict]:  # fmt: skip
     """A model's held-out measures on ``clips`` in its corpus's frame: the workflow's held-out
-    evaluation (:func:`~miketalk_lab.evaluation.heldout.heldout_stage`) but for how a test
-    clip is read, as the corpus's clips were (for a crop model: tracked and cropped).
+    evaluation (:func:`~miketalk_lab.evaluation.heldout.heldout_stage`), a test clip read as
+    the corpus's clips were (:func:`~miketalk.corpus.clips.corpus_decoder`), with one model
+    and a clip that fails left out.
 
     Returns the per clip and renderer summaries (``clip``, ``renderer``, ``model``, the
     measures; a clip that fails is left out) and ``{"skipped": [(clip, why)], "real":
     frames, "morph": frames}``, the frames those of the clip ``keep`` (for the strip).
     """
-    from miketalk.corpus.clip_sources import ClipError, decode_clip
-    from miketalk.corpus.clips import corpus_stabilizer
+    from miketalk.corpus.clip_sources import ClipError
+    from miketalk.corpus.clips import corpus_decoder, corpus_stabilizer
     from miketalk.corpus.eigenlips import read_eigenlips
     from miketalk.model.face import Model
     from miketalk.mouth import mouth_region
-    from miketalk.mouth.region import REGIONS
-    from miketalk.track.crop import crop_from_doc
     from miketalk.visemes import VisemeTable
     from miketalk_lab.evaluation.heldout import evaluate_clip, prepare_heldout
     from miketalk_lab.evaluation.landmarks import face_landmarks
 
-    regions = json.loads((corpus_dir / REGIONS).read_text("utf-8"))
-    crop = crop_from_doc(regions.get("crop"))
-    decode = functools.partial(decode_clip, crop=crop)
+    decode = corpus_decoder(corpus_dir)
     stabilizer = corpus_stabilizer(corpus_dir)
     box = mouth_region(corpus_dir)
     eigenlips = read_eigenlips(corpus_dir / "eigenlips.npz").eigenlips

@@ -116,7 +116,11 @@ def dub_heldout(
     interpolation : {"cubic", "linear"}
         Sampling of the render into the frames (:class:`~miketalk.composite.compositor.Compositor`).
     """
-    from miketalk.composite.background_files import model_compositor, model_stabilizer
+    from miketalk.composite.background_files import (
+        model_compositor,
+        model_crop,
+        model_stabilizer,
+    )
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
     from miketalk.lipsync.timeline import plan
@@ -132,6 +136,11 @@ def dub_heldout(
 
     if renderer not in DUB_RENDERERS:
         raise MiketalkError(f"cannot dub with {renderer!r} (known: {', '.join(DUB_RENDERERS)})")
+    if model_crop(model_dir) is not None:
+        raise MiketalkError(
+            f"{model_dir} works in a face crop: the held-out dub composites into the clips "
+            "frame by frame, for a model in the video's own pixels only"
+        )
     box = mouth_region(corpus_dir)
     if corpus_eigenlips is None:
         corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)

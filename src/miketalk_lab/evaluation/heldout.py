@@ -344,7 +344,9 @@ def heldout_stage(
     ----------
     corpus_dir : path
         The face's corpus folder (the training frames the eigenlips are fitted
-        on, the stabilizer's reference, the mouth box).
+        on, the stabilizer's reference, the mouth box); the test clips are read as its
+        clips were (:func:`~miketalk.corpus.clips.corpus_decoder`: a face crop's tracked
+        and cropped), so both are measured in the same pixels.
     models : dict
         ``name -> model directory``: each is measured with the morph.
     default_model : str
@@ -375,7 +377,7 @@ def heldout_stage(
     import json
     from pathlib import Path
 
-    from miketalk.corpus.clips import corpus_stabilizer
+    from miketalk.corpus.clips import corpus_decoder, corpus_stabilizer
     from miketalk.corpus.folder import open_corpus
     from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
@@ -390,7 +392,7 @@ def heldout_stage(
 
         corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
     eigenlips = corpus_eigenlips.eigenlips
-    stabilizer = corpus_stabilizer(corpus_dir)
+    stabilizer, decode = corpus_stabilizer(corpus_dir), corpus_decoder(corpus_dir)
     table = VisemeTable(grouping=grouping)
     opened = {name: Model(path, morph_options=morph) for name, path in models.items()}
     landmarks = face_landmarks()
@@ -398,7 +400,7 @@ def heldout_stage(
     videos.mkdir(parents=True, exist_ok=True)
     summaries, frames = [], []
     for clip in clips:
-        heldout = prepare_heldout(clip, stabilizer=stabilizer, table=table)
+        heldout = prepare_heldout(clip, stabilizer=stabilizer, table=table, decode=decode)
         rows, per_frame, renders = evaluate_clip(
             heldout,
             opened,

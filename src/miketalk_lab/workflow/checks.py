@@ -106,6 +106,31 @@ def check_flow_methods(methods: Mapping[str, Mapping]) -> None:
             raise ConfigError(f"flow.methods.{name}: {err}") from None
 
 
+def check_frame(face: str, settings: Mapping, *, from_clips: bool) -> None:
+    """A face's frame (:class:`miketalk.building.frame.FrameSettings`): the crop frame for a
+    face from clips (or from one video of any speech) only, a crop size with it only.
+
+    Raises
+    ------
+    ConfigError
+        Naming the face and the key.
+    """
+    from miketalk.building.frame import CROP, FrameSettings
+
+    frame, size = settings["frame"], settings["crop_size"]
+    if frame == CROP and not from_clips:
+        raise ConfigError(
+            f"faces.{face}: frame crop needs a face from clips or from one video of any speech "
+            f"(corpus source clips, or video with media), not source {settings['corpus']['source']}"
+        )
+    if size is not None and frame != CROP:
+        raise ConfigError(f"faces.{face}: crop_size goes with frame crop (the face crop's size)")
+    try:
+        FrameSettings(frame, size)
+    except MiketalkError as err:
+        raise ConfigError(f"faces.{face}: {err}") from None
+
+
 def check_face_settings(
     face: str,
     *,

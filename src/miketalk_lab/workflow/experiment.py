@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from miketalk.building.frame import FrameSettings
 from miketalk.composite.background_files import BACKGROUND_CHOICES
 from miketalk_lab.workflow import checks, faces, paths, sweeps
 from miketalk_lab.workflow.config import SCHEMA, canonical, project_path, validate_config
@@ -120,6 +121,7 @@ class Experiment:
         checks.check_flow_methods(self.methods)
         for face in self.faces:
             method, strategy = self.model_flow(face)
+            checks.check_frame(face, self.faces[face], from_clips=face in self.clip_faces)
             checks.check_face_settings(
                 face,
                 lipsync=self.lipsync_options(face),
@@ -188,6 +190,22 @@ class Experiment:
         for key in ("video", "media", "transcripts", "timings", "transcript", "subtitles"):
             corpus[key] = self.project_path(corpus.get(key))
         return canonical(corpus)
+
+    def frame_settings(self, face: str) -> FrameSettings:
+        """The frame a face is built in: its ``frame`` and ``crop_size`` (the schema's
+        defaults: the video's own pixels)."""
+        settings = self.faces[face]
+        return FrameSettings(settings["frame"], settings["crop_size"])
+
+    def corpus_build_settings(self, face: str) -> dict:
+        """A face's corpus settings as its corpus rule takes them (:meth:`corpus_settings`),
+        with, for a face built in its face crop, the crop under ``crop``
+        (:func:`~miketalk.track.crop.crop_doc`); a face in its video's own pixels has no
+        ``crop`` key, so its rule's params are what they were before the key existed."""
+        from miketalk.track.crop import crop_doc
+
+        corpus, crop = self.corpus_settings(face), self.frame_settings(face).crop
+        return corpus if crop is None else canonical(corpus | {"crop": crop_doc(crop)})
 
     def morph_options(self, face: str) -> dict:
         """The morph settings of a face: ``morph``, with the face's own overrides."""

@@ -11,7 +11,8 @@ from miketalk_lab.workflow.vocabulary import DIRECT, STRATEGY_NAMES
 
 def heldout_tables(experiment: Experiment) -> list[str]:
     """The held-out summary and figures of every configured face with test clips, and of its
-    training-clips sweep.
+    training-clips sweep; the held-out dub of a face in its video's own pixels only (a face
+    crop's model is not yet dubbed into the clips by the evaluation).
 
     Parameters
     ----------
@@ -34,10 +35,12 @@ def heldout_tables(experiment: Experiment) -> list[str]:
                 paths.HELDOUT_TRAJECTORY_FIGURE,
                 paths.HELDOUT_PSNR_FIGURE,
                 paths.HELDOUT_STRIP_FIGURE,
-                paths.DUB_SUMMARY,
-                paths.DUB_STRIP_FIGURE,
             )
         ]
+        if experiment.frame_settings(face).crop is None:
+            out += [
+                paths.at(pattern, face) for pattern in (paths.DUB_SUMMARY, paths.DUB_STRIP_FIGURE)
+            ]
         if experiment.sweep_of(face):
             out += [
                 paths.at(paths.TRAINING_CLIPS_TABLE, face),

@@ -1,0 +1,67 @@
+"""Where a face from clips (or from one video) is built: in its tracked face crop, or in the
+video's own pixels.
+
+``miketalk build --frame crop|full --crop-size PX`` and the workflow's ``faces.NAME.frame``
+and ``faces.NAME.crop_size`` are both read into :class:`FrameSettings`, whose
+:attr:`~FrameSettings.crop` is what :func:`miketalk.building.stages.corpus_stage` takes.
+Each of them keeps its own default frame (the command's ``crop``, the workflow's
+``full``: the schema's); the crop's geometry is :class:`~miketalk.track.crop.FaceCropSettings`'s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from miketalk.errors import MiketalkError
+
+if TYPE_CHECKING:  # the command line's parser reads FRAMES without the tracker's imports
+    from miketalk.track.crop import FaceCropSettings
+
+__all__ = ["CROP", "FRAMES", "FULL", "FrameSettings"]
+
+#: Tracked, in the face's canonical crop (:mod:`miketalk.track.crop`).
+CROP = "crop"
+#: In the video's own pixels (the plain-background rules of :mod:`miketalk.stabilize`).
+FULL = "full"
+#: The frames a face can be built in.
+FRAMES = (CROP, FULL)
+
+
+@dataclass(frozen=True)
+class FrameSettings:
+    """The frame a face is built in.
+
+    Attributes
+    ----------
+    frame : str
+        :data:`CROP` or :data:`FULL`.
+    crop_size : int or None
+        The crop's width and height in pixels, its eye distance in proportion to the
+        default crop's (None: :class:`~miketalk.track.crop.FaceCropSettings`' own size);
+        only with :data:`CROP`.
+    """
+
+    frame: str
+    crop_size: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.frame not in FRAMES:
+            raise MiketalkError(f"the frame must be one of {list(FRAMES)}, got {self.frame!r}")
+        if self.crop_size is not None and self.frame != CROP:
+            raise MiketalkError("a crop size goes with the crop frame (the face crop's size)")
+        self.crop  # noqa: B018 (a bad size is refused here, not in the corpus stage)
+
+    @property
+    def crop(self) -> FaceCropSettings | None:
+        """The face crop to build in (None: the video's own pixels)."""
+        from miketalk.track.crop import FaceCropSettings
+
+        if self.frame == FULL:
+            return None
+        if self.crop_size is None:
+            return FaceCropSettings()
+        default = FaceCropSettings()
+        return FaceCropSettings(
+            size=self.crop_size, eye_distance=default.eye_distance * self.crop_size / default.size
+        )
