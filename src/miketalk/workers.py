@@ -7,6 +7,20 @@ decides), die with their parent (``PR_SET_PDEATHSIG``: a parent killed outright 
 orphans), and are ended within a second when the body raises (Ctrl-C, SIGTERM, an error):
 the queued work is cancelled and every worker terminated, then killed, instead of the
 executor's default of finishing all that was queued.
+
+A worker forked from this process inherits its Python signal handlers (SIGTERM raising
+:class:`~miketalk.console.Terminated`) until its start-up replaces them: a SIGTERM in
+between (the pool stopped while it starts) printed tracebacks from the worker. The workers
+are therefore started with the stopping signals blocked, and unblock them once their own
+handlers are set: a signal that came meanwhile then ends the worker at once, silently.
+
+Python runs a signal's handler in the main thread between two bytecodes. A main thread
+waiting on a lock with no time limit (``future.result()``, ``Executor.map``) is woken by
+a signal only if the signal lands while it waits: one that lands just before the wait
+begins (its handler's flag set, the wait not yet entered) is seen only when the wait
+ends, so a SIGTERM sent as the main thread starts waiting on a worker's long job was
+lost until that job ended. :func:`results` and :func:`map_in_pool` wait in slices of
+0.1 s: the handler runs within a slice.
 """
 
 from __future__ import annotations
@@ -15,8 +29,8 @@ import contextlib
 import os
 import signal
 import time
-from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, wait
 
 from miketalk.errors import MachineFailure, MiketalkError
 
@@ -24,7 +38,9 @@ __all__ = [
     "available_cores",
     "check_workers",
     "default_workers",
+    "map_in_pool",
     "process_pool",
+    "results",
     "run_in_child",
     "stop_pool",
 ]
@@ -69,11 +85,32 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
 
 
+#: The signals that stop a run (:func:`miketalk.console.handle_termination`).
+_STOPPING = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)}
+
+
+@contextlib.contextmanager
+def _stopping_signals_blocked() -> Iterator[None]:
+    """Block the stopping signals in this thread while the body runs: the processes it
+    forks start with them blocked (the module docstring). Where ``pthread_sigmask`` is
+    missing, nothing is blocked."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPPING)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def _start_worker(initializer: Callable[..., object] | None, initargs: tuple, parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the
     for name in ("SIGTERM", "SIGHUP"):  # parent stops the workers itself
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):  # started with them blocked: a SIGTERM that
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPPING)  # came meanwhile ends it now
     _die_with_parent()
     if os.getppid() != parent:  # the parent died before the kernel was asked
         os._exit(1)
@@ -98,6 +135,11 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 1.0) -> None:
             if process.is_alive():
                 process.kill()
                 process.join(0.5)
+    # the executor's thread, finding its workers gone, closes the pool's pipes: waited for,
+    # so that the interpreter's exit does not write to one it is closing (a traceback)
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None:
+        manager.join(max(0.1, deadline + 0.5 - time.monotonic()))
 
 
 @contextlib.contextmanager
@@ -119,6 +161,8 @@ def process_pool(
         initargs=(initializer, initargs, os.getpid()),
     )
     try:
+        with _stopping_signals_blocked():  # forked now (all of them at the first submit),
+            pool.submit(int)  # with the stopping signals blocked: the module docstring
         yield pool
     except BaseException:
         stop_pool(pool)
@@ -126,15 +170,51 @@ def process_pool(
     pool.shutdown(wait=True)
 
 
+def results(futures: Iterable[Future], *, poll: float = 0.1) -> Iterator[object]:
+    """Each future's result, in order, waited for in slices of ``poll`` seconds.
+
+    Instead of ``future.result()`` in the main thread: a stopping signal's handler runs
+    within a slice (the module docstring). On leaving early (an exception, the consumer
+    gone) the futures not yet waited for are cancelled (those not yet running).
+    """
+    futures = list(futures)
+    waited = 0
+    try:
+        for future in futures:
+            while not wait([future], timeout=poll).done:
+                pass
+            waited += 1
+            yield future.result()
+    finally:
+        for future in futures[waited:]:
+            future.cancel()
+
+
+def map_in_pool(
+    pool: Executor, function: Callable[..., object], items: Iterable, *, chunksize: int = 1
+) -> Iterator[object]:
+    """``pool.map(function, items, chunksize=chunksize)``, its results waited for by
+    :func:`results` (``Executor.map`` waits with no time limit)."""
+    items = list(items)
+    chunks = [items[i : i + chunksize] for i in range(0, len(items), max(1, chunksize))]
+    for chunk in results(pool.submit(_each, function, chunk) for chunk in chunks):
+        yield from chunk  # type: ignore[misc]
+
+
+def _each(function: Callable[..., object], chunk: list) -> list:
+    """``function`` of each item of ``chunk`` (a worker's job of :func:`map_in_pool`)."""
+    return [function(item) for item in chunk]
+
+
 def run_in_child(function: Callable[..., object], *args: object) -> object:
     """``function(*args)`` in a forked child process; its result (or its exception) here.
 
     For work in native code that holds the interpreter (the forced aligner: minutes of
     audio in one call), during which a signal's handler cannot run: the parent waits on a
-    pipe, so Ctrl-C or SIGTERM stops the wait at once, and the child is killed with it. The
-    child dies with its parent, also when the parent is killed outright. Where ``fork`` is
-    missing, or outside the main thread (where signals are not handled), the function runs
-    here.
+    pipe (in slices of 0.1 s: the module docstring), so Ctrl-C or SIGTERM stops the wait at
+    once, and the child is killed with it. The child dies with its parent, also when the
+    parent is killed outright. Where ``fork`` is missing, or outside the main thread (where
+    signals are not handled), the function runs here.
 
     Raises
     ------
@@ -143,6 +223,7 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
         does), or the parent's :class:`KeyboardInterrupt`.
     """
     import pickle
+    import select
     import threading
 
     if not hasattr(os, "fork") or threading.current_thread() is not threading.main_thread():
@@ -177,7 +258,9 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
     chunks = []
     try:
         with os.fdopen(read_end, "rb") as pipe:
-            while True:  # a signal's handler runs during the wait, and may raise
+            while True:  # a signal's handler runs during the wait (in slices), and may raise
+                if not select.select([pipe], [], [], 0.1)[0]:
+                    continue
                 block = os.read(pipe.fileno(), 1 << 20)
                 if not block:
                     break

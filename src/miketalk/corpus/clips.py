@@ -345,6 +345,8 @@ def _decoded(
     """Decode the clips (``workers`` at a time, in order), skipping the ones that fail."""
     from concurrent.futures import ThreadPoolExecutor
 
+    from miketalk.workers import results
+
     def attempt(clip: Clip) -> DecodedClip | ClipError:
         try:
             return decode(clip)
@@ -364,7 +366,7 @@ def _decoded(
                 break
         while pending:
             clip, future = pending.popleft()
-            result = future.result()
+            result = next(results([future]))  # in slices: a signal is not lost (workers.py)
             if (following := next(queue, None)) is not None:
                 pending.append((following, pool.submit(attempt, following)))
             if isinstance(result, ClipError):

@@ -29,7 +29,7 @@ from miketalk.flow.exr import write_flow_pair
 from miketalk.flow.registry import get_estimator, in_region
 from miketalk.flow.strategies import Pair, Recording, Strategy, get_strategy
 from miketalk.media.images import read_image
-from miketalk.workers import process_pool
+from miketalk.workers import map_in_pool, process_pool
 
 log = logging.getLogger(__name__)
 
@@ -202,9 +202,11 @@ def build_flow_database(
                 ),
             ) as pool:
                 chunks = [steps[i : i + 25] for i in range(0, len(steps), 25)]
-                list(pool.map(_consecutive_job, chunks))
+                list(map_in_pool(pool, _consecutive_job, chunks))
                 rows = list(
-                    pool.map(_pair_job, pairs, chunksize=_chunksize(chosen, pairs, workers))
+                    map_in_pool(
+                        pool, _pair_job, pairs, chunksize=_chunksize(chosen, pairs, workers)
+                    )
                 )
         finally:
             cv2.setNumThreads(threads)
