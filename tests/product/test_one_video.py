@@ -94,6 +94,49 @@ def test_bad_subtitles_are_one_line(tmp_path: Path, name: str, text: str, messag
         read_script(subtitles=path)
 
 
+@pytest.mark.parametrize("kind", ["transcript", "subtitles"])
+@pytest.mark.parametrize(
+    ("source", "message"),
+    [
+        ("/dev/zero", "more than 1048576 bytes"),
+        ("/dev/urandom", "more than 1048576 bytes"),
+        ("big", r"holds 1048577 bytes.*split it"),
+        ("nul", "not a text file"),
+        ("latin1", "not UTF-8"),
+        ("missing", "not found"),
+    ],
+)
+def test_a_script_is_read_as_say_reads_a_text_file(
+    tmp_path: Path, kind: str, source: str, message: str
+) -> None:
+    """Bounded, as ``say -f``'s text: a device that never ends is refused unread, in a
+    second (before: /dev/zero was "not found", a huge file read whole)."""
+    import time
+
+    path = tmp_path / ("s.srt" if kind == "subtitles" else "t.txt")
+    if source.startswith("/dev/"):
+        path.symlink_to(source)
+    elif source == "big":
+        path.write_bytes(b"bin " * (1 << 18) + b"a")
+    elif source == "nul":
+        path.write_bytes(b"bin\0blue")
+    elif source == "latin1":
+        path.write_bytes("café".encode("latin-1"))
+    started = time.monotonic()
+    with pytest.raises(MiketalkError, match=message):
+        read_script(**{kind: path})
+    assert time.monotonic() - started < 1.0
+
+
+def test_a_byte_order_mark_is_not_a_word(tmp_path: Path) -> None:
+    path = tmp_path / "s.vtt"
+    path.write_text("\ufeffWEBVTT\n\n00:00:00.500 --> 00:00:01.500\nbin blue\n", "utf-8")
+    assert read_script(subtitles=path) == [Cue(("bin", "blue"), 0.5, 1.5)]
+    path = tmp_path / "t.txt"
+    path.write_text("\ufeffbin blue", "utf-8")
+    assert read_script(transcript=path) == [Cue(("bin", "blue"))]
+
+
 def test_one_of_transcript_or_subtitles(tmp_path: Path) -> None:
     with pytest.raises(MiketalkError, match="one of them"):
         read_script()

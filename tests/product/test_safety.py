@@ -999,6 +999,10 @@ def test_cues_never_replace_a_json_written_by_hand(tmp_path: Path) -> None:
     one_line(theirs, 2, "mine.wav exists and is not a wav miketalk wrote")
 
 
+#: A GRID clip of the repository (a video that is there: what is checked after it).
+_CLIP = str(Path(__file__).resolve().parents[2] / "data" / "grid_s1" / "video" / "bbaf2n.mpg")
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
@@ -1008,6 +1012,8 @@ def test_cues_never_replace_a_json_written_by_hand(tmp_path: Path) -> None:
         (["build", "x.mp4", "--transcript", "t.txt", "-o", "m", "--workers", "0"], "from 1 to"),
         (["build", "x.mp4", "--transcript", "t.txt", "-o", "m", "--workers", "1000"], "from 1 to"),
         (["build", "x.mp4", "--transcript", "t.txt", "-o", "/sys/m"], "cannot write /sys/m"),
+        (["build", _CLIP, "--transcript", "/dev/zero", "-o", "m"], "more than 1048576 bytes"),
+        (["build", _CLIP, "--transcript", "/dev/urandom", "-o", "m"], "more than 1048576"),
     ],
 )
 def test_bad_input_is_one_line_at_once(

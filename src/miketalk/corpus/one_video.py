@@ -229,9 +229,9 @@ def check_video_inputs(
 def _lines(transcript: str | Path, cues) -> tuple[int, ...]:
     """How many words each line of a plain transcript has (its empty lines left out): where
     its words that do not fit are (one line for all when its lines split a word)."""
-    from miketalk.corpus.script import text_words
+    from miketalk.corpus.script import script_text, text_words
 
-    text = Path(transcript).read_text(encoding="utf-8-sig")
+    text = script_text(transcript)
     counts = tuple(n for n in (len(text_words(line)) for line in text.splitlines()) if n)
     total = sum(len(c.words) for c in cues)
     return counts if sum(counts) == total else (total,)

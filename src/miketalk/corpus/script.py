@@ -58,24 +58,21 @@ def read_script(
 ) -> list[Cue]:
     """The cues of a transcript or of subtitles (exactly one of them).
 
+    Both are read as ``say --file`` reads its text (:func:`script_text`).
+
     Raises
     ------
     MiketalkError
-        Both or neither given, a missing or unreadable file, subtitles of
-        another format than ``.srt`` / ``.vtt``, a cue ending before it starts,
-        cues out of order, or no word at all.
+        Both or neither given, a missing or unreadable file, one too large, a device
+        (``/dev/zero``), a file that is not UTF-8 text, subtitles of another format than
+        ``.srt`` / ``.vtt``, a cue ending before it starts, cues out of order, or no word
+        at all.
     """
     if (transcript is None) == (subtitles is None):
         raise MiketalkError("give the video's transcript or its subtitles (one of them)")
     path = Path(transcript if transcript is not None else subtitles)
-    if not path.is_file():
-        raise MiketalkError(f"{'transcript' if transcript else 'subtitles'} not found: {path}")
     if transcript is not None:
-        try:
-            text = path.read_text(encoding="utf-8-sig")
-        except (UnicodeDecodeError, OSError) as err:
-            raise MiketalkError(f"cannot read the transcript {path}: {err}") from err
-        cues = [Cue(tuple(text_words(text)))]
+        cues = [Cue(tuple(text_words(script_text(path, "transcript"))))]
     else:
         cues = _read_subtitles(path)
     if not any(c.words for c in cues):
@@ -83,25 +80,45 @@ def read_script(
     return [c for c in cues if c.words]
 
 
+def script_text(path: str | Path, what: str = "transcript") -> str:
+    """The text of a transcript or subtitles file, read as ``say --file`` reads its text
+    (:func:`miketalk.speech.text.read_text_file`: at most 1 MiB, UTF-8, no NUL byte, a
+    device that never ends refused unread), a byte-order mark left out.
+
+    Raises
+    ------
+    MiketalkError
+        In one line: ``what`` not found, or the file refused.
+    """
+    from miketalk.speech.text import read_text_file
+
+    path = Path(path)
+    if not path.exists():
+        raise MiketalkError(f"{what} not found: {path}")
+    return read_text_file(path).removeprefix("\ufeff")
+
+
 def _read_subtitles(path: Path) -> list[Cue]:
     suffix = path.suffix.lower()
+    if suffix not in (".srt", ".vtt"):
+        raise MiketalkError(f"subtitles must be .srt or .vtt, not {path.name}")
+    text = script_text(path, "subtitles")
     try:
         if suffix == ".srt":
             import srt
 
             raw = [
-                (s.start.total_seconds(), s.end.total_seconds(), s.content)
-                for s in srt.parse(path.read_text(encoding="utf-8-sig"))
+                (s.start.total_seconds(), s.end.total_seconds(), s.content) for s in srt.parse(text)
             ]
-        elif suffix == ".vtt":
+        else:
+            import io
+
             import webvtt
 
             raw = [
                 (c.start_time.in_milliseconds() / 1000, c.end_time.in_milliseconds() / 1000, c.text)
-                for c in webvtt.read(str(path))
+                for c in webvtt.read_buffer(io.StringIO(text))
             ]
-        else:
-            raise MiketalkError(f"subtitles must be .srt or .vtt, not {path.name}")
     except MiketalkError:
         raise
     except Exception as err:  # the libraries' own parse errors
