@@ -38,21 +38,24 @@ import errno
 import json
 import logging
 import os
-import re
-import shutil
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from miketalk.errors import MachineFailure, MiketalkError
+from miketalk.media.journal import (
+    BESIDE,
+    JOURNAL_FORMAT,
+    JOURNAL_SUFFIX,
+    MARK,
+    back_up,
+    recover,
+    recover_beside,
+    roll_back,
+)
 from miketalk.media.scratch import deferred_signals, owner_tag, tag_owner_alive
 
 log = logging.getLogger(__name__)
-
-_MARK = "miketalk-"
-#: ``.<name>.miketalk-<pid>.<start>.<rest>``: a temporary file or journal of ``<name>``.
-_BESIDE = re.compile(r"^\.(?P<name>.+)\.miketalk-(?P<tag>\d+\.\d+)\.(?P<rest>[^/]+)$")
-_JOURNAL_SUFFIX = ".commit"
 
 
 def _temporary(final: Path, suffix: str) -> Path:
@@ -60,7 +63,7 @@ def _temporary(final: Path, suffix: str) -> Path:
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         fd, name = tempfile.mkstemp(
-            prefix=f".{final.name}.{_MARK}{owner_tag()}.", suffix=suffix, dir=final.parent
+            prefix=f".{final.name}.{MARK}{owner_tag()}.", suffix=suffix, dir=final.parent
         )
     except OSError as err:
         raise MiketalkError(f"cannot write {final}: {err.strerror or err}") from None
@@ -157,7 +160,7 @@ def atomic_paths(
             _commit(renames)
             return
         with output_lock(finals[0]):
-            _recover_beside(finals[0])  # a unit of a killed run settled first
+            recover_beside(finals[0])  # a unit of a killed run settled first
             if guard is not None:
                 guard()
             _commit(renames)
@@ -170,7 +173,7 @@ def atomic_paths(
 def lock_path(path: str | os.PathLike[str]) -> Path:
     """The lock file of output ``path``: ``.<name>.miketalk.lock`` beside it."""
     path = Path(path)
-    return path.parent / f".{path.name}.{_MARK}lock"
+    return path.parent / f".{path.name}.{MARK}lock"
 
 
 @contextlib.contextmanager
@@ -249,13 +252,13 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
             ) from None
         return
     first = renames[0][1]
-    journal = first.parent / f".{first.name}.{_MARK}{owner_tag()}{_JOURNAL_SUFFIX}"
+    journal = first.parent / f".{first.name}.{MARK}{owner_tag()}{JOURNAL_SUFFIX}"
     entries = [
         {
             "temporary": tmp.name,
             "final": final.name,
             "inode": os.stat(tmp).st_ino,
-            "backup": f".{final.name}.{_MARK}{owner_tag()}.{os.urandom(4).hex()}.old",
+            "backup": f".{final.name}.{MARK}{owner_tag()}.{os.urandom(4).hex()}.old",
         }
         for tmp, final in renames
     ]
@@ -269,7 +272,7 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
             raise
         try:
             for entry in entries:
-                _back_up(first.parent, entry)
+                back_up(first.parent, entry)
             for tmp, final in renames:
                 os.replace(tmp, final)
         except BaseException as err:
@@ -291,142 +294,6 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
 #: quota, an input/output error.
 _MACHINE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO})
 
-#: The ``format`` of a journal (a journal of older miketalks is a list of renames).
-JOURNAL_FORMAT = "miketalk-journal/2"
-
-
-def _back_up(directory: Path, entry: dict) -> None:
-    """Keep the old file of ``entry`` under its backup name (a hard link, else a copy)."""
-    final, backup = directory / entry["final"], directory / entry["backup"]
-    if not final.is_file() or final.is_symlink():
-        return
-    try:
-        os.link(final, backup)
-    except OSError:
-        shutil.copy2(final, backup)
-
-
-def _entries(journal: Path) -> list[dict] | None:
-    """The files of ``journal`` (an older journal's renames become entries without inode)."""
-    try:
-        doc = json.loads(journal.read_text())
-    except (OSError, ValueError):
-        return None
-    if isinstance(doc, list):  # miketalk's first journals: [[temporary, final], ...]
-        doc = {"files": [{"temporary": t, "final": f} for t, f in doc]}
-    files = doc.get("files") if isinstance(doc, dict) else None
-    if not isinstance(files, list):
-        return None
-    plain = [
-        e for e in files
-        if isinstance(e, dict)
-        and all(Path(str(e.get(k))).name == str(e.get(k)) for k in ("temporary", "final"))
-        and (e.get("backup") is None or Path(str(e["backup"])).name == e["backup"])
-    ]  # fmt: skip
-    return plain if len(plain) == len(files) else None
-
-
-def _is_new(path: Path, entry: dict) -> bool:
-    """Whether the file at ``path`` is the unit's new file (its inode is the journal's)."""
-    try:
-        return entry.get("inode") is not None and os.stat(path).st_ino == entry["inode"]
-    except OSError:
-        return False
-
-
-def roll_back(journal: str | os.PathLike[str]) -> None:
-    """Put back the old files of the unit ``journal`` records; remove its new files, its
-    temporary files, its backups and then the journal (each step can be done again)."""
-    journal = Path(journal)
-    directory = journal.parent
-    entries = _entries(journal) or []
-    for entry in entries:
-        final = directory / entry["final"]
-        backup = directory / entry["backup"] if entry.get("backup") else None
-        if _is_new(final, entry):
-            if backup is not None and backup.is_file():
-                os.replace(backup, final)
-            else:
-                final.unlink()
-        if backup is not None:
-            backup.unlink(missing_ok=True)
-        (directory / entry["temporary"]).unlink(missing_ok=True)
-    journal.unlink(missing_ok=True)
-
-
-def roll_forward(journal: str | os.PathLike[str]) -> bool:
-    """Finish the unit ``journal`` records when every new file is in place or still there;
-    False (nothing done) when one is lost."""
-    journal = Path(journal)
-    directory = journal.parent
-    entries = _entries(journal)
-    if entries is None:
-        return False
-    pending = []
-    for entry in entries:
-        final, tmp = directory / entry["final"], directory / entry["temporary"]
-        if _replaced_since(directory, entry):
-            return False
-        if tmp.is_file():
-            pending.append((tmp, final))
-        elif not _is_new(final, entry) and entry.get("inode") is not None:
-            return False
-    for tmp, final in pending:
-        os.replace(tmp, final)
-        log.warning("finished replacing %s, interrupted when its run was killed", final)
-    journal.unlink(missing_ok=True)
-    for entry in entries:
-        if entry.get("backup"):
-            (directory / entry["backup"]).unlink(missing_ok=True)
-    return True
-
-
-def _replaced_since(directory: Path, entry: dict) -> bool:
-    """Whether ``entry``'s final file was published by someone else after its unit was
-    killed: it is neither the unit's new file nor the old one its backup links to."""
-    if entry.get("inode") is None:  # a first-format journal: no way to tell
-        return False
-    try:
-        now = os.stat(directory / entry["final"]).st_ino
-    except OSError:
-        return False
-    if now == entry["inode"]:
-        return False
-    try:
-        return now != os.stat(directory / entry["backup"]).st_ino if entry.get("backup") else True
-    except OSError:
-        return True
-
-
-def _recover(journal: Path) -> None:
-    """Settle the unit of a killed run's ``journal``: forward when it can, else back."""
-    try:
-        if not roll_forward(journal):
-            roll_back(journal)
-            log.warning(
-                "put back the files a killed run was replacing beside %s (its new files "
-                "were incomplete)", journal.parent,
-            )  # fmt: skip
-    except OSError as err:
-        log.warning("cannot settle %s, left by a killed run: %s", journal, err)
-
-
-def _recover_beside(path: Path) -> None:
-    """Settle the units of killed runs that were publishing ``path`` (lock held)."""
-    try:
-        names = sorted(os.listdir(path.parent))
-    except OSError:
-        return
-    for name in names:
-        match = _BESIDE.match(name)
-        if (
-            match is not None
-            and match["name"] == path.name
-            and "." + match["rest"] == _JOURNAL_SUFFIX
-            and not tag_owner_alive(match["tag"])
-        ):
-            _recover(path.parent / name)
-
 
 def sweep_beside(path: str | os.PathLike[str]) -> list[Path]:
     """Tidy what killed runs left in ``path``'s directory; return the files removed.
@@ -444,16 +311,16 @@ def sweep_beside(path: str | os.PathLike[str]) -> list[Path]:
         return []
     stale = []
     for name in names:
-        match = _BESIDE.match(name)
+        match = BESIDE.match(name)
         if match is not None and not tag_owner_alive(match["tag"]):
             stale.append((name, match))
     removed = []
     for name, match in stale:
-        if "." + match["rest"] == _JOURNAL_SUFFIX:
+        if "." + match["rest"] == JOURNAL_SUFFIX:
             journal = directory / name
             with output_lock(directory / match["name"]):
                 if journal.exists():
-                    _recover(journal)
+                    recover(journal)
             if not journal.exists():
                 removed.append(journal)
     for name, _ in stale:
