@@ -217,10 +217,6 @@ def test_a_face_in_its_face_crop_plans_its_corpus_to_its_held_out_test(tmp_path:
                  "figure_heldout"):  # fmt: skip
         assert f"rule {rule}:" in proc.stdout, rule
     assert "rule dub_heldout:" not in proc.stdout
-    config["faces"]["s1"]["frame"] = "full"
-    proc = dry_run(tmp_path, config)
-    assert proc.returncode != 0
-    assert "faces.s1: crop_size goes with frame crop" in proc.stdout + proc.stderr
 
 
 @pytest.mark.parametrize(
