@@ -117,7 +117,7 @@ def detect_faces(image: np.ndarray, *, scale: float = 1.0, threshold: float = 0.
     Parameters
     ----------
     image : numpy.ndarray
-        ``(H, W, 3)`` uint8 RGB.
+        ``(H, W, 3)`` uint8 RGB or ``(H, W)`` grey.
     scale : float
         The detector runs on the image area-resized by this factor (at most 1).
     threshold : float
@@ -185,7 +185,7 @@ def face_window(frame: np.ndarray, transform: np.ndarray) -> Window:
     Parameters
     ----------
     frame : numpy.ndarray
-        ``(H, W, 3)`` uint8 RGB.
+        ``(H, W, 3)`` uint8 RGB or ``(H, W)`` grey.
     transform : numpy.ndarray
         ``(2, 3)`` frame-to-canonical guess.
     """

@@ -32,7 +32,14 @@ import numpy as np
 
 from miketalk.track.similarity import apply_affine, compose_affine, invert_affine
 
-__all__ = ["SHRINK_LIMIT", "Window", "interpolation_for", "source_window", "warp_affine"]
+__all__ = [
+    "SHRINK_LIMIT",
+    "Window",
+    "interpolation_for",
+    "source_bounds",
+    "source_window",
+    "warp_affine",
+]
 
 #: A transform whose scale is below this is shrunk by an area average first.
 SHRINK_LIMIT = 0.5
@@ -59,6 +66,24 @@ def interpolation_for(scale: float) -> int:
     """The interpolation a warp of ``scale`` uses by default: bicubic when it enlarges or
     follows an area average, bilinear when it shrinks by up to :data:`SHRINK_LIMIT`."""
     return cv2.INTER_LINEAR if SHRINK_LIMIT <= scale < 1.0 else cv2.INTER_CUBIC
+
+
+def source_bounds(
+    shape: tuple[int, int], transform: np.ndarray, size: tuple[int, int], *, margin: float = 0.0
+) -> tuple[int, int, int, int]:
+    """The source pixels ``(x0, y0, x1, y1)`` (ends excluded) that :func:`source_window` cuts
+    from an image of ``shape`` ``(H, W)`` for an output of ``size`` under ``transform``."""
+    h, w = shape
+    width, height = size
+    corners = np.array([[-0.5 - margin, -0.5 - margin], [width - 0.5 + margin, -0.5 - margin],
+                        [-0.5 - margin, height - 0.5 + margin],
+                        [width - 0.5 + margin, height - 0.5 + margin]])  # fmt: skip
+    seen = apply_affine(invert_affine(np.asarray(transform, dtype=np.float64)), corners)
+    x0 = min(max(math.floor(seen[:, 0].min()) - _SUPPORT, 0), w - 1)
+    y0 = min(max(math.floor(seen[:, 1].min()) - _SUPPORT, 0), h - 1)
+    x1 = max(min(math.ceil(seen[:, 0].max()) + _SUPPORT + 1, w), x0 + 1)
+    y1 = max(min(math.ceil(seen[:, 1].max()) + _SUPPORT + 1, h), y0 + 1)
+    return x0, y0, x1, y1
 
 
 def source_window(
@@ -91,16 +116,7 @@ def source_window(
         Area-resized by ``transform``'s scale when that is below :data:`SHRINK_LIMIT`.
     """
     t = np.asarray(transform, dtype=np.float64)
-    h, w = image.shape[:2]
-    width, height = size
-    corners = np.array([[-0.5 - margin, -0.5 - margin], [width - 0.5 + margin, -0.5 - margin],
-                        [-0.5 - margin, height - 0.5 + margin],
-                        [width - 0.5 + margin, height - 0.5 + margin]])  # fmt: skip
-    seen = apply_affine(invert_affine(t), corners)
-    x0 = min(max(math.floor(seen[:, 0].min()) - _SUPPORT, 0), w - 1)
-    y0 = min(max(math.floor(seen[:, 1].min()) - _SUPPORT, 0), h - 1)
-    x1 = max(min(math.ceil(seen[:, 0].max()) + _SUPPORT + 1, w), x0 + 1)
-    y1 = max(min(math.ceil(seen[:, 1].max()) + _SUPPORT + 1, h), y0 + 1)
+    x0, y0, x1, y1 = source_bounds(image.shape[:2], t, size, margin=margin)
     part = image[y0:y1, x0:x1]
     if grey and part.ndim == 3:
         part = cv2.cvtColor(part, cv2.COLOR_RGB2GRAY)

@@ -167,7 +167,9 @@ class FaceTracker:
         Parameters
         ----------
         frame : numpy.ndarray
-            ``(H, W, 3)`` uint8 RGB, every frame of the stream the same size.
+            ``(H, W, 3)`` uint8 RGB or ``(H, W)`` uint8 grey (the tracker works in grey:
+            a grey stream costs ffmpeg a third of the bytes and no colour conversion),
+            every frame of the stream the same size.
 
         Returns
         -------
@@ -177,7 +179,7 @@ class FaceTracker:
         Raises
         ------
         MiketalkError
-            If the frame is not ``(H, W, 3)`` uint8 or its size changes.
+            If the frame is not ``(H, W, 3)`` or ``(H, W)`` uint8 or its size changes.
         """
         frame = _check_frame(frame)
         size = (frame.shape[1], frame.shape[0])
@@ -267,7 +269,9 @@ class FaceTracker:
         """Whether the frame's thumbnail differs from the previous frame's by a cut's amount."""
         step = max(1, frame.shape[1] // _THUMB_COLUMNS)
         small = frame[step // 2 :: step, step // 2 :: step].astype(np.int16)
-        thumbnail = (small[..., 0] * 2 + small[..., 1] * 5 + small[..., 2]) // 8
+        if small.ndim == 3:
+            small = (small[..., 0] * 2 + small[..., 1] * 5 + small[..., 2]) // 8
+        thumbnail = small
         previous, self._state.thumbnail = self._state.thumbnail, thumbnail
         if previous is None:
             return False
@@ -342,8 +346,10 @@ class FaceTracker:
 
 def _check_frame(frame: np.ndarray) -> np.ndarray:
     frame = np.asarray(frame)
-    if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
-        raise MiketalkError(f"a frame must be (H, W, 3) uint8 RGB, got {frame.shape} {frame.dtype}")
+    if frame.dtype != np.uint8 or frame.shape[2:] not in ((), (3,)) or frame.ndim < 2:
+        raise MiketalkError(
+            f"a frame must be (H, W, 3) uint8 RGB or (H, W) grey, got {frame.shape} {frame.dtype}"
+        )
     return np.ascontiguousarray(frame)
 
 
@@ -373,7 +379,7 @@ def track_frames(
     Parameters
     ----------
     frames : iterable of numpy.ndarray
-        ``(H, W, 3)`` uint8 RGB frames, or one ``(N, H, W, 3)`` array.
+        ``(H, W, 3)`` uint8 RGB or ``(H, W)`` grey frames, or one array of them.
     fps : float
         Their rate.
     settings : TrackerSettings, optional
@@ -396,7 +402,8 @@ def track_video(
     start: float | None = None,
     frames: int | None = None,
 ) -> Track:
-    """Track the face through a video file, streaming its frames (memory of one frame).
+    """Track the face through a video file, streaming its frames (memory of one frame), grey
+    (:func:`~miketalk.media.decode.iter_video_frames`: the tracker needs no colour).
 
     Parameters
     ----------
@@ -415,5 +422,5 @@ def track_video(
     """
     _, _, fps = video_info(path)
     return track_frames(
-        iter_video_frames(path, start=start, frames=frames), fps=fps, settings=settings
+        iter_video_frames(path, start=start, frames=frames, grey=True), fps=fps, settings=settings
     )

@@ -1,12 +1,14 @@
 """Benchmark of face tracking on hard s1: the error against a known motion, speed and memory.
 
 ``python -m miketalk_lab.bench.tracking --clips data/grid_s1/video --out results/bench/tracking
-[--limit N] [--hd N] [--seed S] [--look DIR]``
+[--limit N] [--hd N] [--seed S] [--look DIR] [--rgb]``
 
 For each GRID clip (``*.mpg`` of ``--clips``, in name order) it writes the clip's hard
 version (:mod:`miketalk_lab.hard_s1`: a textured room, a known smooth similarity
 motion, 1280x720) to a scratch folder, tracks the plain clip (360x288) and the hard one
-(:func:`miketalk.track.track_frames`, the hard one streamed from its mp4 as any video is),
+(:func:`miketalk.track.track_frames`, both streamed from their files in grey as ``miketalk
+build`` tracks any video, :func:`miketalk.track.video_crops.crop_video`; ``--rgb``: in RGB,
+as the build did before),
 and measures, on the frames tracked in both, the **tracking error**: the five canonical
 face points reprojected into the hard frame through the hard clip's track, against the
 same points reprojected into the plain frame through the plain clip's track and mapped
@@ -46,7 +48,7 @@ import numpy as np
 from miketalk import defaults
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
-from miketalk.media.decode import iter_video_frames, read_video
+from miketalk.media.decode import iter_video_frames, read_video, video_info
 from miketalk.media.images import write_png
 from miketalk.track import (
     CANONICAL_LANDMARKS,
@@ -152,7 +154,7 @@ def _memory_child(path: str, queue: multiprocessing.Queue) -> None:  # pragma: n
 
         _, _, fps = video_info(path)
         tracker = FaceTracker(fps=fps)
-        for frame in iter_video_frames(path):
+        for frame in iter_video_frames(path, grey=True):
             tracker.update(frame)
         tracker.finish()
     queue.put((loaded, _peak_mb()))
@@ -215,6 +217,7 @@ def run(
     seed: int = 0,
     look: Path | None = None,
     settings: TrackerSettings | None = None,
+    rgb: bool = False,
 ) -> str:
     """Make, track and measure hard s1; write the CSV and the summary; return the summary.
 
@@ -234,6 +237,8 @@ def run(
         Folder for strips of the first two clips.
     settings : TrackerSettings, optional
         The tracker's settings.
+    rgb : bool
+        Track RGB frames (else grey ones, as the build does).
 
     Returns
     -------
@@ -252,16 +257,16 @@ def run(
     memory_files: dict[int, Path] = {}
     with tempfile.TemporaryDirectory(prefix="hard_s1_") as scratch:
         for index, path in enumerate(paths):
-            plain, fps = read_video(path)
-            plain_timed = _track_timed(plain, fps, settings)
+            _, _, fps = video_info(path)
+            plain_timed = _track_timed(iter_video_frames(path, grey=not rgb), fps, settings)
             plain_track = plain_timed.track
             times["plain"][0] += plain_timed.cpu_s
             times["plain"][1] += plain_timed.wall_s
-            times["plain"][2] += len(plain)
+            times["plain"][2] += len(plain_track)
             for height in (720, 1080) if index < hd else (720,):
                 video = Path(scratch) / f"{path.stem}_{height}.mp4"
                 hard = make_hard_clip(path, video, size=_SIZES[height], seed=seed)
-                timed = _track_timed(iter_video_frames(video), fps, settings)
+                timed = _track_timed(iter_video_frames(video, grey=not rgb), fps, settings)
                 times[height][0] += timed.cpu_s
                 times[height][1] += timed.wall_s
                 times[height][2] += len(timed.track)
@@ -298,10 +303,12 @@ def run(
                 print(
                     f"{path.stem} {height}p: RMS {_rms(err):.3f} px (raw {_rms(raw):.3f}), "
                     f"tracked {int(plain_track.tracked.sum())}/{int(timed.track.tracked.sum())}"
-                    f" of {len(plain)}, {1000 * timed.cpu_s / len(timed.track):.1f} ms/frame CPU",
+                    f" of {len(plain_track)}, {1000 * timed.cpu_s / len(timed.track):.1f} ms/frame"
+                    " CPU",
                     flush=True,
                 )
                 if look is not None and index < 2 and height == 720:
+                    plain, _ = read_video(path)
                     picks = np.linspace(0, len(plain) - 1, 4).round().astype(int)
                     wanted = {
                         int(k): f for k, f in enumerate(iter_video_frames(video)) if k in picks
@@ -417,10 +424,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--hd", type=int, default=3, help="clips also made at 1080p (default 3)")
     parser.add_argument("--seed", type=int, default=0, help="hard s1's seed (default 0)")
     parser.add_argument("--look", type=Path, default=None, help="folder for strip PNGs")
+    parser.add_argument("--rgb", action="store_true", help="track RGB frames (not grey)")
     return run_bench(
         parser,
         argv,
-        lambda a: run(a.clips, a.out, limit=a.limit, hd=a.hd, seed=a.seed, look=a.look),
+        lambda a: run(a.clips, a.out, limit=a.limit, hd=a.hd, seed=a.seed, look=a.look, rgb=a.rgb),
         check=lambda a: "--hd must be at least 0" if a.hd < 0 else None,
     )
 
