@@ -12,6 +12,13 @@ directory; :func:`miketalk.media.atomic.sweep_beside` does the same beside an
 output. Names without a tag (made by other programs, or by miketalk before the
 tag) are never touched.
 
+A scratch directory is removed by :func:`remove_tree`: its files unlinked by several
+threads at once. Where the file system discards freed blocks as it goes (``mount -o
+discard``, as on this project's machines), an unlink waits for the disk: ``rm -rf`` of a
+build's work folder of 668 files (30 s of video, the corpus's frames) took 1.6 to 2.6 s
+at a load of 15, most of a stopped build's time to exit; 4 to 32 threads took 0.05 to
+0.13 s.
+
 Only the standard library is used: Festival is started before numpy loads.
 """
 
@@ -126,8 +133,34 @@ def scratch_dir(kind: str, *, directory: str | os.PathLike[str] | None = None) -
     with contextlib.ExitStack() as stack:
         with deferred_signals():
             path = Path(tempfile.mkdtemp(prefix=f"miketalk-{kind}-{owner_tag()}-", dir=directory))
-            stack.callback(shutil.rmtree, path, ignore_errors=True)
+            stack.callback(remove_tree, path)
         yield path
+
+
+#: Threads unlinking a directory's files at once (:func:`remove_tree`).
+REMOVAL_THREADS = 16
+
+
+def remove_tree(path: str | os.PathLike[str]) -> None:
+    """Remove the directory ``path`` and all it holds, as ``shutil.rmtree(path,
+    ignore_errors=True)`` does (symbolic links removed, never followed), its files unlinked
+    by :data:`REMOVAL_THREADS` threads at once (the module docstring)."""
+    files: list[str] = []
+    for root, dirs, names in os.walk(path):
+        files.extend(os.path.join(root, n) for n in names)
+        files.extend(os.path.join(root, d) for d in dirs if os.path.islink(os.path.join(root, d)))
+    if len(files) > 2 * REMOVAL_THREADS:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(REMOVAL_THREADS, thread_name_prefix="miketalk-rm") as pool:
+            for _ in pool.map(_unlink, files):
+                pass
+    shutil.rmtree(path, ignore_errors=True)  # the folders, and the few files left
+
+
+def _unlink(file: str) -> None:
+    with contextlib.suppress(OSError):
+        os.unlink(file)
 
 
 def sweep_scratch(directory: str | os.PathLike[str] | None = None) -> list[Path]:
@@ -152,7 +185,7 @@ def sweep_scratch(directory: str | os.PathLike[str] | None = None) -> list[Path]
             continue
         path = root / name
         if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path, ignore_errors=True)
+            remove_tree(path)
             if not path.exists():
                 removed.append(path)
                 log.info("removed %s, left by a run that was killed", path)
