@@ -1051,12 +1051,14 @@ def test_a_full_disk_at_publication_is_exit_one_and_leaves_the_old_pair(
     assert files(tmp_path) == old
 
 
+@pytest.mark.parametrize("anchors", [True, False])
 def test_long_audio_is_halved_where_the_words_fit(
-    joined_recording: tuple[Path, str], monkeypatch: pytest.MonkeyPatch
+    joined_recording: tuple[Path, str], monkeypatch: pytest.MonkeyPatch, anchors: bool
 ) -> None:
-    """Audio over COARSE_SECONDS is halved at a pause before the coarse pass (its memory),
-    and the words on either side of the cut are settled by the fine aligner: none lost.
-    (2.4 minutes halved as an hour would be, with the limit at 40 s.)"""
+    """Audio over COARSE_SECONDS is cut at anchors (runs of words a recogniser hears), or
+    without them halved at a pause, before the coarse pass (its memory), and the words on
+    either side of the halving cut are settled by the fine aligner: none lost. (2.4 minutes
+    cut as an hour would be, with the limit at 40 s.)"""
     from miketalk.corpus.script import Cue
     from miketalk.media.decode import read_media_audio
     from miketalk.speech import long_align
@@ -1065,7 +1067,9 @@ def test_long_audio_is_halved_where_the_words_fit(
     samples = read_media_audio(audio)
     monkeypatch.setattr(long_align, "COARSE_SECONDS", 40.0)
     words = tuple(text.split())
-    found = long_align.align_long(samples, 16000, [Cue(words, start=None, end=None)])
+    found = long_align.align_long(
+        samples, 16000, [Cue(words, start=None, end=None)], anchors=anchors
+    )
     assert len(found.unaligned) <= len(words) // 100, found.unaligned[:3]
     assert found.phones[0].start == 0.0 and found.phones[-1].end == pytest.approx(
         len(samples) / 16000

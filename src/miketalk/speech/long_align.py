@@ -12,12 +12,18 @@ align the pieces between them. Here:
    10 minutes of speech); when that fails, a piece under
    :data:`~miketalk.speech.long_trim.TRIM_SECONDS` is tried without up to three
    words at its edges (:func:`miketalk.speech.long_trim.trim_edges`: a caption
-   line longer than its cut), else the audio is split
-   at the pause nearest its middle and the words in proportion to their letters,
-   as the voiced sound is on either side of the pause, and each half is aligned
-   the same way, down to pieces of one word, which are then reported as
-   unaligned. A word given to the wrong side of a split is squeezed or stretched
-   there: the second pass finds it and leaves its chunk out.
+   line longer than its cut), else (and at once when it is longer than
+   :data:`COARSE_SECONDS`) it is cut at anchors: runs of words that a recogniser
+   biased to the piece's words hears as the script has them
+   (:mod:`miketalk.speech.long_anchor`), placed where heard, the words between
+   them placed in the sound between them the same way (the recursion of Moreno et
+   al.). A piece with no anchor (and every piece with ``anchors=False``, the
+   aligner before anchors) is split at the pause nearest its middle and the words
+   in proportion to their letters, as the voiced sound is on either side of the
+   pause, and each half is aligned the same way, down to pieces of one word,
+   which are then reported as unaligned. A word given to the wrong side of a split
+   is squeezed or stretched there: the second pass finds it and leaves its chunk
+   out.
 2. **Chunks.** The first pass's words are cut into chunks wherever two
    neighbours are :data:`CHUNK_PAUSE` apart (a breath between phrases), and at
    most :data:`CHUNK_SECONDS` long.
@@ -43,16 +49,16 @@ from functools import partial
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech import long_trim
+from miketalk.speech import long_anchor, long_trim
 from miketalk.speech.align.phones import SILENCE
-from miketalk.speech.long_cuts import pause_near_middle, settle_cut, voiced_share
+from miketalk.speech.long_cuts import coarse_span, pause_near_middle, settle_cut, voiced_share
 from miketalk.speech.types import Phone
 from miketalk.speech.word_timings import WordTiming
 
 log = logging.getLogger(__name__)
 
-#: The longest audio the first pass aligns whole (s): longer audio is halved at a pause
-#: first (the coarse aligner holds some 19 MB a minute: 15 minutes, 290 MB).
+#: The longest audio the first pass aligns whole (s): longer audio is cut at anchors first,
+#: or halved at a pause (the coarse aligner holds some 19 MB a minute: 15 minutes, 290 MB).
 COARSE_SECONDS = 900.0
 #: A gap between two aligned words at least this long (s) may end a chunk.
 CHUNK_PAUSE = 0.25
@@ -117,6 +123,7 @@ def align_long(
     cues: Sequence,
     *,
     fit_limit: float | None = None,
+    anchors: bool = True,
 ) -> LongAlignment:
     """Place the words of ``cues`` (:class:`miketalk.corpus.script.Cue`) in a long recording.
 
@@ -133,6 +140,11 @@ def align_long(
         (:data:`miketalk.speech.align.phones.FIT_LIMIT`) is halved where its words
         are farthest apart, and each half aligned again, down to single words: the
         words that still fit badly are left out (unaligned). None: all are kept.
+    anchors : bool
+        A piece of the first pass that the coarse aligner cannot place (or too long for
+        it) is cut at anchors, runs of words a recogniser hears
+        (:mod:`miketalk.speech.long_anchor`), before it is halved. False: halved at once
+        (the aligner before anchors).
 
     Returns
     -------
@@ -161,7 +173,7 @@ def align_long(
         if hi - lo < 0.1:
             unaligned += [Unaligned(i, words[i], "its cue lies outside the audio") for i in indices]
             continue
-        first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned)
+        first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned, anchors)
     placed, chunks, phones, scores = [], [], [], []
     missing = {u.index for u in unaligned}
     at = 0  # the chunks are consecutive runs of the first pass: where this one begins
@@ -334,19 +346,21 @@ def _first_pass(
     indices: list[int],
     words: list[str],
     unaligned: list[Unaligned],
+    anchored: bool = False,
 ) -> list[tuple[int, WordTiming]]:
-    """The words ``indices`` placed in ``[lo, hi)``: whole, else halves (see the module)."""
+    """The words ``indices`` placed in ``[lo, hi)``: whole, else (``anchored``) between
+    anchors, else halves (see the module)."""
     if not indices:
         return []
     if hi - lo <= COARSE_SECONDS:
         try:
-            spans = _coarse_span(samples, rate, lo, hi, [words[i] for i in indices])
+            spans = coarse_span(samples, rate, lo, hi, [words[i] for i in indices])
             return list(zip(indices, spans, strict=True))
         except MiketalkError as err:
             failure = str(err)
         if hi - lo <= long_trim.TRIM_SECONDS and len(indices) > 1:
             piece = [words[i] for i in indices]
-            place = partial(_coarse_span, samples, rate, lo, hi)
+            place = partial(coarse_span, samples, rate, lo, hi)
             trimmed = long_trim.trim_edges(samples, rate, (lo, hi), piece, place)
             if trimmed is not None:
                 a, b, spans = trimmed
@@ -356,6 +370,14 @@ def _first_pass(
                 return list(zip(indices[a : len(indices) - b], spans, strict=True))
     else:  # the coarse aligner's memory grows with the audio: halves first
         failure = f"longer than {COARSE_SECONDS:.0f} s"
+    if anchored and len(indices) >= long_anchor.ANCHOR_WORDS:
+        again = partial(_first_pass, samples, rate, words=words, unaligned=unaligned, anchored=True)
+        found = long_anchor.anchored_pass(
+            samples, rate, (lo, hi), indices, words, again,
+            lambda gap, why: unaligned.extend(Unaligned(i, words[i], why) for i in gap),
+        )  # fmt: skip
+        if found is not None:
+            return found
     from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
 
     voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
@@ -370,29 +392,9 @@ def _first_pass(
     if hi - lo > COARSE_SECONDS:  # halved for its length, not for a failure: settle the cut
         after = voiced[int((cut - lo) / HOP_SECONDS) :]
         k = settle_cut(samples, rate, cut, hi, after, indices, k, words)
-    return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned) + _first_pass(
-        samples, rate, cut, hi, indices[k:], words, unaligned
+    return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned, anchored) + (
+        _first_pass(samples, rate, cut, hi, indices[k:], words, unaligned, anchored)
     )
-
-
-def _coarse_span(
-    samples: np.ndarray, rate: int, lo: float, hi: float, words: Sequence[str]
-) -> list[WordTiming]:
-    """``words`` placed in ``[lo, hi)`` by the coarse aligner (recording time)."""
-    from miketalk.speech.align.decoder import _LOCK, _shared_aligner, _to_pcm, coarse_word_spans
-    from miketalk.speech.align.pronounce import _check_word, extra_arpabet
-
-    clean = [_check_word(w) for w in words]
-    with _LOCK:
-        arpabet = extra_arpabet(clean, _shared_aligner())
-    pcm = _to_pcm(samples[round(lo * rate) : round(hi * rate)], rate).tobytes()
-    spans, frate = coarse_word_spans(pcm, clean, arpabet)
-    if len(spans) != len(clean):
-        raise MiketalkError("the coarse pass placed other words")
-    return [
-        WordTiming(w, lo + a / frate, lo + (b + 1) / frate)
-        for w, (a, b) in zip(clean, spans, strict=True)
-    ]
 
 
 def _chunks(

@@ -1,18 +1,21 @@
 """Where a long recording is halved for the coarse aligner's memory: a pause near the middle,
 the words shared out by the voiced sound either side, and the first word after the cut
-settled by the fine aligner (:func:`miketalk.speech.long_align.align_long`'s first pass)."""
+settled by the fine aligner (:func:`miketalk.speech.long_align.align_long`'s first pass); and
+the coarse aligner's placing of a piece's words (:func:`coarse_span`)."""
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.speech.word_timings import WordTiming
 
 log = logging.getLogger(__name__)
 
-__all__ = ["pause_near_middle", "settle_cut", "voiced_share"]
+__all__ = ["coarse_span", "pause_near_middle", "settle_cut", "voiced_share"]
 
 
 #: How far (words) the first word after a cut, and the number of words in the window after
@@ -107,3 +110,23 @@ def pause_near_middle(voiced: np.ndarray, lo: float, hi: float) -> float | None:
     best = quiet[np.argmin(np.abs(quiet - middle))]
     t = lo + best * HOP_SECONDS
     return t if lo + 0.5 < t < hi - 0.5 else None
+
+
+def coarse_span(
+    samples: np.ndarray, rate: int, lo: float, hi: float, words: Sequence[str]
+) -> list[WordTiming]:
+    """``words`` placed in ``[lo, hi)`` by the coarse aligner (recording time)."""
+    from miketalk.speech.align.decoder import _LOCK, _shared_aligner, _to_pcm, coarse_word_spans
+    from miketalk.speech.align.pronounce import _check_word, extra_arpabet
+
+    clean = [_check_word(w) for w in words]
+    with _LOCK:
+        arpabet = extra_arpabet(clean, _shared_aligner())
+    pcm = _to_pcm(samples[round(lo * rate) : round(hi * rate)], rate).tobytes()
+    spans, frate = coarse_word_spans(pcm, clean, arpabet)
+    if len(spans) != len(clean):
+        raise MiketalkError("the coarse pass placed other words")
+    return [
+        WordTiming(w, lo + a / frate, lo + (b + 1) / frate)
+        for w, (a, b) in zip(clean, spans, strict=True)
+    ]

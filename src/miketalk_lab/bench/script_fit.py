@@ -1,6 +1,7 @@
 """Right, cut-apart and wrong scripts of joined clips: which words fit the sound, and how.
 
-``python -m miketalk_lab.bench.script_fit --grid DIR --obama DIR [--out OUT] [--limit N]``
+``python -m miketalk_lab.bench.script_fit --grid DIR --obama DIR [--out OUT] [--limit N]
+[--halving]``
 joins clips' sound (GRID talker s1's, ``--grid``, e.g. ``../shared/data/grid_s1``; the
 weekly-address clips, ``--obama``, e.g. ``../shared/data/obama``) one after the other,
 as a video made of them holds it, and aligns it as :func:`miketalk.corpus.one_video.segment_video`
@@ -41,7 +42,8 @@ and ``clip_long`` the words the long aligner places, and ``missed_vs_clip`` how 
 the latter the whole recording's alignment leaves out; ``align_s`` the seconds of the
 alignment; ``decision`` the rule's (:func:`miketalk.corpus.script_fit.judge`). Writes
 ``OUT/script_fit.tsv``, ``OUT/script_fit.md`` and ``OUT/unaligned.tsv`` (every word
-left out, with its line and why), and prints the table.
+left out, with its line and why), and prints the table. ``--halving``: the long aligner
+before anchors (``align_long(..., anchors=False)``), for a paired comparison.
 """
 
 from __future__ import annotations
@@ -80,6 +82,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--grid", type=Path, required=True, help="GRID s1 clips' folder")
     parser.add_argument("--obama", type=Path, required=True, help="weekly addresses' folder")
     parser.add_argument("--out", type=Path, default=Path("results/bench/script_fit"))
+    parser.add_argument(
+        "--halving",
+        action="store_true",
+        help="the long aligner before anchors: a piece it cannot place is halved at once",
+    )
     return run_bench(parser, argv, _run)
 
 
@@ -138,8 +145,9 @@ def cases(grid: Path, obama: Path, n: int) -> list[Case]:
     return out
 
 
-def measure(case: Case) -> tuple[dict, list[dict]]:
-    """A case's row of the table and its left-out words."""
+def measure(case: Case, anchors: bool = True) -> tuple[dict, list[dict]]:
+    """A case's row of the table and its left-out words (``anchors``: see
+    :func:`~miketalk.speech.long_align.align_long`)."""
     from miketalk.corpus.clip_sources import RATE
     from miketalk.corpus.script import Cue, text_words
     from miketalk.corpus.script_fit import edge_runs, judge, measure_fit, trusted, unaligned_runs
@@ -160,15 +168,15 @@ def measure(case: Case) -> tuple[dict, list[dict]]:
             for w, t, (a, b) in zip(words, starts[:-1], spans, strict=True)
         ]
     started = time.perf_counter()
-    raw = align_long(samples, RATE, cues, fit_limit=FIT_LIMIT)
+    raw = align_long(samples, RATE, cues, fit_limit=FIT_LIMIT, anchors=anchors)
     found = trusted(raw)
     seconds = time.perf_counter() - started
     counts = [len(w) for w in words]
     fit = measure_fit(found, counts, samples, RATE)
     refusal = judge(fit, "the joined clips")
-    forced, checked, missed = _clip_by_clip(sounds, words, found)
+    forced, checked, missed = _clip_by_clip(sounds, words, found, anchors)
     misfit = sum("badly" in u.why for u in raw.unaligned)
-    before = len(align_long(samples, RATE, cues).unaligned)
+    before = len(align_long(samples, RATE, cues, anchors=anchors).unaligned)
     row = {
         "case": case.name,
         "kind": case.kind,
@@ -203,7 +211,7 @@ def measure(case: Case) -> tuple[dict, list[dict]]:
     return row, listed
 
 
-def _clip_by_clip(sounds, words, found) -> tuple[int | None, int | None, int | None]:
+def _clip_by_clip(sounds, words, found, anchors) -> tuple[int | None, int | None, int | None]:
     """Words placed clip by clip (forced aligner: a line is placed whole or not at all; long
     aligner), and how many of the latter the whole recording's alignment leaves out (None
     when the script has not one line per clip)."""
@@ -223,7 +231,7 @@ def _clip_by_clip(sounds, words, found) -> tuple[int | None, int | None, int | N
             forced += len(align(sound, RATE, line).words)
         except MiketalkError:
             pass
-        alone = align_long(sound, RATE, [Cue(tuple(line))], fit_limit=FIT_LIMIT)
+        alone = align_long(sound, RATE, [Cue(tuple(line))], fit_limit=FIT_LIMIT, anchors=anchors)
         checked += len(alone.words)
         missed += sum(first + i in left_out for i, _ in alone.words)
         first += len(line)
@@ -238,7 +246,7 @@ def _run(args: argparse.Namespace) -> str:
     rows, listed = [], []
     for case in cases(args.grid, args.obama, args.limit or 40):
         print(f"{case.name}...", file=sys.stderr, flush=True)
-        row, left_out = measure(case)
+        row, left_out = measure(case, anchors=not args.halving)
         rows.append(row)
         listed += left_out
     table = pd.DataFrame(rows)
