@@ -1,6 +1,6 @@
 """Anchors in a long recording: where a recogniser hears runs of the script's words.
 
-Recursive anchored alignment (Moreno et al. 1998; Gentle and aeneas do alike): a speech
+Recursive anchored alignment (Moreno et al. 1998; Gentle does alike): a speech
 recogniser whose language model is the script itself (:func:`transcript_lm`: its words,
 each word most likely followed by the word after it in the script, any word possible)
 decodes the recording in windows cut at quiet frames (:func:`heard_words`, memory by the
@@ -13,8 +13,13 @@ the script that is not said (a caption line longer than its cut) costs its own s
 never the whole recording's alignment.
 
 The recogniser is pocketsphinx with its default beams and no best-path pass (its US English
-model ships in the wheel): on 119 s of 40 GRID clips, 6.5 s; 215 of the 240 words said were
-in anchors of three or more words when the script held 60 words that are not said.
+model ships in the wheel), a dictionary of only the script's words. On 119 s of 40 GRID
+clips whose script held 60 words that are not said (lines with extra words), 6.5 s at low
+load, 215 of the 240 words said in anchors of three or more words; the long aligner then kept
+73 % of the script, not 20 % (``python -m miketalk_lab.bench.script_fit``, with and without
+``--halving``; the table in ``docs/build.md``), and scripts of other videos still keep at
+most 9 %. On 10 minutes of 200 GRID clips anchored whole (as an hour is), 45 s of the
+alignment's 69 s, and 3 of 1200 words unplaced where halving left 104.
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ ANCHOR_WORDS = 3
 #: The recogniser decodes windows at most this long (s), each ending at the quietest
 #: frame of its last :data:`WINDOW_SLACK` seconds.
 WINDOW_SECONDS, WINDOW_SLACK = 30.0, 6.0
+#: The heard words are matched to the script this many at a time (:func:`anchors`).
+BAND_WORDS = 60
 #: A stretch between anchors with less sound than this (s) a word is widened by a word of
 #: each anchor around it (:func:`_roomy`).
 WORD_SECONDS = 0.12
@@ -153,11 +160,43 @@ def _windows(samples, rate, lo, hi, energy_db) -> list[tuple[float, float]]:
     return out
 
 
-def anchors(script: Sequence[str], heard: Sequence[str], min_run: int = ANCHOR_WORDS):
+def anchors(
+    script: Sequence[str], heard: Sequence[str], min_run: int = ANCHOR_WORDS
+) -> list[tuple[int, int, int]]:
     """Runs of at least ``min_run`` words heard as ``script`` has them, in order: each
-    ``(first word of the script, first heard word, length)``."""
-    matcher = difflib.SequenceMatcher(None, list(script), list(heard), autojunk=False)
-    return [(b.a, b.b, b.size) for b in matcher.get_matching_blocks() if b.size >= min_run]
+    ``(first word of the script, first heard word, length)``.
+
+    The heard words are matched :data:`BAND_WORDS` at a time (:mod:`difflib`), each time
+    to the script from the end of the last run found, no farther than twice the script's
+    words per heard word since then (and the band's own words, and 20): a script said twice,
+    or a phrase it repeats, is never matched to the wrong one far away (:mod:`difflib`'s
+    longest match, over the whole hour of a script read over and over, took the second
+    reading's words for the first's).
+    """
+    ratio = len(script) / max(1, len(heard))
+    blocks: list[list[int]] = []
+    at, since = 0, 0  # the script's next word after the last run, and its heard word's
+    for first in range(0, len(heard), BAND_WORDS):
+        end = min(first + BAND_WORDS, len(heard))
+        ahead = int(2 * ratio * (end - since)) + BAND_WORDS + 20
+        matcher = difflib.SequenceMatcher(
+            None, list(script[at : at + ahead]), list(heard[first:end]), autojunk=False
+        )
+        for m in matcher.get_matching_blocks():
+            a, b = at + m.a, first + m.b
+            while blocks and blocks[-1][2] < min_run and a < blocks[-1][0] + blocks[-1][2]:
+                blocks.pop()  # a short match that is no anchor gives way
+            if m.size == 0 or (blocks and a < blocks[-1][0] + blocks[-1][2]):
+                continue
+            last = blocks[-1] if blocks else None
+            if last and last[0] + last[2] == a and last[1] + last[2] == b:
+                last[2] += m.size  # a run across two bands
+            else:
+                blocks.append([a, b, m.size])
+        runs = [r for r in blocks if r[2] >= min_run]
+        if runs:
+            at, since = runs[-1][0] + runs[-1][2], runs[-1][1] + runs[-1][2]
+    return [(a, b, n) for a, b, n in blocks if n >= min_run]
 
 
 def anchored_pass(
