@@ -16,9 +16,9 @@ refuses a script of which too little does:
 2. **Stretches** (:func:`trusted`). The words that fit must come in stretches of at
    least :data:`MIN_STRETCH` consecutive words of the script; shorter ones are left out.
    This is the pattern that tells the scripts apart: other clips' words fit here and
-   there, a word or a few at a time (62 to 76 of the 240 words of 40 clips in short
-   stretches, at most 31 in long ones), cut-apart captions' in whole lines (3 to 6 words
-   in short stretches, 42 to 222 in long ones). Where the words left out lie says
+   there, a word or a few at a time (32 to 68 of the 240 words of 40 clips in short
+   stretches, at most 26 in long ones), cut-apart captions' in whole lines (1 to 14 words
+   in short stretches, 56 to 227 in long ones). Where the words left out lie says
    little: after the halving, nearly all of them, for every kind of script, are in runs
    that hold a line's first or last word.
 3. **Share** (:func:`judge`). Refused when the words kept are fewer than
@@ -28,16 +28,17 @@ refuses a script of which too little does:
    script fitting a part of a long video, or a part of a long script saying most of it.
 
 Measured (``python -m miketalk_lab.bench.script_fit``; the table in ``docs/build.md``):
-scripts of other videos keep at most 13 % of their words, explaining at most 12 % of the
-speech (the GRID clips two on in name order, which share half the words of each line;
-other GRID clips at most 5 %, the weekly addresses with GRID lines or GRID with their
-captions none); the weekly-address captions cut apart from their eight clips keep 47 %
-(plain transcript) and 65 % (a cue per clip), explaining 44 % and 61 %; GRID lines with
-extra words at their edges 57 % (10 clips) and 74 % (40, cues); misheard words 78 and 89
-%; right scripts 99.6 to 100 %. So 30 % of either sits between the two with a margin of
-about half its value on each side. Not told apart: GRID lines with extra words over 40
-clips in a plain transcript keep 20 % (the long aligner's first pass fails throughout
-when most lines hold words that are not said) and are refused.
+scripts of other videos keep at most 11 % of their words, explaining at most 10 % of the
+speech (the GRID clips two on in name order, which share half the words of each line; other
+GRID clips at most 8 %, the weekly addresses with GRID lines or GRID with their captions
+none); the weekly-address captions cut apart from their eight clips keep 73 % (plain
+transcript) and 65 % (a cue per clip), explaining 72 % and 61 %; GRID lines with extra
+words at their edges 74 % (10 clips) and 76 % (40; 74 % as cues); misheard words 93 and 89 %;
+right scripts 99.6 to 100 %. So 30 % of either sits between the two with a margin of some
+20 points below and 35 above. Before the long aligner's anchors
+(:mod:`miketalk.speech.long_anchor`), GRID lines with extra words over 40 clips in a plain
+transcript kept 20 % (its first pass failed throughout when most lines hold words that are
+not said) and were refused.
 """
 
 from __future__ import annotations

@@ -16,9 +16,9 @@ The recogniser is pocketsphinx with its default beams and no best-path pass (its
 model ships in the wheel), a dictionary of only the script's words. On 119 s of 40 GRID
 clips whose script held 60 words that are not said (lines with extra words), 6.5 s at low
 load, 215 of the 240 words said in anchors of three or more words; the long aligner then kept
-73 % of the script, not 20 % (``python -m miketalk_lab.bench.script_fit``, with and without
+76 % of the script, not 20 % (``python -m miketalk_lab.bench.script_fit``, with and without
 ``--halving``; the table in ``docs/build.md``), and scripts of other videos still keep at
-most 9 %. On 10 minutes of 200 GRID clips anchored whole (as an hour is), 45 s of the
+most 11 %. On 10 minutes of 200 GRID clips anchored whole (as an hour is), 45 s of the
 alignment's 69 s, and 3 of 1200 words unplaced where halving left 104.
 """
 
