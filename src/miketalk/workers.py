@@ -85,6 +85,16 @@ def _die_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
 
 
+def _name_process(name: str) -> None:
+    """Give this process ``name`` (its first 15 bytes) in ``ps``, ``top`` and
+    ``/proc/PID/comm`` (Linux; elsewhere nothing)."""
+    with contextlib.suppress(Exception):
+        import ctypes
+
+        pr_set_name = 15
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_name, name.encode()[:15] + b"\0")
+
+
 #: The signals that stop a run (:func:`miketalk.console.handle_termination`).
 _STOPPING = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)}
 
@@ -213,8 +223,9 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
     audio in one call), during which a signal's handler cannot run: the parent waits on a
     pipe (in slices of 0.1 s: the module docstring), so Ctrl-C or SIGTERM stops the wait at
     once, and the child is killed with it. The child dies with its parent, also when the
-    parent is killed outright. Where ``fork`` is missing, or outside the main thread (where
-    signals are not handled), the function runs here.
+    parent is killed outright; ``ps`` names it ``mt:`` and the function's name. Where
+    ``fork`` is missing, or outside the main thread (where signals are not handled), the
+    function runs here.
 
     Raises
     ------
@@ -238,6 +249,7 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
             for signum in (signal.SIGINT, signal.SIGTERM):
                 signal.signal(signum, signal.SIG_DFL)
             _die_with_parent()
+            _name_process("mt:" + getattr(function, "func", function).__name__)
             if os.getppid() != parent:
                 os._exit(1)
             try:

@@ -694,6 +694,14 @@ def _children(pid: int) -> dict[int, list[bytes]]:
     return found
 
 
+def _name(pid: int) -> str | None:
+    """A process's name (``/proc/PID/comm``), None once it has ended."""
+    try:
+        return Path(f"/proc/{pid}/comm").read_text().strip()
+    except OSError:
+        return None
+
+
 def _decodes_frames(args: list[bytes]) -> bool:
     """Whether a command line is ffmpeg decoding more than one frame to raw video."""
     if b"rawvideo" not in args or b"-frames:v" not in args:
@@ -739,6 +747,47 @@ def test_a_signal_while_the_corpus_decodes_stops_the_build_within_two_seconds(
     assert not any(_alive(p) for p in decoding)  # killed, not orphaned
     assert list(out.iterdir()) == []  # no model, no work folder
     assert list(scratch.iterdir()) == []
+
+
+@pytest.mark.parametrize("signum", [15, 2])
+def test_a_signal_while_the_build_aligns_stops_it_within_two_seconds(
+    s1_joined, tmp_path: Path, signum: int
+) -> None:
+    """Issue 40: the build's long aligner (and its recogniser) hold the interpreter for
+    seconds at a time; it runs in a forked child (run_in_child), killed with the build."""
+    import time
+
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "miketalk.cli", "build", str(s1_joined.video), "--transcript",
+         str(s1_joined.transcript), "-o", str(out / "model"), "--heldout-seconds", "0", "--quiet"],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        aligner: list[int] = []
+        while not aligner:  # the segment stage's aligner, forked: named by run_in_child
+            assert proc.poll() is None, "the build ended: its aligner never ran in a child"
+            assert time.monotonic() < deadline, "the segment stage never started its aligner"
+            aligner = [p for p in _children(proc.pid) if _name(p) == "mt:align_long"]
+            time.sleep(0.002)
+        took, starved = _stop(proc, signum, timeout=30)
+        stdout, stderr = proc.communicate()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert took - starved < 2.0, f"{took:.2f} s, {starved:.2f} s of it waiting for a core"
+    assert proc.returncode == 128 + signum, stderr
+    assert stdout == ""
+    assert stderr.strip() == f"miketalk: {'terminated' if signum == 15 else 'interrupted'}"
+    for _ in range(100):  # the child dies with its parent (PR_SET_PDEATHSIG)
+        if not any(_alive(p) for p in aligner):
+            break
+        time.sleep(0.02)
+    assert not any(_alive(p) for p in aligner)
+    assert list(out.iterdir()) == []
 
 
 @pytest.mark.parametrize("workers", [0, -1, 1000, 2.5, True])

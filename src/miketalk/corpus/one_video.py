@@ -94,16 +94,21 @@ def segment_video(
         transcript in another language or of another video
         (:func:`miketalk.corpus.script_fit.judge`), nothing left to train on.
     """
+    from functools import partial
+
     from miketalk.corpus.script_fit import judge, line_of, measure_fit, trusted, where
     from miketalk.speech.align.phones import FIT_LIMIT
     from miketalk.speech.long_align import align_long
+    from miketalk.workers import run_in_child
 
     video = checked or check_video_inputs(
         media, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
     )
     media, cues, samples, fps = video.media, video.cues, video.samples, video.fps
     duration, voiced = video.duration, video.voiced_seconds
-    found = trusted(align_long(samples, RATE, cues, fit_limit=FIT_LIMIT))
+    # in a child process: the aligner and its recogniser hold the interpreter for seconds
+    # at a time, and Ctrl-C or SIGTERM must stop the build at once (run_in_child)
+    found = trusted(run_in_child(partial(align_long, fit_limit=FIT_LIMIT), samples, RATE, cues))
     total = sum(len(c.words) for c in cues)
     lines = video.lines or tuple(len(c.words) for c in cues)
     fit = measure_fit(found, lines, samples, RATE)
