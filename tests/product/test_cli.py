@@ -9,6 +9,7 @@ blur and the paper's oversampling both have work to do.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -827,7 +828,24 @@ def test_a_full_disk_or_a_killed_worker_is_one_line_not_a_traceback(
     assert len(err) == 1 and err[0].startswith(line), err
 
 
-def test_other_os_errors_are_not_hidden(monkeypatch: pytest.MonkeyPatch) -> None:
-    cli_main = _failing_cli(monkeypatch, PermissionError(13, "Permission denied"))
-    with pytest.raises(PermissionError):
-        cli_main.main(["phones", "x"])
+def test_other_os_errors_are_one_line_and_their_traceback_is_there_with_v(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
+    """A file removed under a running build (the work folder deleted by hand, probed in
+    issue 40) was a traceback; it is one line, exit 1 (the machine's or another program's
+    doing), and ``-v`` shows where it happened."""
+    gone = FileNotFoundError(2, "No such file or directory", "/m/miketalk-build-x/corpus")
+    cli_main = _failing_cli(monkeypatch, gone)
+    assert cli_main.main(["phones", "x"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "miketalk: error: No such file or directory: /m/miketalk-build-x/corpus (removed or "
+        "changed while miketalk ran?); the output was not written"
+    ]
+    parser = cli_main.build_parser()
+    monkeypatch.setattr(parser, "parse_args", lambda _argv: argparse.Namespace(
+        verbose=True, func=lambda _a: (_ for _ in ()).throw(gone)))  # fmt: skip
+    monkeypatch.setattr(cli_main, "build_parser", lambda: parser)
+    assert cli_main.main(["phones", "x"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" in err and err.strip().endswith("the output was not written")

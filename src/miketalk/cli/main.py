@@ -109,8 +109,19 @@ def _main(argv: Sequence[str] | None) -> int:
                 os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
             return 0
         except OSError as err:
-            if err.errno not in (errno.ENOSPC, errno.EDQUOT):
-                raise
             where = f": {err.filename}" if err.filename else ""
-            print(f"miketalk: error: no space left on the disk{where}", file=sys.stderr)
+            if err.errno in (errno.ENOSPC, errno.EDQUOT):
+                print(f"miketalk: error: no space left on the disk{where}", file=sys.stderr)
+                return 1
+            # the machine's doing or another program's (a file removed under a running
+            # build): one line, the details with -v
+            if args.verbose:
+                import traceback
+
+                traceback.print_exception(err, file=sys.stderr)
+            print(
+                f"miketalk: error: {err.strerror or err}{where} (removed or changed while "
+                "miketalk ran?); the output was not written",
+                file=sys.stderr,
+            )
             return 1
