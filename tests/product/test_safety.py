@@ -709,11 +709,28 @@ def _decodes_frames(args: list[bytes]) -> bool:
     return int(args[args.index(b"-frames:v") + 1]) > 1
 
 
+def _decoding(proc: subprocess.Popen, out: Path) -> list[int]:
+    """In the corpus stage: the ffmpeg decoding a clip's frames (none before it)."""
+    if not list(out.glob("miketalk-build-*/corpus/frames")):
+        return []
+    return [p for p, args in _children(proc.pid).items() if _decodes_frames(args)]
+
+
+def _aligning(proc: subprocess.Popen, out: Path) -> list[int]:
+    """In the segment stage: the long aligner's forked child (named by run_in_child)."""
+    return [p for p in _children(proc.pid) if _name(p) == "mt:align_long"]
+
+
 @pytest.mark.parametrize("signum", [15, 2])
-def test_a_signal_while_the_corpus_decodes_stops_the_build_within_two_seconds(
-    s1_joined, tmp_path: Path, signum: int
+@pytest.mark.parametrize(
+    "busy", [_aligning, _decoding], ids=["the aligner runs", "the corpus decodes"]
+)
+def test_a_signal_stops_the_build_within_two_seconds(
+    s1_joined, tmp_path: Path, signum: int, busy
 ) -> None:
-    """Issue 40: the corpus stage's threads wait for their ffmpeg; a stop kills it."""
+    """Issue 40: while the segment stage's aligner (and its recogniser) holds the
+    interpreter, in a forked child killed with the build; while the corpus stage's threads
+    wait for their ffmpeg, which is killed."""
     import time
 
     out, scratch = tmp_path / "out", tmp_path / "tmp"
@@ -727,13 +744,12 @@ def test_a_signal_while_the_corpus_decodes_stops_the_build_within_two_seconds(
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 120
-        decoding: list[int] = []
-        while not decoding:  # in the corpus stage, a clip's frames being decoded
-            assert proc.poll() is None, proc.communicate()
-            assert time.monotonic() < deadline, "the corpus stage never decoded a clip"
-            if list(out.glob("miketalk-build-*/corpus/frames")):
-                decoding = [p for p, a in _children(proc.pid).items() if _decodes_frames(a)]
-            time.sleep(0.005)
+        children: list[int] = []
+        while not children:
+            assert proc.poll() is None, f"the build ended before {busy.__doc__}"
+            assert time.monotonic() < deadline, f"never {busy.__doc__}"
+            children = busy(proc, out)
+            time.sleep(0.002)
         took, starved = _stop(proc, signum, timeout=30)
         stdout, stderr = proc.communicate()
     finally:
@@ -744,50 +760,13 @@ def test_a_signal_while_the_corpus_decodes_stops_the_build_within_two_seconds(
     assert proc.returncode == 128 + signum, stderr
     word = "terminated" if signum == 15 else "interrupted"
     assert stderr.strip() == f"miketalk: {word}" and stdout == ""
-    assert not any(_alive(p) for p in decoding)  # killed, not orphaned
-    assert list(out.iterdir()) == []  # no model, no work folder
-    assert list(scratch.iterdir()) == []
-
-
-@pytest.mark.parametrize("signum", [15, 2])
-def test_a_signal_while_the_build_aligns_stops_it_within_two_seconds(
-    s1_joined, tmp_path: Path, signum: int
-) -> None:
-    """Issue 40: the build's long aligner (and its recogniser) hold the interpreter for
-    seconds at a time; it runs in a forked child (run_in_child), killed with the build."""
-    import time
-
-    out = tmp_path / "out"
-    out.mkdir()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "miketalk.cli", "build", str(s1_joined.video), "--transcript",
-         str(s1_joined.transcript), "-o", str(out / "model"), "--heldout-seconds", "0", "--quiet"],
-        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        deadline = time.monotonic() + 120
-        aligner: list[int] = []
-        while not aligner:  # the segment stage's aligner, forked: named by run_in_child
-            assert proc.poll() is None, "the build ended: its aligner never ran in a child"
-            assert time.monotonic() < deadline, "the segment stage never started its aligner"
-            aligner = [p for p in _children(proc.pid) if _name(p) == "mt:align_long"]
-            time.sleep(0.002)
-        took, starved = _stop(proc, signum, timeout=30)
-        stdout, stderr = proc.communicate()
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert took - starved < 2.0, f"{took:.2f} s, {starved:.2f} s of it waiting for a core"
-    assert proc.returncode == 128 + signum, stderr
-    assert stdout == ""
-    assert stderr.strip() == f"miketalk: {'terminated' if signum == 15 else 'interrupted'}"
-    for _ in range(100):  # the child dies with its parent (PR_SET_PDEATHSIG)
-        if not any(_alive(p) for p in aligner):
+    for _ in range(100):  # killed, or dying with their parent (PR_SET_PDEATHSIG)
+        if not any(_alive(p) for p in children):
             break
         time.sleep(0.02)
-    assert not any(_alive(p) for p in aligner)
-    assert list(out.iterdir()) == []
+    assert not any(_alive(p) for p in children)  # not orphaned
+    assert list(out.iterdir()) == []  # no model, no work folder
+    assert list(scratch.iterdir()) == []
 
 
 @pytest.mark.parametrize("workers", [0, -1, 1000, 2.5, True])
