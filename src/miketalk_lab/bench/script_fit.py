@@ -2,8 +2,8 @@
 
 ``python -m miketalk_lab.bench.script_fit --grid DIR --obama DIR [--out OUT] [--limit N]
 [--halving]``
-joins clips' sound (GRID talker s1's, ``--grid``, e.g. ``../shared/data/grid_s1``; the
-weekly-address clips, ``--obama``, e.g. ``../shared/data/obama``) one after the other,
+joins clips' sound (GRID talker s1's, ``--grid``: the benchmark pool's folder of them; the
+weekly-address clips, ``--obama``: their folder, as docs/build.md runs it) one after the other,
 as a video made of them holds it, and aligns it as :func:`miketalk.corpus.one_video.segment_video`
 does (:func:`miketalk.speech.long_align.align_long` with the fit limit, then
 :func:`miketalk.corpus.script_fit.trusted`) to scripts of five kinds:

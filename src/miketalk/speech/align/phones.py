@@ -95,8 +95,8 @@ class Alignment:
 #: timings) the clips' own transcripts score -10.9 to -23.8; another clip's transcript of
 #: the same length (the clip seven on, with the same grammar and often the same words) is
 #: refused by the aligner for 6 clips and scores -24.1 to -61.9 for the other 42. On all 200
-#: clips of ``../shared/data/grid_s1`` the two overlap: own transcripts -7.1 to -34.6 (6
-#: under -24), another clip's refused for 13 and -17.8 to -60.9 for 187 (1 at or over -24:
+#: of s1's benchmark clips the two overlap: own transcripts -7.1 to -34.6 (6 under -24),
+#: another clip's refused for 13 and -17.8 to -60.9 for 187 (1 at or over -24:
 #: "set green in v zero now" for "set green at v four now"); no limit refuses every wrong
 #: one and no right one (docs/safety.md). So under this limit the words are warned about,
 #: not refused (:func:`miketalk.talk.recorded.align_recording`): 6 of the 200 right
