@@ -76,23 +76,23 @@ def check_workers(workers: object, *, option: str = "--workers") -> int:
     return workers
 
 
-def _die_with_parent() -> None:
-    """Ask the kernel to kill this process when its parent dies (Linux; elsewhere nothing)."""
+def _prctl(option: int, argument: object) -> None:
+    """Linux's ``prctl(option, argument)`` for this process; elsewhere nothing."""
     with contextlib.suppress(Exception):
         import ctypes
 
-        pr_set_pdeathsig = 1
-        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
+        ctypes.CDLL(None, use_errno=True).prctl(option, argument)
+
+
+def _die_with_parent() -> None:
+    """Ask the kernel to kill this process when its parent dies (``PR_SET_PDEATHSIG``)."""
+    _prctl(1, signal.SIGKILL)
 
 
 def _name_process(name: str) -> None:
     """Give this process ``name`` (its first 15 bytes) in ``ps``, ``top`` and
-    ``/proc/PID/comm`` (Linux; elsewhere nothing)."""
-    with contextlib.suppress(Exception):
-        import ctypes
-
-        pr_set_name = 15
-        ctypes.CDLL(None, use_errno=True).prctl(pr_set_name, name.encode()[:15] + b"\0")
+    ``/proc/PID/comm`` (``PR_SET_NAME``)."""
+    _prctl(15, name.encode()[:15] + b"\0")
 
 
 #: The signals that stop a run (:func:`miketalk.console.handle_termination`).
