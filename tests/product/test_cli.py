@@ -547,6 +547,29 @@ def test_a_flow_file_of_another_size_is_named(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mixed"]
 
 
+@pytest.mark.parametrize("damage", ["changed", "missing", "image changed"])
+def test_a_damaged_file_the_text_does_not_need_is_refused_when_the_model_opens(
+    model: Path, dirs: tuple[Path, Path], damage: str
+) -> None:
+    work, scratch = dirs
+    broken = work / "model"
+    shutil.copytree(model, broken)
+    # "Bob feeds Pat." draws neither k nor uu: before, a changed byte there was not found
+    victim = pair_path(broken / "flows", "k", "uu")
+    if damage == "image changed":
+        victim = broken / json.loads((broken / "manifest.json").read_text())["images"]["uu"]
+    data = bytearray(victim.read_bytes())
+    victim.unlink()
+    if damage != "missing":
+        data[-20] ^= 0xFF  # the same size: for the flow, a whole OpenEXR file
+        victim.write_bytes(bytes(data))
+    proc = run("say", "Bob feeds Pat.", "-o", "v.mp4", "--model", broken,
+               cwd=work, scratch=scratch)  # fmt: skip
+    why = "is missing" if damage == "missing" else "does not match its checksum"
+    assert_user_error(proc, str(victim), why)
+    assert sorted(p.name for p in work.iterdir()) == ["model"]
+
+
 def test_native_warnings_go_to_stderr_and_stdout_stays_clean(
     model: Path, dirs: tuple[Path, Path]
 ) -> None:

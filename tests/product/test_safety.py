@@ -485,19 +485,21 @@ def test_a_truncated_flow_file_is_named_when_the_model_opens(
         Model(model)
 
 
-def test_a_changed_flow_file_is_named_when_it_is_read(small_model: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", ["flows", "visemes"])
+def test_a_changed_byte_in_any_file_is_named_when_the_model_opens(
+    small_model: Path, tmp_path: Path, kind: str
+) -> None:
     from miketalk.model.face import Model
 
     model = _copy_model(small_model, tmp_path)
-    flow = sorted((model / "flows").iterdir())[0]
-    data = bytearray(flow.read_bytes())
-    data[-5] ^= 0xFF  # one pixel's byte: the same size, a whole file
-    flow.unlink()
-    flow.write_bytes(bytes(data))
-    with Model(model) as opened:
-        with pytest.raises(MiketalkError, match=rf"{flow.name} does not match its checksum"):
-            for a, b in (("p", "aa"), ("p", "f"), ("aa", "f")):
-                opened.morpher(a, b)
+    victim = sorted((model / kind).iterdir())[0]
+    data = bytearray(victim.read_bytes())
+    data[-20] ^= 0xFF  # the same size; for a flow a pixel's byte, a whole OpenEXR file
+    victim.unlink()  # a hard link of the original: write a new file
+    victim.write_bytes(bytes(data))
+    # found at open, before any transition is drawn (before: only when its flow was read)
+    with pytest.raises(MiketalkError, match=rf"{victim.name} does not match its checksum"):
+        Model(model)
 
 
 # ---------------------------------------------------------------------------

@@ -8,8 +8,8 @@ synthetic face (and on the workflow's s1 where ``make run`` made it); a second t
 own folder; a text file named ``.mp4`` is the library's one line in the page; a file name
 that climbs out of the folder is only shown; a request from elsewhere, an upload over the
 limit and a bad job are each one line. Then the build ends with its stages shown and a face
-that speaks, and a cancelled build leaves nothing. ``MIKETALK_SERVE_SHOTS=DIR`` saves
-screenshots there.
+that speaks, and a cancelled build leaves nothing. A model the server keeps open is checked
+again when one of its files changes. ``MIKETALK_SERVE_SHOTS=DIR`` saves screenshots there.
 """
 
 from __future__ import annotations
@@ -449,3 +449,30 @@ def test_the_command_starts_and_stops(tmp_path: Path) -> None:
         )  # fmt: skip
     assert busy.returncode == 2 and busy.stderr.count("\n") == 1, busy.stderr
     assert busy.stderr.startswith(f"miketalk: error: cannot listen on 127.0.0.1:{port}: ")
+
+
+def test_a_model_kept_open_is_checked_again_when_one_of_its_files_changes(
+    synthetic: Path, tmp_path: Path
+) -> None:
+    import shutil
+
+    from miketalk.errors import MiketalkError
+    from miketalk.flow import pair_path
+    from miketalk.serve.work import Warm
+
+    model_dir = tmp_path / "model"
+    shutil.copytree(synthetic, model_dir)
+    warm = Warm(keep=1)
+    try:
+        model, _ = warm.get(model_dir)
+        assert warm.get(model_dir)[0] is model  # kept open while nothing changed
+        # a flow no text has read yet, one byte changed (its size kept) while the server runs
+        victim = pair_path(model_dir / "flows", "k", "uu")
+        data = bytearray(victim.read_bytes())
+        data[-20] ^= 0xFF
+        victim.unlink()
+        victim.write_bytes(bytes(data))
+        with pytest.raises(MiketalkError, match=rf"{victim.name} does not match its checksum"):
+            warm.get(model_dir)
+    finally:
+        warm.close()

@@ -11,11 +11,10 @@ The manifest is validated when the model is opened: strict JSON (no NaN), the
 structure of ``data/model_manifest.schema.json`` (JSON Schema), every viseme
 with an image and every ordered pair with a displacement, image paths inside
 the model directory, every image present and of the declared size, every flow
-file present and whole (its OpenEXR header and chunk table; the size the
-manifest's ``files`` records, for a model written with them:
-:func:`miketalk.model.manifest.check_files`). Flows are read lazily, each file
-checked as it is read (its SHA-256 against ``files``; an error names the file),
-and morphers for recently used transitions are cached.
+file present and whole (its OpenEXR header and chunk table), and every file the
+manifest's ``files`` lists (a model written with them) of its size and SHA-256:
+:func:`miketalk.model.manifest.check_files`; an error names the file. Flows are
+then read lazily, and morphers for recently used transitions are cached.
 
 A timeline frame with several samples (motion blur,
 :func:`miketalk.lipsync.sampling.motion_blur`) is rendered as the weighted average
@@ -39,7 +38,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.lipsync.timeline import FrameSample, Timeline
 from miketalk.media.images import read_image
-from miketalk.model.manifest import check_digest, check_files, inside, read_manifest
+from miketalk.model.manifest import check_files, files_stat, inside, read_manifest
 from miketalk.render.morph import Morpher
 from miketalk.render.morph_settings import MorphSettings
 
@@ -86,6 +85,9 @@ class Model:
         self.manifest = manifest
         self.visemes: tuple[str, ...] = tuple(manifest["visemes"])
         self.size: tuple[int, int] = tuple(manifest["size"])  # (H, W)
+        self.flows = FlowDatabase(self.directory / "flows")
+        # every file before any is decoded: a damaged one is named, not decoded
+        self._files_stat = check_files(self.directory, manifest, self.flows, self.visemes)
         self._images: dict[str, np.ndarray] = {}
         for viseme in self.visemes:
             image = read_image(inside(self.directory, manifest["images"][viseme], "image"))
@@ -95,8 +97,6 @@ class Model:
                     f"{image.shape[0]}, the manifest says {self.size[1]}x{self.size[0]}"
                 )
             self._images[viseme] = image
-        self.flows = FlowDatabase(self.directory / "flows")
-        check_files(self.directory, manifest, self.flows, self.visemes)
         self._displacement = {
             tuple(k.split("|")): float(v) for k, v in manifest["max_displacement"].items()
         }
@@ -108,7 +108,6 @@ class Model:
         self._reader = ThreadPoolExecutor(1, thread_name_prefix="miketalk-flows")
         self._reads: dict[tuple[str, str], Future] = {}
         self._lock = threading.Lock()
-        self._verified: set[Path] = set()
 
     def close(self) -> None:
         """Wait for the flow reads under way and stop the reading thread (idempotent).
@@ -117,6 +116,12 @@ class Model:
         the morphers already made still work.
         """
         self._reader.shutdown(wait=True, cancel_futures=True)
+
+    def changed_on_disk(self) -> bool:
+        """Whether a file the manifest lists was replaced, resized or touched since the
+        model was opened and checked (its size, mtime or inode; a server keeping the model
+        open opens it again, and so checks it again)."""
+        return files_stat(self.directory, self.manifest) != self._files_stat
 
     def __enter__(self) -> Model:
         return self
@@ -195,11 +200,7 @@ class Model:
             return self._reads[key]
 
     def _read_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
-        """Flows ``a -> b`` and ``b -> a``, their file's checksum checked (the reading thread)."""
-        path = self.flows.path_for(a, b)
-        if path not in self._verified:
-            check_digest(self.directory, self.manifest, path)
-            self._verified.add(path)
+        """Flows ``a -> b`` and ``b -> a`` (the reading thread)."""
         return self.flows.flow(a, b), self.flows.flow(b, a)
 
     def flow_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:

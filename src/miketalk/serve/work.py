@@ -51,7 +51,9 @@ def one_line(err: BaseException) -> str:
 
 class Warm:
     """The last models opened, kept open with their person's frames for the next ``say``
-    (one thread's: the speech worker's). A model whose manifest changed is opened again."""
+    (one thread's: the speech worker's). A model whose manifest changed, or one of whose
+    files changed since it was opened (:meth:`~miketalk.model.face.Model.changed_on_disk`), is
+    opened again, and so checked again."""
 
     def __init__(self, keep: int = 2) -> None:
         self.keep = keep
@@ -72,6 +74,8 @@ class Warm:
             key = (os.path.realpath(model_dir), (model_dir / "manifest.json").stat().st_mtime)
         except OSError:
             key = (os.path.realpath(model_dir), 0.0)
+        if key in self._open and self._open[key][0].changed_on_disk():
+            self._open.pop(key)[0].close()
         if key not in self._open:
             model = open_model(model_dir)
             try:
