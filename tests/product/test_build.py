@@ -44,13 +44,40 @@ def test_the_frame_a_face_is_built_in() -> None:
     assert FrameSettings("crop").crop == FaceCropSettings()
     half = FrameSettings("crop", 128).crop
     assert (half.size, half.eye_distance, half.eyes_y) == (128, 36.0, FaceCropSettings().eyes_y)
-    for frame, size, message in [
-        ("full", 128, "a crop size goes with the crop frame"),
-        ("crop", 8, "the crop's size must be a whole number >= 16"),
-        ("face", None, "the frame must be one of ['crop', 'full']"),
+    assert FrameSettings("crop", None, "accurate").crop == FaceCropSettings(conversion="accurate")
+    assert FaceCropSettings().conversion == "fast"
+    for frame, size, conversion, message in [
+        ("full", 128, None, "a crop size goes with the crop frame"),
+        ("crop", 8, None, "the crop's size must be a whole number >= 16"),
+        ("face", None, None, "the frame must be one of ['crop', 'full']"),
+        ("full", None, "fast", "a crop conversion goes with the crop frame"),
+        ("crop", None, "exact", "conversion must be one of ['accurate', 'fast']"),
     ]:
         with pytest.raises(MiketalkError, match=re.escape(message)):
-            FrameSettings(frame, size)
+            FrameSettings(frame, size, conversion)
+
+
+def test_a_crop_records_its_conversion_and_an_old_record_reads_as_accurate() -> None:
+    from miketalk.track.crop import FaceCropSettings, crop_doc, crop_from_doc
+
+    fast = FaceCropSettings()
+    assert crop_from_doc(crop_doc(fast)) == fast
+    old = {k: v for k, v in crop_doc(fast).items() if k != "conversion"}  # before the choice
+    assert crop_from_doc(old).conversion == "accurate"
+
+
+def test_a_crop_conversion_without_the_crop_frame_is_one_line(capsys, tmp_path: Path) -> None:
+    video = ROOT / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
+    code, _, err = _run(
+        capsys, "build", str(video), "--transcript", str(video), "-o", str(tmp_path / "m"),
+        "--frame", "full", "--crop-conversion", "accurate",
+    )  # fmt: skip
+    assert code == 2 and "Traceback" not in err
+    assert (
+        err.strip()
+        .splitlines()[-1]
+        .endswith("--crop-conversion goes with --frame crop (the face crop's pixels)")
+    )
 
 
 def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:

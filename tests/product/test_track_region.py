@@ -1,5 +1,6 @@
-"""A video's two readings for its face crops: grey frames for the tracker, and in RGB only
-the part of the frames the crops see; the crops are the whole frames' crops, byte for byte."""
+"""A video's two readings for its face crops: grey frames for the tracker (the luma plane,
+ffmpeg's grey conversion byte for byte), and in RGB only the part of the frames the crops
+see; the crops are the whole frames' crops (by the same conversion), byte for byte."""
 
 from __future__ import annotations
 
@@ -70,13 +71,69 @@ def test_the_crop_region_holds_every_crops_window_and_is_even() -> None:
     assert crop_region(moved, settings, (1919, 1080)) is None
 
 
-def test_the_crops_read_from_the_region_are_the_whole_frames_crops() -> None:
-    cropped = crop_video(CLIP, frames=20)
-    frames, _ = read_video(CLIP, frames=20)
-    settings = FaceCropSettings()
+@pytest.mark.parametrize("conversion", ["accurate", "fast"])
+def test_the_crops_read_from_the_region_are_the_whole_frames_crops(conversion: str) -> None:
+    settings = FaceCropSettings(conversion=conversion)
+    cropped = crop_video(CLIP, frames=20, crop=settings)
+    frames = iter_video_frames(CLIP, frames=20, conversion=conversion)
     assert crop_region(cropped.to_crop, settings, cropped.size) is not None  # a part was read
-    expected = crops_of(iter(frames), cropped.to_crop, settings, 20)
+    expected = crops_of(frames, cropped.to_crop, settings, 20)
     assert np.array_equal(cropped.crops, expected)
+
+
+def test_the_fast_conversion_is_within_a_few_levels_of_the_accurate_one(s1) -> None:
+    fast = np.stack(list(iter_video_frames(CLIP, frames=12, conversion="fast")))
+    difference = s1.astype(int) - fast.astype(int)
+    assert not np.array_equal(fast, s1)  # another conversion...
+    # ...close: 1.1 levels darker on average, 3 at the 95th percentile (9 at the 99th, in
+    # GRID's saturated blue and at strong colour edges)
+    assert abs(difference.mean()) < 2 and np.percentile(np.abs(difference), 95) <= 4
+
+
+def _yuv_video(path: Path, pix_fmt: str, codec: list[str]) -> None:
+    """Every luma value 0-255 in a few frames of ``pix_fmt``, stored losslessly."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    ramp = np.tile(np.arange(256, dtype=np.uint8), (16, 1))  # 16 rows of 0..255
+    frames = np.stack([np.roll(ramp, 7 * k, axis=1) for k in range(4)])
+    rgb = np.repeat(frames[..., None], 3, axis=3)  # grey ramps: every luma level...
+    rgb[:, 8:, :, 0] = 255 - rgb[:, 8:, :, 0]  # ...and colour below them (chroma not flat)
+    subprocess.run(
+        [imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-y", "-f", "rawvideo",
+         "-pix_fmt", "rgb24", "-s", "256x16", "-r", "25", "-i", "pipe:0", *codec,
+         "-pix_fmt", pix_fmt, str(path)],
+        input=rgb.tobytes(), check=True,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("pix_fmt", "codec", "kind"),
+    [
+        ("yuv420p", ["-c:v", "ffv1"], "tv"),
+        ("yuvj420p", ["-c:v", "mjpeg", "-q:v", "2"], "pc"),
+        ("yuv444p", ["-c:v", "ffv1"], "tv"),
+        ("rgb24", ["-c:v", "ffv1"], None),  # not planar YUV: ffmpeg converts
+    ],
+)
+def test_grey_frames_taken_from_the_luma_plane_are_ffmpegs_grey_conversion(
+    tmp_path: Path, pix_fmt: str, codec: list[str], kind: str | None
+) -> None:
+    from miketalk.media import decode
+
+    video = tmp_path / "ramp.mkv"
+    _yuv_video(video, pix_fmt, codec)
+    taken = list(iter_video_frames(video, grey=True))
+    key = decode._file_key(video)
+    assert decode._lumas[key] == kind
+    decode._lumas[key] = None  # ffmpeg's own grey conversion
+    converted = list(iter_video_frames(video, grey=True))
+    assert len(taken) == len(converted) == 4
+    assert all(np.array_equal(a, b) for a, b in zip(taken, converted, strict=True))
+    values = np.unique(np.concatenate([c.ravel() for c in converted]))
+    if kind == "tv":
+        assert len(values) > 200  # most of the 220 limited-range levels were compared
 
 
 def test_the_tracker_follows_grey_frames_as_rgb_ones(s1: np.ndarray) -> None:

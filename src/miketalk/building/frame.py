@@ -18,7 +18,7 @@ from miketalk.errors import MiketalkError
 if TYPE_CHECKING:  # the command line's parser reads FRAMES without the tracker's imports
     from miketalk.track.crop import FaceCropSettings
 
-__all__ = ["CROP", "FRAMES", "FULL", "FrameSettings"]
+__all__ = ["CONVERSIONS", "CROP", "FRAMES", "FULL", "FrameSettings"]
 
 #: Tracked, in the face's canonical crop (:mod:`miketalk.track.crop`).
 CROP = "crop"
@@ -26,6 +26,9 @@ CROP = "crop"
 FULL = "full"
 #: The frames a face can be built in.
 FRAMES = (CROP, FULL)
+#: The crop pixels' colour conversions (:data:`miketalk.media.decode.COLOUR_CONVERSIONS`'
+#: names, here without its imports for the command line's parser).
+CONVERSIONS = ("fast", "accurate")
 
 
 @dataclass(frozen=True)
@@ -40,16 +43,22 @@ class FrameSettings:
         The crop's width and height in pixels, its eye distance in proportion to the
         default crop's (None: :class:`~miketalk.track.crop.FaceCropSettings`' own size);
         only with :data:`CROP`.
+    crop_conversion : str or None
+        The crop pixels' colour conversion, one of :data:`CONVERSIONS` (None:
+        :class:`~miketalk.track.crop.FaceCropSettings`' own); only with :data:`CROP`.
     """
 
     frame: str
     crop_size: int | None = None
+    crop_conversion: str | None = None
 
     def __post_init__(self) -> None:
         if self.frame not in FRAMES:
             raise MiketalkError(f"the frame must be one of {list(FRAMES)}, got {self.frame!r}")
         if self.crop_size is not None and self.frame != CROP:
             raise MiketalkError("a crop size goes with the crop frame (the face crop's size)")
+        if self.crop_conversion is not None and self.frame != CROP:
+            raise MiketalkError("a crop conversion goes with the crop frame (its pixels)")
         self.crop  # noqa: B018 (a bad size is refused here, not in the corpus stage)
 
     @property
@@ -59,9 +68,10 @@ class FrameSettings:
 
         if self.frame == FULL:
             return None
-        if self.crop_size is None:
-            return FaceCropSettings()
         default = FaceCropSettings()
+        size = default.size if self.crop_size is None else self.crop_size
         return FaceCropSettings(
-            size=self.crop_size, eye_distance=default.eye_distance * self.crop_size / default.size
+            size=size,
+            eye_distance=default.eye_distance * size / default.size,
+            conversion=self.crop_conversion or default.conversion,
         )

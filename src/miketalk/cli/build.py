@@ -45,7 +45,9 @@ def cmd_build(args: argparse.Namespace) -> int:
 
     if args.crop_size is not None and args.frame != CROP:
         raise MiketalkError("--crop-size goes with --frame crop (the face crop's size)")
-    crop = FrameSettings(args.frame, args.crop_size).crop
+    if args.crop_conversion is not None and args.frame != CROP:
+        raise MiketalkError("--crop-conversion goes with --frame crop (the face crop's pixels)")
+    crop = FrameSettings(args.frame, args.crop_size, args.crop_conversion).crop
     seconds = build_model_from_video(
         args.video,
         args.output,
@@ -85,7 +87,7 @@ def cmd_build(args: argparse.Namespace) -> int:
 
 def add_build_parser(sub) -> None:
     """The ``build`` subcommand."""
-    from miketalk.building.frame import CROP, FRAMES
+    from miketalk.building.frame import CONVERSIONS, CROP, FRAMES
     from miketalk.cli.options import verbose_option
 
     build = sub.add_parser(
@@ -125,6 +127,13 @@ def add_build_parser(sub) -> None:
         default=None,
         metavar="PX",
         help="the face crop's width and height in pixels (default 256)",
+    )
+    build.add_argument(
+        "--crop-conversion",
+        choices=CONVERSIONS,
+        default=None,
+        help="ffmpeg's YUV-to-RGB conversion of the crops' pixels: fast (default) or "
+        "accurate (rounded exactly, the whole frames' conversion; slower at HD)",
     )
     build.add_argument("--force", action="store_true", help="replace an existing model")
     build.add_argument(

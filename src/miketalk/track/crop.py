@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
+from miketalk.media.decode import COLOUR_CONVERSIONS
 from miketalk.track.resample import warp_affine
 from miketalk.track.similarity import compose_affine, invert_affine
 
@@ -66,12 +67,19 @@ class FaceCropSettings:
         it shrinks it by up to 2, an area average then bicubic beyond; see
         :mod:`~miketalk.track.resample` for the measurements), ``"linear"`` or
         ``"cubic"`` (after an area average when the crop shrinks the face by more than 2).
+    conversion : str
+        ffmpeg's YUV-to-RGB conversion of the pixels the crops are drawn from, by its
+        name in :data:`~miketalk.media.decode.COLOUR_CONVERSIONS`: ``"fast"`` (no
+        accurate rounding: a 1080p video's build reads its crops in a third less time,
+        their RGB 1.2 levels higher on average) or ``"accurate"`` (the whole frames'
+        conversion; a corpus or model that records none was read so).
     """
 
     size: int = 256
     eye_distance: float = 72.0
     eyes_y: float = 0.36
     interpolation: str = "auto"
+    conversion: str = "fast"
 
     def __post_init__(self) -> None:
         if isinstance(self.size, bool) or not isinstance(self.size, int) or self.size < 16:
@@ -83,6 +91,9 @@ class FaceCropSettings:
         if self.interpolation not in _INTERPOLATIONS:
             known = sorted(_INTERPOLATIONS)
             raise MiketalkError(f"interpolation must be one of {known}, got {self.interpolation!r}")
+        if self.conversion not in COLOUR_CONVERSIONS:
+            known = sorted(COLOUR_CONVERSIONS)
+            raise MiketalkError(f"conversion must be one of {known}, got {self.conversion!r}")
 
     @property
     def canonical_to_crop(self) -> np.ndarray:
@@ -136,6 +147,7 @@ def crop_doc(settings: FaceCropSettings) -> dict:
         "eye_distance": settings.eye_distance,
         "eyes_y": settings.eyes_y,
         "interpolation": settings.interpolation,
+        "conversion": settings.conversion,
     }
 
 
@@ -148,6 +160,7 @@ def crop_from_doc(doc: dict | None) -> FaceCropSettings | None:
         eye_distance=float(doc["eye_distance"]),
         eyes_y=float(doc["eyes_y"]),
         interpolation=str(doc.get("interpolation", "auto")),
+        conversion=str(doc.get("conversion", "accurate")),
     )
 
 

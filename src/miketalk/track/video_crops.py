@@ -4,12 +4,13 @@
 iter_video_frames`): once in grey to track the face (:func:`~miketalk.track.track.
 track_frames`), once in RGB to warp each frame into the crop (:func:`~miketalk.track.crop.
 face_crop`), only the part of the frames the crops see (:func:`crop_region`: the union of
-the crops' windows; at 1080p a still face's is about a tenth of the frame). ffmpeg's
+the crops' windows; at 1080p a still face's is about a tenth of the frame), converted as
+the crop's :attr:`~miketalk.track.crop.FaceCropSettings.conversion` says. ffmpeg's
 conversion of every pixel to RGB was most of the build's cost that grew with the pixels
-(12 ms of a 1080p frame's 15, the decoding 3 ms; read twice). The crops are the ones the
-whole RGB frames give, byte for byte. Memory holds one frame at a time and the crops
-(``size``\\ :sup:`2` x 3 bytes a frame: 196 KB at 256 px, a minute at 30 fps is 350 MB),
-whatever the video's resolution.
+(12 ms of a 1080p frame's 15, the decoding 3 ms; read twice). With the ``accurate``
+conversion the crops are the ones the whole RGB frames give, byte for byte. Memory holds
+one frame at a time and the crops (``size``\\ :sup:`2` x 3 bytes a frame: 196 KB at
+256 px, a minute at 30 fps is 350 MB), whatever the video's resolution.
 
 A frame the tracker left out (no frontal face, several, landmarks that do not fit) is
 cropped with its nearest tracked neighbour's transform, so that the crops stay one per
@@ -234,6 +235,8 @@ def crop_video(
     if region is not None:  # the region's pixels to the crop's: shifted by its corner
         shift = np.array([[1.0, 0.0, region[0]], [0.0, 1.0, region[1]]])
         from_region = np.stack([compose_affine(t, shift) for t in to_crop])
-    frames_rgb = iter_video_frames(path, start=start, frames=len(track), region=region)
+    frames_rgb = iter_video_frames(
+        path, start=start, frames=len(track), region=region, conversion=crop.conversion
+    )
     crops = crops_of(frames_rgb, from_region, crop, len(track))
     return CroppedVideo(crops, to_crop, tracked, track, float(fps), (int(width), int(height)))

@@ -1,9 +1,9 @@
 """Held-out: the model from plain s1 clips against the model from their hard versions.
 
 ``python -m miketalk_lab.bench.hard_heldout --pool DIR --out OUT [--train N] [--test M]
-[--full] [--cross]`` takes N training and M test clips of GRID's s1 (by default the
-training and held-out clips of ``.bench/config.yaml``'s face s1, in its order; beyond
-them, the pool's other clips in name order), and
+[--full] [--cross] [--compare-conversion C]`` takes N training and M test clips of GRID's
+s1 (by default the training and held-out clips of ``.bench/config.yaml``'s face s1, in its
+order; beyond them, the pool's other clips in name order), and
 
 1. makes each clip's *hard* version (:func:`miketalk_lab.hard_s1.make_hard_clip`: s1 keyed
    onto a textured room, moved by a known smooth similarity, 1280x720; the training
@@ -26,6 +26,10 @@ them, the pool's other clips in name order), and
 4. pairs the two models clip by clip (:func:`paired`): means, standard deviations, the
    paired difference's mean with its 95 % t interval, against the issue's target
    (|difference of lip-opening r| <= 0.03, |difference of mouth LMD| <= 0.1 px).
+
+With ``--compare-conversion accurate`` (or ``fast``), each crop model is also built with
+that ``miketalk build --crop-conversion`` (its crops' colour conversion) and measured on the
+same test clips, paired clip by clip with the default's.
 
 Writes ``OUT/clips.tsv`` (every clip, model, test kind and renderer), ``OUT/paired.tsv``,
 ``OUT/summary.md`` and ``OUT/strip.png`` (a hard test clip's crops above the hard model's
@@ -220,6 +224,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--full", action="store_true", help="also build plain with --frame full")
     parser.add_argument("--cross", action="store_true", help="also each model on the other kind")
     parser.add_argument("--workers", type=int, default=None, help="miketalk build --workers")
+    parser.add_argument(
+        "--compare-conversion", choices=("fast", "accurate"), default=None,
+        help="also build each crop model with this --crop-conversion and pair it, clip by "
+        "clip, with the default's on the same test clips",
+    )  # fmt: skip
 
     def check(args: argparse.Namespace) -> str | None:
         if args.train < 2 or args.test < 2:
@@ -257,8 +266,10 @@ def _make_hard(ids: Sequence[str], pool: pathlib.Path, folder: pathlib.Path, *, 
 
 
 def _build(video: pathlib.Path, transcript: pathlib.Path, model: pathlib.Path,
-           corpus: pathlib.Path, *, frame: str, workers: int | None) -> dict:  # fmt: skip
-    """``miketalk build --frame FRAME``, its corpus kept; its JSON (reused when there)."""
+           corpus: pathlib.Path, *, frame: str, workers: int | None,
+           conversion: str | None = None) -> dict:  # fmt: skip
+    """``miketalk build --frame FRAME [--crop-conversion CONVERSION]``, its corpus kept; its
+    JSON (reused when there)."""
     record = model.parent / f"{model.name}.build.json"
     if record.is_file() and model.is_dir() and corpus.is_dir():
         return json.loads(record.read_text())
@@ -270,6 +281,8 @@ def _build(video: pathlib.Path, transcript: pathlib.Path, model: pathlib.Path,
     ]  # fmt: skip
     if workers is not None:
         command += ["--workers", str(workers)]
+    if conversion is not None:
+        command += ["--crop-conversion", conversion]
     started = time.perf_counter()
     proc = subprocess.run(command, capture_output=True, text=True)
     if proc.returncode != 0:
@@ -312,16 +325,19 @@ def _run(args: argparse.Namespace) -> str:
         joined[kind] = folder
         seconds[f"join {kind}"] = time.perf_counter() - started
 
-    builds = [("plain", "plain", "crop"), ("hard", "hard", "crop")]
+    builds = [("plain", "plain", "crop", None), ("hard", "hard", "crop", None)]
     if args.full:
-        builds.append(("full", "plain", "full"))
+        builds.append(("full", "plain", "full", None))
+    other = args.compare_conversion  # the same crop models, read with another conversion
+    if other:
+        builds += [(f"{kind}-{other}", kind, "crop", other) for kind in ("plain", "hard")]
     results = {}
-    for name, kind, frame in builds:
+    for name, kind, frame, conversion in builds:
         print(f"building {name} (--frame {frame}) ...", file=sys.stderr, flush=True)
         results[name] = _build(
             joined[kind] / "joined.mp4", joined[kind] / "transcript.txt",
             work / f"model_{name}_{tag}", work / f"corpus_{name}_{tag}", frame=frame,
-            workers=args.workers,
+            workers=args.workers, conversion=conversion,
         )  # fmt: skip
 
     test_clips = {
@@ -335,6 +351,8 @@ def _run(args: argparse.Namespace) -> str:
         runs += [("plain", "hard"), ("hard", "plain")]
     if args.full:
         runs.append(("full", "plain"))
+    if other:
+        runs += [(f"{kind}-{other}", kind) for kind in ("plain", "hard")]
     keep = test[0]
     tables, strips, skipped = [], {}, []
     for model, kind in runs:
@@ -360,6 +378,12 @@ def _run(args: argparse.Namespace) -> str:
              ("plain", "plain"), ("plain", "hard")),
             ("hard model vs plain model, both on plain clips (the models alone)",
              ("plain", "plain"), ("hard", "plain")),
+        ]  # fmt: skip
+    if other:
+        comparisons += [
+            (f"{kind} model read with the {other} conversion vs the default's, on {kind} clips",
+             (kind, kind), (f"{kind}-{other}", kind))
+            for kind in ("plain", "hard")
         ]  # fmt: skip
     pairs = []
     for title, a, b in comparisons:
