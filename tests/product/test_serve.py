@@ -476,3 +476,82 @@ def test_a_model_kept_open_is_checked_again_when_one_of_its_files_changes(
             warm.get(model_dir)
     finally:
         warm.close()
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` now (``/proc/*/task/*/children``)."""
+    found, todo = set(), [pid]
+    while todo:
+        parent = todo.pop()
+        for task in Path(f"/proc/{parent}/task").glob("*"):
+            try:
+                children = (task / "children").read_text().split()
+            except OSError:
+                continue
+            found.update(map(int, children))
+            todo += map(int, children)
+    return found
+
+
+def test_a_stopped_server_ends_a_running_say_within_two_seconds(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    from test_cli import LONG_TEXT, shifted_model
+    from test_safety import _stop
+
+    if not FestivalBackend().is_available():
+        pytest.skip("Festival not installed")
+    model = shifted_model(tmp_path / "face", 160)  # big enough for a render of some seconds
+    results = tmp_path / "results"
+    command = [sys.executable, "-m", "miketalk.cli", "serve", "--port", "0", "--results",
+               str(results), "--models", str(tmp_path / "models"),
+               "--model", str(model)]  # fmt: skip
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        address = proc.stdout.readline().split("http://")[1].split("/")[0]
+        connection = http.client.HTTPConnection(address, timeout=30)
+        body = json.dumps({"kind": "say", "model": model.name, "text": LONG_TEXT * 2})
+        connection.request("POST", "/api/jobs", body, {"X-Miketalk": "1",
+                           "Content-Type": "application/json"})  # fmt: skip
+        job = json.loads(connection.getresponse().read())
+        deadline = time.monotonic() + 120
+        encoding = set()
+        while not encoding and time.monotonic() < deadline:  # the mp4 being encoded
+            time.sleep(0.1)
+            encoding = {
+                p for p in _descendants(proc.pid)
+                if "ffmpeg" in Path(f"/proc/{p}/comm").read_text(errors="replace")
+            }  # fmt: skip
+        assert encoding, "the say never reached its encoding"
+        children = _descendants(proc.pid)
+        # before: the server waited for the say to end (13 s for 30 GRID lines on s1)
+        seconds, queued = _stop(proc, signal.SIGTERM, timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        err = proc.communicate(timeout=30)[1]
+    assert seconds - queued < 2.0, (seconds, queued)
+    assert proc.returncode == 0 and "Traceback" not in err, err
+    assert not [p for p in children if Path(f"/proc/{p}").exists()]
+    folder = results / job["id"]
+    assert sorted(p.name for p in folder.iterdir()) == ["job.json"]  # nothing half-written
+    record = json.loads((folder / "job.json").read_text())
+    assert record["status"] == "interrupted" and record["message"].startswith("the server stopped")
+
+
+def test_a_model_that_is_not_there_is_refused_at_start(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    (tmp_path / "empty").mkdir()
+    for missing in (tmp_path / "nothing", tmp_path / "empty"):
+        # before: left out of the list without a word, the server running
+        proc = subprocess.run(
+            [sys.executable, "-m", "miketalk.cli", "serve", "--port", "0", "--results",
+             str(tmp_path / "results"), "--model", str(missing)],
+            capture_output=True, text=True, timeout=30,
+        )  # fmt: skip
+        assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+        assert proc.stderr.startswith(f"miketalk: error: --model {missing}: no model there")

@@ -17,6 +17,7 @@ import argparse
 import ipaddress
 import logging
 import sys
+from pathlib import Path
 
 from miketalk.errors import MiketalkError
 
@@ -46,6 +47,12 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
     if args.workers < 1:
         raise MiketalkError(f"--workers must be at least 1, not {args.workers}")
+    for model in args.model or ():
+        if not (Path(model) / "manifest.json").is_file():
+            raise MiketalkError(
+                f"--model {model}: no model there (no manifest.json): give a folder made by "
+                "miketalk build or the workflow"
+            )
     config = ServeConfig(
         results=args.results,
         models=args.models,

@@ -8,7 +8,10 @@ a second tab never writes over a first's output and the results outlive the serv
 two cores are better spent on one at a time); builds run one at a time in a child process
 (:class:`miketalk.serve.work.BuildRun`), watched by a second thread, so a build and a
 ``say`` can run together and the page stays responsive. A queued job can be cancelled, and
-so can a running build; a running ``say`` or ``dub`` finishes.
+so can a running build; a running ``say`` or ``dub`` finishes, unless the server stops: then
+:class:`ServerStopping` is raised in the speech thread (:func:`interrupt`), its outputs'
+temporary files are removed as on Ctrl-C, and the job ends ``interrupted``; so do the jobs
+still queued.
 """
 
 from __future__ import annotations
@@ -37,6 +40,31 @@ RECORD = "job.json"
 #: A job's statuses; the last four are final.
 STATUSES = ("queued", "running", "done", "failed", "cancelled", "interrupted")
 FINAL = frozenset(STATUSES[2:])
+#: What the page is told of a job the server's stop ended.
+STOPPED = "the server stopped before this job ended"
+#: Seconds :meth:`Board.close` waits for the speech thread once it has been interrupted.
+SPEECH_STOP_SECONDS = 10.0
+
+
+class ServerStopping(KeyboardInterrupt):
+    """Raised in the speech thread when the server stops while a ``say`` or ``dub`` runs:
+    a KeyboardInterrupt, so that the library's clean-up runs as on Ctrl-C and no
+    ``except Exception`` takes it for a failure."""
+
+
+def interrupt(thread: threading.Thread) -> None:
+    """Raise :class:`ServerStopping` in ``thread`` at its next Python instruction.
+
+    CPython's ``PyThreadState_SetAsyncExc``: the thread is stopped wherever it runs
+    Python (between two frames of a render, in Festival's wait, in a registration), and
+    at once when it returns from C (a frame written to ffmpeg).
+    """
+    import ctypes
+
+    if thread.ident is not None and thread.is_alive():
+        ctypes.pythonapi.PyThreadState_SetAsyncExc(
+            ctypes.c_ulong(thread.ident), ctypes.py_object(ServerStopping)
+        )
 
 
 @dataclass
@@ -204,14 +232,20 @@ class Board:
             return job.public()
 
     def close(self) -> None:
-        """Stop the threads; a running build is cancelled (and waited for)."""
-        self._closing.set()
+        """Stop the threads: a running build is cancelled (and waited for), a running
+        ``say`` or ``dub`` interrupted (:func:`interrupt`), the queued jobs not started."""
         with self._lock:
+            self._closing.set()  # under the lock: no job starts after this
             for job in self._jobs.values():
                 if job.kind == "build" and job.status == "running":
                     job.cancel_asked = True
+            speaking = any(j.kind != "build" and j.status == "running" for j in self._jobs.values())
         self._speech.put(None)
         self._builds.put(None)
+        speech = self._threads[0]
+        if speaking:
+            interrupt(speech)
+            speech.join(timeout=SPEECH_STOP_SECONDS)
         for thread in self._threads:
             thread.join(timeout=60)
 
@@ -220,6 +254,9 @@ class Board:
     def _start(self, job: Job, stage: str) -> bool:
         with self._lock:
             if job.status != "queued":
+                return False
+            if self._closing.is_set():
+                self._end(job, "interrupted", STOPPED)
                 return False
             job.status, job.started, job.stage = "running", time.time(), stage
             return True
@@ -243,16 +280,26 @@ class Board:
         import miketalk.talk.say  # noqa: F401 - the first job starts warm
 
         warm = Warm()
+        job: Job | None = None
         try:
             while (job := self._speech.get()) is not None:
                 if not self._start(job, "dubbing" if job.kind == "dub" else "speaking"):
                     continue
                 try:
                     outcome = speak(job.folder, **job.params, warm=warm)
+                except ServerStopping:
+                    self._end(job, "interrupted", STOPPED)
+                    return
                 except Exception as err:
-                    self._fail(job, err)
+                    if self._closing.is_set():  # e.g. its ffmpeg killed by the stopping signal
+                        self._end(job, "interrupted", STOPPED)
+                    else:
+                        self._fail(job, err)
                 else:
                     self._end(job, "done", outcome=outcome)
+        except ServerStopping:  # landed just before or after a job's work
+            if job is not None and job.status not in FINAL:
+                self._end(job, "interrupted", STOPPED)
         finally:
             warm.close()
 
