@@ -502,6 +502,40 @@ def test_a_changed_byte_in_any_file_is_named_when_the_model_opens(
         Model(model)
 
 
+def test_every_part_written_after_the_manifest_is_listed_and_checked(
+    small_model: Path, tmp_path: Path
+) -> None:
+    import numpy as np
+
+    from miketalk.model.face import Model
+    from miketalk.model.write import list_model_files
+
+    model = _copy_model(small_model, tmp_path)
+    (model / "trained").mkdir()
+    np.save(model / "trained" / "patches.npy", np.zeros((40, 64, 64, 3), np.uint8))
+    (model / "coarticulation.json").write_text("{}")
+    (model / "trained" / ".patches.npy.tmp").write_bytes(b"x")  # hidden: never a part
+    before = (model / "manifest.json").read_bytes()
+    assert list_model_files(model) == 2
+    manifest = json.loads((model / "manifest.json").read_text())
+    assert {"coarticulation.json", "trained/patches.npy"} <= set(manifest["files"])
+    assert ".patches.npy.tmp" not in str(manifest["files"])
+    assert len(manifest["files"]["trained/patches.npy"]["blocks"]) == 1
+    assert list_model_files(model) == 0  # nothing new: the manifest as it was
+    assert (model / "manifest.json").read_bytes() != before
+    Model(model).close()
+    # an old model (nothing but images and flows listed) opens; its patches are checked by
+    # their .npy header against their size
+    old = json.loads((model / "manifest.json").read_text())
+    old["files"] = {k: v for k, v in old["files"].items() if k.startswith(("flows", "vis"))}
+    (model / "manifest.json").write_text(json.dumps(old))
+    Model(model).close()
+    patches = model / "trained" / "patches.npy"
+    patches.write_bytes(patches.read_bytes()[:-10])
+    with pytest.raises(MiketalkError, match=r"patches.npy is 491638 bytes, its .npy header"):
+        Model(model)
+
+
 # ---------------------------------------------------------------------------
 # workers and signals
 # ---------------------------------------------------------------------------

@@ -157,7 +157,7 @@ def model_stage(
     person's own frames become the model's background, for say and dub), with
     ``segments`` for a face from one video.
     """
-    from miketalk.model.write import build_model, fallbacks_of
+    from miketalk.model.write import build_model, fallbacks_of, list_model_files
 
     table = pd.read_csv(visemes, sep="\t", keep_default_na=False)
     paths = {
@@ -185,3 +185,4 @@ def model_stage(
             from miketalk.composite.background_files import write_background
 
             write_background(out, corpus_dir=corpus, media=media, segments=segments)
+    list_model_files(out)  # last: every part listed, checked when the model opens

@@ -108,9 +108,98 @@ def file_digest(path: str | os.PathLike[str]) -> str:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
 
-def file_entry(path: str | os.PathLike[str]) -> dict:
-    """What a manifest's ``files`` records of a file: ``{"size", "sha256"}``."""
-    return {"size": os.path.getsize(path), "sha256": file_digest(path)}
+def file_entry(path: str | os.PathLike[str], *, in_parts: bool = False) -> dict:
+    """What a manifest's ``files`` records of a file: ``{"size", "sha256"}``; for a file read
+    in parts (``in_parts``, :data:`READ_IN_PARTS`) also ``block`` (:data:`BLOCK`) and
+    ``blocks``, the SHA-256 of each block (one pass over the file)."""
+    if not in_parts:
+        return {"size": os.path.getsize(path), "sha256": file_digest(path)}
+    import hashlib
+
+    whole, blocks = hashlib.sha256(), []
+    with open(path, "rb") as f:
+        while data := f.read(BLOCK):
+            whole.update(data)
+            blocks.append(hashlib.sha256(data).hexdigest())
+    size = os.path.getsize(path)
+    return {"size": size, "sha256": whole.hexdigest(), "block": BLOCK, "blocks": blocks}
+
+
+#: Files of a model checked at open by their size and header only, and by the SHA-256 of
+#: each block a text reads when it reads it (:func:`check_parts`): the trained face's
+#: patches, 178 to 897 MB in a built model, read memory-mapped, a few frames a sentence
+#: (hashing them whole at every open would cost 0.5 to 1 s; docs/safety.md).
+READ_IN_PARTS = ("trained/patches.npy",)
+
+#: Bytes a block of a file read in parts (:data:`READ_IN_PARTS`) has its own SHA-256 for.
+BLOCK = 1 << 20
+
+
+def check_npy(path: Path) -> None:
+    """Raise MiketalkError unless ``path`` is a ``.npy`` file whose header parses and whose
+    size is its header's plus the bytes of the array it declares (nothing else is read)."""
+    import numpy as np
+
+    try:
+        with open(path, "rb") as f:
+            version = np.lib.format.read_magic(f)
+            read_header = (
+                np.lib.format.read_array_header_1_0
+                if version == (1, 0)
+                else np.lib.format.read_array_header_2_0
+            )
+            shape, _, dtype = read_header(f)
+            expected = f.tell() + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+            size = os.fstat(f.fileno()).st_size
+    except (OSError, ValueError) as err:
+        raise MiketalkError(
+            f"model file {path} is not a whole .npy array ({err}): the model is damaged; rebuild it"
+        ) from None
+    if size != expected:
+        raise MiketalkError(
+            f"model file {path} is {size} bytes, its .npy header declares {expected} "
+            f"({'x'.join(map(str, shape))} {dtype}): the model is damaged; rebuild it"
+        )
+
+
+def check_parts(
+    directory: str | os.PathLike[str], manifest: dict, relative: str, spans: Sequence
+) -> int:
+    """Check the blocks of a file read in parts (:data:`READ_IN_PARTS`) that hold the byte
+    ``spans`` (``(start, stop)`` pairs) against their SHA-256 in the manifest, before they
+    are used. A model written before blocks were recorded is not checked.
+
+    Returns
+    -------
+    int
+        The number of blocks checked.
+
+    Raises
+    ------
+    MiketalkError
+        In one line naming the file, for a block that does not match.
+    """
+    import hashlib
+
+    entry = manifest.get("files", {}).get(relative)
+    if not entry or "blocks" not in entry:
+        return 0
+    block, digests = int(entry["block"]), entry["blocks"]
+    wanted = sorted({i for a, b in spans for i in range(a // block, (b - 1) // block + 1)})
+    path = inside(directory, relative, "a file of the manifest")
+    try:
+        with open(path, "rb") as f:
+            for i in wanted:
+                f.seek(i * block)
+                if i >= len(digests) or hashlib.sha256(f.read(block)).hexdigest() != digests[i]:
+                    raise MiketalkError(
+                        f"model file {path} does not match its checksum in the manifest (its "
+                        f"bytes {i * block} to {(i + 1) * block}): the model is damaged; "
+                        "rebuild it"
+                    )
+    except OSError as err:
+        raise MiketalkError(f"model file {path} cannot be read ({err.strerror or err})") from None
+    return len(wanted)
 
 
 #: Threads hashing a model's files when it opens (SHA-256 in C, without the GIL).
@@ -138,10 +227,13 @@ def check_files(
 
     Every flow file of ``visemes`` exists, and is a whole OpenEXR file (its header and
     chunk table, :func:`miketalk.flow.exr.check_flow_file`); every file the manifest's
-    ``files`` lists (a model written since checksums were recorded: its viseme images
-    and flow files) exists, has its size there, and its SHA-256: all of them, not only
-    those a text's transitions read (128 MB for a 256-pixel model, 0.1 to 0.3 s on two
-    busy cores; docs/safety.md).
+    ``files`` lists (a model written since checksums were recorded: its viseme images and
+    flow files; since 2026-11-28 also its coarticulation, trained face and background)
+    exists, has its size there, and its SHA-256: all of them, not only those a text's
+    transitions read (docs/safety.md has the cost). A file read in parts
+    (:data:`READ_IN_PARTS`, the trained face's patches) is checked here by its size and
+    its ``.npy`` header (:func:`check_npy`), and its blocks by :func:`check_parts` when
+    they are read.
 
     Returns
     -------
@@ -161,7 +253,12 @@ def check_files(
     check_complete(flows, list(visemes))
     stat = files_stat(directory, manifest)
     listed = []
-    for relative, entry in sorted(manifest.get("files", {}).items()):
+    files = manifest.get("files", {})
+    for relative in READ_IN_PARTS:  # a model written before they were listed: their header
+        path = inside(directory, relative, "a file of the model")
+        if relative not in files and path.is_file():
+            check_npy(path)
+    for relative, entry in sorted(files.items()):
         path = inside(directory, relative, "a file of the manifest")
         try:
             size = path.stat().st_size
@@ -174,6 +271,10 @@ def check_files(
                 f"model file {path} is {size} bytes, the manifest says {entry['size']}: the "
                 "model is damaged; rebuild it"
             )
+        if "blocks" in entry:  # read in parts: hashed block by block as it is read
+            if path.suffix == ".npy":
+                check_npy(path)
+            continue
         listed.append((path, entry["sha256"]))
     for a, b in combinations(visemes, 2):
         check_flow_file(flows.path_for(a, b))

@@ -15,7 +15,7 @@ from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
-from miketalk.model.manifest import FORMAT, check_complete, file_entry
+from miketalk.model.manifest import FORMAT, READ_IN_PARTS, check_complete, file_entry
 from miketalk.visemes import viseme_slug
 
 
@@ -91,6 +91,39 @@ def build_model(
     manifest["files"] = {rel: file_entry(out / rel) for rel in sorted(listed)}
     write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
     return out
+
+
+def list_model_files(out_dir: str | os.PathLike[str]) -> int:
+    """List every file of the model in ``out_dir`` in its manifest, once its last part is written.
+
+    :func:`build_model` lists the images and flow files it writes; a face from clips then
+    gets its coarticulation, trained face and background beside them. Each file not yet in
+    the manifest's ``files`` (hidden ones aside: a temporary file, never a part) is added
+    with its size and SHA-256 (:data:`~miketalk.model.manifest.READ_IN_PARTS` also block by
+    block), and the manifest rewritten in one step (:func:`write_text_atomic`), or left as
+    it is when nothing was added. ``build``'s record of its work (``build/``) is copied in
+    after this, and is not listed: no command reads it.
+
+    Returns
+    -------
+    int
+        The number of files added.
+    """
+    out = Path(out_dir)
+    manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+    files = dict(manifest.get("files", {}))
+    added = 0
+    for path in sorted(out.rglob("*")):
+        relative = path.relative_to(out).as_posix()
+        hidden = any(part.startswith(".") for part in path.relative_to(out).parts)
+        if relative == "manifest.json" or hidden or relative in files or not path.is_file():
+            continue
+        files[relative] = file_entry(path, in_parts=relative in READ_IN_PARTS)
+        added += 1
+    if added:
+        manifest["files"] = dict(sorted(files.items()))
+        write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
+    return added
 
 
 def fallbacks_of(visemes: pd.DataFrame) -> dict[str, str]:

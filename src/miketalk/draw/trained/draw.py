@@ -49,6 +49,7 @@ def render_trained(
         settings = dataclasses.replace(trained.selection, **selection)
         trained = dataclasses.replace(trained, selection=settings)
     rows = trained.plan(timeline, kind=kind, recording=recording)
+    check_patches_read(model, trained, rows)  # before the first frame is drawn
     compositor = PatchCompositor(
         trained.frames, model.image(SILENCE), joins=trained.selection.joins,
         morph_options=getattr(model, "morph_options", None),
@@ -57,4 +58,27 @@ def render_trained(
         yield compositor.frame(row)
 
 
-__all__ = ["render_trained"]
+def check_patches_read(model: Any, trained: TrainedFace, rows: list) -> int:
+    """Check the blocks of the trained face's ``patches.npy`` that ``rows`` read against
+    their SHA-256 in the model's manifest (:func:`miketalk.model.manifest.check_parts`):
+    the file is too large to hash whole at every open, and only these frames are read.
+
+    Returns
+    -------
+    int
+        The blocks checked (0 for a model without block checksums, or patches in memory).
+    """
+    from miketalk.draw.trained.mouths import PATCHES
+    from miketalk.model.manifest import check_parts
+    from miketalk.model.parts import TRAINED_DIRECTORY
+
+    patches, manifest = trained.frames.patches, getattr(model, "manifest", None)
+    if not isinstance(patches, np.memmap) or manifest is None or not len(patches):
+        return 0
+    used = sorted({int(s) for row in rows for s, _ in row})
+    step = patches.strides[0]
+    spans = [(patches.offset + s * step, patches.offset + (s + 1) * step) for s in used]
+    return check_parts(model.directory, manifest, f"{TRAINED_DIRECTORY}/{PATCHES}", spans)
+
+
+__all__ = ["check_patches_read", "render_trained"]
