@@ -155,7 +155,7 @@ def _write(path: Path, frames: np.ndarray) -> Path:
         ("colours swapped", "colour is far from the model's"),
         ("mirrored", "does not show the model's person"),
         ("short", "at least 1 s"),
-        ("unreadable", "could not decode"),
+        ("unreadable", "is not a video ffmpeg can read"),
         ("missing", "not found"),
     ],
 )
@@ -179,6 +179,72 @@ def test_a_video_that_cannot_be_dubbed_is_one_line(capsys, tmp_path, person, wha
                   "-o", str(out))  # fmt: skip
     assert expected in line
     assert not out.exists() and not out.with_suffix(".json").exists()
+
+
+def _mp4(path: Path, frames: int, *, faststart: bool) -> Path:
+    """The synthetic head's ``frames`` at 25 fps as an H.264 mp4 (its index at its end, or
+    first with ``faststart``), without B-frames: cut short, its packets' timestamps have no
+    gaps (with B-frames they can, and the cut file is then read as a variable frame rate)."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    lossless = _write(path.with_suffix(".mkv"), _clip(frames)[0])
+    subprocess.run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(), "-v", "error", "-y", "-i", str(lossless),
+            "-c:v", "libx264", "-pix_fmt", "yuv420p", "-threads", "1", "-bf", "0",
+            *(["-movflags", "+faststart"] if faststart else []), str(path),
+        ],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    return path
+
+
+@pytest.mark.parametrize("what", ["text", "first 2000 bytes", "first half"])
+def test_a_file_ffmpeg_cannot_open_is_said_in_plain_words(capsys, tmp_path, person, what):
+    path = tmp_path / "v.mp4"
+    if what == "text":
+        path.write_text("not a video\n")
+    else:  # its index (moov) at its end: a part is no mp4 to ffmpeg
+        data = _mp4(tmp_path / "whole.mp4", 75, faststart=False).read_bytes()
+        path.write_bytes(data[:2000] if what == "first 2000 bytes" else data[: len(data) // 2])
+    out = tmp_path / "o.mp4"
+    line = _error(capsys, "dub", str(path), "--text", "Bin blue.", "--model", str(person),
+                  "-o", str(out))  # fmt: skip
+    # before: "ffmpeg could not decode v.mp4: [in#0 @ 0x...] Error opening input: ... |
+    # Exiting with exit code -1094995529", ffmpeg's own words
+    assert line == (
+        f"miketalk: error: {path} is not a video ffmpeg can read (cut short, or another kind "
+        "of file); -v shows ffmpeg's own words"
+    )
+    assert not out.exists()
+
+
+def test_a_video_that_ends_before_its_stated_duration_is_dubbed_with_a_warning(
+    capsys, caplog, tmp_path, person
+):
+    whole = _mp4(tmp_path / "whole.mp4", 75, faststart=True)  # 3 s, its index first
+    half = tmp_path / "half.mp4"
+    data = whole.read_bytes()
+    half.write_bytes(data[: len(data) // 2])
+    for video in (whole, half):
+        code, out, err = _run(
+            capsys, "dub", str(video), "--text", "Bin blue at F two now.", "--model",
+            str(person), "-o", str(tmp_path / f"dub_{video.name}"),
+        )  # fmt: skip
+        assert code == 0, err
+        early = [m for m in caplog.messages if "ends early" in m]  # the command's warnings
+        caplog.clear()
+        if video == whole:
+            assert early == [], err
+            continue
+        # before: dubbed over the frames that decode without a word (exit 0)
+        assert len(early) == 1, err
+        frames = int(early[0].split("its ")[1].split(" frames")[0])
+        assert 25 < frames < 75
+        assert f"last {frames / 25:.2f} s of the 3.00 s the file states" in early[0]
+        assert f"over {frames} frames of" in out
 
 
 def test_dub_needs_a_model_of_a_person_and_something_to_say(

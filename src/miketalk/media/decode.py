@@ -42,13 +42,11 @@ from __future__ import annotations
 import logging
 import math
 import os
-import re
 import subprocess
 import tempfile
 import threading
 from collections.abc import Iterator
 from fractions import Fraction
-from itertools import pairwise
 from pathlib import Path
 
 import cv2
@@ -56,7 +54,11 @@ import numpy as np
 
 from miketalk.console import child_process
 from miketalk.errors import MiketalkError
-from miketalk.media.timing import framemd5_packets
+from miketalk.media.ffmpeg_log import RATE_RE as _RATE_RE
+from miketalk.media.ffmpeg_log import SIZE_RE as _SIZE_RE
+from miketalk.media.ffmpeg_log import luma_kind as _luma_kind
+from miketalk.media.ffmpeg_log import stated_duration, unreadable, warn_if_early_end
+from miketalk.media.timing import resample_rate
 
 __all__ = [
     "COLOUR_CONVERSIONS",
@@ -74,13 +76,6 @@ _TIMEOUT = 300.0
 #: Frames (of the stated rate) by which the frames' timestamps may span more or less
 #: than ``frames / rate`` before the video counts as having a variable frame rate.
 SLACK_FRAMES = 1.5
-_STDERR_TAIL = 6  # lines of ffmpeg's log quoted in an error
-# the filter graph's input: "... w:360 h:288 pixfmt:yuv420p tb:1/90000 fr:25/1 sar:1/1 ..."
-_RATE_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bfr:(\d+)/(\d+)")
-# the output stream: "Stream #0:0: Video: rawvideo ... rgb24(...), 360x288 [SAR ..."
-_SIZE_RE = re.compile(r"Output #0.*?Stream #0:0.*?Video: rawvideo\b.*?, (\d+)x(\d+)", re.DOTALL)
-# the same line's decoded pixel format and range: "... pixfmt:yuv420p ... range:tv ..."
-_PIXFMT_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bpixfmt:(\w+)(?:.*?\brange:(\w+))?")
 
 #: swscale's flags for the colour conversion to RGB, by name. ``accurate`` is every
 #: whole frame's (:func:`read_video`); ``fast`` leaves out the accurate rounding, which
@@ -91,13 +86,6 @@ COLOUR_CONVERSIONS = {
     "accurate": "bicubic+accurate_rnd+full_chroma_int",
     "fast": "bicubic+full_chroma_int+bitexact",
 }
-#: 8-bit planar YUV formats whose luma plane is taken as it is for grey frames (the
-#: first plane, ``extractplanes=y``), then mapped to full range by :data:`_TV_TO_FULL`
-#: where it is limited: the bytes of ffmpeg's own grey conversion (``-pix_fmt gray``,
-#: accurate rounding), for a third of its cost at 1080p (1.1 ms a frame).
-_LUMA_PLANAR = frozenset(
-    f"yuv{j}{s}p" for j in ("", "j") for s in ("420", "422", "444", "440", "411", "410")
-)
 #: Limited-range luma (16 to 235) to full range, rounded: swscale's grey conversion
 #: exactly (no value of ``(y - 16) * 255 / 219`` is a tie).
 _TV_TO_FULL = np.clip(np.round((np.arange(256) - 16) * 255 / 219), 0, 255).astype(np.uint8)
@@ -149,13 +137,14 @@ def read_video(
     if code != 0:
         if "matches no streams" in log_text:
             raise MiketalkError(f"{path} has no video stream")
-        raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(log_text)}")
+        raise unreadable(path, log_text)
     size = _SIZE_RE.search(log_text)
     rate = _RATE_RE.search(log_text)
     if size is None or not out:
-        raise MiketalkError(f"no video frame decoded from {path}: {_tail(log_text)}")
+        raise unreadable(path, log_text, decoded=False)
     width, height = int(size[1]), int(size[2])
     _lumas[_file_key(path)] = _luma_kind(log_text)
+    _durations[_file_key(path)] = stated_duration(log_text)
     stated = None
     if rate is not None and int(rate[1]) != 0 and int(rate[2]) != 0:
         stated = Fraction(int(rate[1]), int(rate[2]))
@@ -173,6 +162,8 @@ def read_video(
             f"{width}x{height} RGB frames"
         )
     decoded = np.frombuffer(out, np.uint8).reshape(-1, height, width, 3).copy()
+    if start is None and frames is None:  # the whole video: does it end where it says?
+        warn_if_early_end(path, len(decoded), float(fps), _durations.get(_file_key(path)))
     return decoded, float(fps)
 
 
@@ -303,7 +294,7 @@ def iter_video_frames(
         stream ends inside a frame.
     """
     path = Path(path)
-    width, height, _ = video_info(path)
+    width, height, fps = video_info(path)
     if region is not None:
         width, height = region[2], region[3]
     shape = (height, width) if grey else (height, width, 3)
@@ -316,6 +307,7 @@ def iter_video_frames(
         path, "error", start, frames, rate, grey=grey, luma_plane=luma is not None,
         region=region, conversion=conversion,
     )  # fmt: skip
+    count = 0
     with tempfile.TemporaryFile() as errors:
         with child_process(args, stderr=errors) as proc:  # killed if the consumer stops early
             assert proc.stdout is not None
@@ -328,18 +320,13 @@ def iter_video_frames(
                         f"{path}: the video stream ended inside a {width}x{height} frame"
                     )
                 frame = np.frombuffer(data, np.uint8).reshape(shape)
+                count += 1
                 yield frame.copy() if lut is None else cv2.LUT(frame, lut)
         if proc.returncode != 0:
             errors.seek(0)
-            text = errors.read().decode("utf-8", "replace")
-            raise MiketalkError(f"ffmpeg could not decode {path}: {_tail(text)}")
-
-
-def _tail(log: str) -> str:
-    """The last lines of ffmpeg's log worth quoting, joined into one line."""
-    lines = [ln.strip() for ln in log.splitlines() if ln.strip()]
-    keep = [ln for ln in lines if not ln.startswith("[") or "rror" in ln] or lines
-    return " | ".join(keep[-_STDERR_TAIL:])
+            raise unreadable(path, errors.read().decode("utf-8", "replace"))
+    if start is None and frames is None:
+        warn_if_early_end(path, count, rate or fps, _durations.get(key))
 
 
 def read_media_audio(
@@ -418,19 +405,8 @@ _infos: dict[tuple[str, int, int], tuple[int, int, float]] = {}
 #: Per file: its luma plane's range when its grey frames are that plane (``tv``: to be
 #: mapped by :data:`_TV_TO_FULL`, ``pc``: as it is), None when ffmpeg converts them.
 _lumas: dict[tuple[str, int, int], str | None] = {}
-
-
-def _luma_kind(log_text: str) -> str | None:
-    """From ffmpeg's verbose log, how grey frames are taken (:data:`_lumas`)."""
-    found = _PIXFMT_RE.search(log_text)
-    if found is None or found[1] not in _LUMA_PLANAR:
-        return None
-    full = found[1].startswith("yuvj") or found[2] == "pc"
-    return "pc" if full else "tv"
-
-
-#: ffmpeg's AV_NOPTS_VALUE: a packet without a timestamp.
-_NO_PTS = -(2**63)
+#: Per file: the seconds it states it lasts (its container's duration; None: not stated).
+_durations: dict[tuple[str, int, int], float | None] = {}
 
 
 def _file_key(path: Path) -> tuple[str, int, int]:
@@ -448,46 +424,8 @@ def _constant_rate(path: Path, stated: Fraction | None) -> Fraction | None:
     key = _file_key(path)
     with _constant_rates_lock:
         if key not in _constant_rates:
-            found = _timestamps(path)
-            rate = None
-            if found is not None:
-                count, span = found
-                slack = SLACK_FRAMES / stated if stated else 0
-                if stated is None or abs(span - count / stated) > slack:
-                    rate = (count / span).limit_denominator(1001)
-                    said = f"at its stated {float(stated):g} fps" if stated else "at no stated rate"
-                    log.warning(
-                        "%s has a variable frame rate (%d frames over %.2f s by their "
-                        "timestamps, %s): read at a constant %g fps, frames repeated or "
-                        "dropped by their timestamps",
-                        path.name, count, float(span), said, float(rate),
-                    )  # fmt: skip
-            _constant_rates[key] = rate
+            _constant_rates[key] = resample_rate(path, stated, SLACK_FRAMES, _run)
         return _constant_rates[key]
-
-
-def _timestamps(path: Path) -> tuple[int, Fraction] | None:
-    """The number of video packets of ``path`` and the seconds they span (the first's
-    start to the last's end); None when they cannot tell (no timestamps, fewer than two
-    packets, a stream ffmpeg cannot copy: the decode itself then says what is wrong)."""
-    import imageio_ffmpeg
-
-    code, out, _ = _run(
-        [
-            imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-loglevel", "error",
-            "-i", str(path), "-map", "0:v:0", "-c", "copy", "-f", "framemd5", "pipe:1",
-        ]
-    )  # fmt: skip
-    if code != 0:
-        return None
-    base, rows = framemd5_packets(out.decode("ascii", "replace"))
-    if len(rows) < 2 or any(pts == _NO_PTS for pts, _ in rows):
-        return None
-    rows.sort()
-    gaps = sorted(b - a for (a, _), (b, _) in pairwise(rows))
-    last = rows[-1][1] if rows[-1][1] > 0 else gaps[len(gaps) // 2]  # else a usual gap
-    span = (rows[-1][0] + last - rows[0][0]) * base
-    return (len(rows), span) if span > 0 else None
 
 
 def _run(args: list[str], *, timeout: float | None = None) -> tuple[int, bytes, bytes]:

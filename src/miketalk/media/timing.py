@@ -11,14 +11,19 @@ stated rate.
 
 from __future__ import annotations
 
+import logging
 import os
 import subprocess
+from collections.abc import Callable
 from fractions import Fraction
+from itertools import pairwise
 from pathlib import Path
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["check_constant_rate", "frame_times", "framemd5_packets"]
+log = logging.getLogger("miketalk.media.decode")  # its warnings, as before
+
+__all__ = ["check_constant_rate", "frame_times", "framemd5_packets", "packet_span", "resample_rate"]
 
 #: How far (seconds, and as a share of the video's length) the frames' timestamps may
 #: end from where the stated rate puts them.
@@ -92,3 +97,56 @@ def check_constant_rate(path: str | os.PathLike[str], fps: float, n_frames: int)
             f"{fps:g} fps; convert it to a constant rate first "
             f"(ffmpeg -i {Path(path).name} -vf fps={fps:g} constant.mp4)"
         )
+
+
+#: ffmpeg's AV_NOPTS_VALUE: a packet without a timestamp.
+NO_PTS = -(2**63)
+
+
+def packet_span(path: Path, run: Callable) -> tuple[int, Fraction] | None:
+    """The number of video packets of ``path`` and the seconds they span (the first's
+    start to the last's end); None when they cannot tell (no timestamps, fewer than two
+    packets, a stream ffmpeg cannot copy: the decode itself then says what is wrong).
+    ``run(args)`` runs ffmpeg to its end: ``(exit status, stdout, stderr)``."""
+    import imageio_ffmpeg
+
+    code, out, _ = run(
+        [
+            imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-loglevel", "error",
+            "-i", str(path), "-map", "0:v:0", "-c", "copy", "-f", "framemd5", "pipe:1",
+        ]
+    )  # fmt: skip
+    if code != 0:
+        return None
+    base, rows = framemd5_packets(out.decode("ascii", "replace"))
+    if len(rows) < 2 or any(pts == NO_PTS for pts, _ in rows):
+        return None
+    rows.sort()
+    gaps = sorted(b - a for (a, _), (b, _) in pairwise(rows))
+    last = rows[-1][1] if rows[-1][1] > 0 else gaps[len(gaps) // 2]  # else a usual gap
+    span = (rows[-1][0] + last - rows[0][0]) * base
+    return (len(rows), span) if span > 0 else None
+
+
+def resample_rate(
+    path: Path, stated: Fraction | None, slack_frames: float, run: Callable
+) -> Fraction | None:
+    """The constant rate a video's frames are to be read at by their timestamps, or None:
+    they follow its ``stated`` rate (they span frames / rate seconds within
+    ``slack_frames``; :mod:`miketalk.media.decode`); warned about when not None. ``run``
+    as :func:`packet_span`'s."""
+    found = packet_span(path, run)
+    if found is None:
+        return None
+    count, span = found
+    slack = slack_frames / stated if stated else 0
+    if stated is not None and abs(span - count / stated) <= slack:
+        return None
+    rate = (count / span).limit_denominator(1001)
+    said = f"at its stated {float(stated):g} fps" if stated else "at no stated rate"
+    log.warning(
+        "%s has a variable frame rate (%d frames over %.2f s by their timestamps, %s): read "
+        "at a constant %g fps, frames repeated or dropped by their timestamps",
+        path.name, count, float(span), said, float(rate),
+    )  # fmt: skip
+    return rate
