@@ -9,13 +9,8 @@ import pandas as pd
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.bench.hard_heldout import (
-    pair_models,
-    paired,
-    split_clips,
-    strip_image,
-    target_verdict,
-)
+from miketalk_lab.bench.hard_heldout import pair_models, split_clips, strip_image
+from miketalk_lab.evaluation.paired import paired, target_verdict
 
 
 def test_split_clips_keeps_the_orders_and_never_shares_a_clip():

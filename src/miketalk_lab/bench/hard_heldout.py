@@ -56,6 +56,7 @@ import pandas as pd
 
 from miketalk.errors import MiketalkError
 from miketalk_lab.bench.command import bench_parser, run_bench
+from miketalk_lab.evaluation.paired import paired, target_verdict
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 
@@ -96,36 +97,6 @@ def split_clips(pool_ids: Sequence[str], train_order: Sequence[str], test_order:
             f"{n_test} test clips"
         )
     return train, test
-
-
-def paired(a: pd.Series, b: pd.Series) -> dict[str, float]:
-    """Two models' values of one measure, paired by index (the clip), ``b - a``: ``clips``
-    (pairs where both are finite), ``a_mean``, ``a_sd``, ``b_mean``, ``b_sd``, ``diff_mean``,
-    ``diff_sd`` and the mean difference's 95 % Student-t interval (``diff_low``,
-    ``diff_high``; NaN for fewer than two pairs)."""
-    from scipy import stats
-
-    both = pd.concat({"a": a, "b": b}, axis=1, join="inner").astype(float)
-    both = both[np.isfinite(both).all(axis=1)]
-    n = len(both)
-    diff = both["b"] - both["a"]
-    half = stats.t.ppf(0.975, n - 1) * diff.std(ddof=1) / math.sqrt(n) if n >= 2 else math.nan
-    mean = float(diff.mean()) if n else math.nan
-    out = {"clips": n}
-    for name, values in (("a", both["a"]), ("b", both["b"]), ("diff", diff)):
-        out[f"{name}_mean"] = float(values.mean()) if n else math.nan
-        out[f"{name}_sd"] = float(values.std(ddof=1)) if n >= 2 else math.nan
-    return out | {"diff_low": mean - float(half), "diff_high": mean + float(half)}
-
-
-def target_verdict(diff_mean: float, low: float, high: float, limit: float) -> str:
-    """``met`` when the mean difference is within ``limit``; ``met (interval too)`` when
-    its whole 95 % interval is; ``not met`` otherwise."""
-    if not abs(diff_mean) <= limit:
-        return "not met"
-    if -limit <= low and high <= limit:
-        return "met (interval too)"
-    return "met (mean only)"
 
 
 def pair_models(table: pd.DataFrame, a: tuple[str, str], b: tuple[str, str], *,
