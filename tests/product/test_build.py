@@ -45,13 +45,13 @@ def test_the_frame_a_face_is_built_in() -> None:
     half = FrameSettings("crop", 128).crop
     assert (half.size, half.eye_distance, half.eyes_y) == (128, 36.0, FaceCropSettings().eyes_y)
     assert FrameSettings("crop", None, "accurate").crop == FaceCropSettings(conversion="accurate")
-    assert FaceCropSettings().conversion == "fast"
+    assert FaceCropSettings().conversion == "auto"
     for frame, size, conversion, message in [
         ("full", 128, None, "a crop size goes with the crop frame"),
         ("crop", 8, None, "the crop's size must be a whole number >= 16"),
         ("face", None, None, "the frame must be one of ['crop', 'full']"),
         ("full", None, "fast", "a crop conversion goes with the crop frame"),
-        ("crop", None, "exact", "conversion must be one of ['accurate', 'fast']"),
+        ("crop", None, "exact", "conversion must be one of ['accurate', 'auto', 'fast']"),
     ]:
         with pytest.raises(MiketalkError, match=re.escape(message)):
             FrameSettings(frame, size, conversion)

@@ -81,6 +81,21 @@ def test_the_crops_read_from_the_region_are_the_whole_frames_crops(conversion: s
     assert np.array_equal(cropped.crops, expected)
 
 
+def test_auto_converts_fast_only_where_each_crop_pixel_averages_several() -> None:
+    from miketalk.track.crop import chosen_conversion
+
+    auto, crop = FaceCropSettings(), FaceCropSettings().size ** 2
+    assert chosen_conversion(auto, 706 * 648) == "fast"  # s1's face at 1080p: 7x the crop
+    assert chosen_conversion(auto, 2 * crop) == "fast"
+    assert chosen_conversion(auto, 2 * crop - 1) == "accurate"
+    assert chosen_conversion(auto, 176 * 176) == "accurate"  # s1's at 360x288: enlarged
+    for own in ("fast", "accurate"):
+        assert chosen_conversion(FaceCropSettings(conversion=own), 10**7) == own
+    s1 = crop_video(CLIP, frames=4)  # auto, 360x288: the accurate crops, as before
+    assert np.array_equal(s1.crops, crop_video(CLIP, frames=4, crop=FaceCropSettings(
+        conversion="accurate")).crops)  # fmt: skip
+
+
 def test_the_fast_conversion_is_within_a_few_levels_of_the_accurate_one(s1) -> None:
     fast = np.stack(list(iter_video_frames(CLIP, frames=12, conversion="fast")))
     difference = s1.astype(int) - fast.astype(int)

@@ -26,9 +26,9 @@ CROP = "crop"
 FULL = "full"
 #: The frames a face can be built in.
 FRAMES = (CROP, FULL)
-#: The crop pixels' colour conversions (:data:`miketalk.media.decode.COLOUR_CONVERSIONS`'
-#: names, here without its imports for the command line's parser).
-CONVERSIONS = ("fast", "accurate")
+#: The crop pixels' colour conversions (:attr:`miketalk.track.crop.FaceCropSettings.
+#: conversion`'s values, here without its imports for the command line's parser).
+CONVERSIONS = ("auto", "fast", "accurate")
 
 
 @dataclass(frozen=True)

@@ -132,8 +132,9 @@ def add_build_parser(sub) -> None:
         "--crop-conversion",
         choices=CONVERSIONS,
         default=None,
-        help="ffmpeg's YUV-to-RGB conversion of the crops' pixels: fast (default) or "
-        "accurate (rounded exactly, the whole frames' conversion; slower at HD)",
+        help="ffmpeg's YUV-to-RGB conversion of the crops' pixels: auto (default: fast "
+        "at HD, accurate below), fast, or accurate (rounded exactly, as the whole frames; "
+        "slower at HD)",
     )
     build.add_argument("--force", action="store_true", help="replace an existing model")
     build.add_argument(

@@ -68,18 +68,22 @@ class FaceCropSettings:
         :mod:`~miketalk.track.resample` for the measurements), ``"linear"`` or
         ``"cubic"`` (after an area average when the crop shrinks the face by more than 2).
     conversion : str
-        ffmpeg's YUV-to-RGB conversion of the pixels the crops are drawn from, by its
-        name in :data:`~miketalk.media.decode.COLOUR_CONVERSIONS`: ``"fast"`` (no
-        accurate rounding: a 1080p video's build reads its crops in a third less time,
-        their RGB 1.2 levels higher on average) or ``"accurate"`` (the whole frames'
-        conversion; a corpus or model that records none was read so).
+        ffmpeg's YUV-to-RGB conversion of the pixels the crops are drawn from:
+        ``"accurate"`` (the whole frames' conversion; a corpus or model that records none
+        was read so), ``"fast"`` (no accurate rounding: 5 to 6 times cheaper, RGB 1.2
+        levels lower on average, up to 4 in a 1080p face's crop, up to 29 in a 360x288
+        one's, where the crop enlarges the face) or ``"auto"``: fast when the frames'
+        part the crops see holds at least :data:`AUTO_FAST_PIXELS` times the crop's
+        pixels (each crop pixel an average of several, the rounding's noise averaged
+        away: HD), accurate otherwise (where it costs little). Measured on hard s1
+        (720p) and plain s1 (360x288), in ``docs/tracking.md``.
     """
 
     size: int = 256
     eye_distance: float = 72.0
     eyes_y: float = 0.36
     interpolation: str = "auto"
-    conversion: str = "fast"
+    conversion: str = "auto"
 
     def __post_init__(self) -> None:
         if isinstance(self.size, bool) or not isinstance(self.size, int) or self.size < 16:
@@ -91,8 +95,8 @@ class FaceCropSettings:
         if self.interpolation not in _INTERPOLATIONS:
             known = sorted(_INTERPOLATIONS)
             raise MiketalkError(f"interpolation must be one of {known}, got {self.interpolation!r}")
-        if self.conversion not in COLOUR_CONVERSIONS:
-            known = sorted(COLOUR_CONVERSIONS)
+        if self.conversion not in (*COLOUR_CONVERSIONS, AUTO):
+            known = sorted((*COLOUR_CONVERSIONS, AUTO))
             raise MiketalkError(f"conversion must be one of {known}, got {self.conversion!r}")
 
     @property
@@ -118,6 +122,21 @@ class FaceCropSettings:
         if t.shape != (2, 3) or not np.isfinite(t).all():
             raise MiketalkError(f"a frame's transform must be a finite (2, 3) array, got {t}")
         return compose_affine(self.canonical_to_crop, t)
+
+
+#: :attr:`FaceCropSettings.conversion`'s choice by the pixels read (see there).
+AUTO = "auto"
+#: ``auto`` converts fast when the frames' part read holds this many times the crop's pixels.
+AUTO_FAST_PIXELS = 2.0
+
+
+def chosen_conversion(settings: FaceCropSettings, region_pixels: int) -> str:
+    """The conversion that reads ``region_pixels`` of each frame into ``settings``' crops:
+    its own, or ``auto``'s choice (fast from :data:`AUTO_FAST_PIXELS` times the crop's
+    pixels)."""
+    if settings.conversion != AUTO:
+        return settings.conversion
+    return "fast" if region_pixels >= AUTO_FAST_PIXELS * settings.size**2 else "accurate"
 
 
 #: The closed lips in canonical coordinates (eye distances): ``(u0, v0, u1, v1)``. dlib's

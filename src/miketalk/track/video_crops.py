@@ -5,7 +5,8 @@ iter_video_frames`): once in grey to track the face (:func:`~miketalk.track.trac
 track_frames`), once in RGB to warp each frame into the crop (:func:`~miketalk.track.crop.
 face_crop`), only the part of the frames the crops see (:func:`crop_region`: the union of
 the crops' windows; at 1080p a still face's is about a tenth of the frame), converted as
-the crop's :attr:`~miketalk.track.crop.FaceCropSettings.conversion` says. ffmpeg's
+the crop's :attr:`~miketalk.track.crop.FaceCropSettings.conversion` says (by default
+fast at HD, accurate below). ffmpeg's
 conversion of every pixel to RGB was most of the build's cost that grew with the pixels
 (12 ms of a 1080p frame's 15, the decoding 3 ms; read twice). With the ``accurate``
 conversion the crops are the ones the whole RGB frames give, byte for byte. Memory holds
@@ -27,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.track.crop import FaceCropSettings, warp_to_crop
+from miketalk.track.crop import FaceCropSettings, chosen_conversion, warp_to_crop
 from miketalk.track.resample import source_bounds
 from miketalk.track.result import Track
 from miketalk.track.similarity import compose_affine, invert_affine
@@ -235,8 +236,10 @@ def crop_video(
     if region is not None:  # the region's pixels to the crop's: shifted by its corner
         shift = np.array([[1.0, 0.0, region[0]], [0.0, 1.0, region[1]]])
         from_region = np.stack([compose_affine(t, shift) for t in to_crop])
+    pixels = region[2] * region[3] if region is not None else width * height
     frames_rgb = iter_video_frames(
-        path, start=start, frames=len(track), region=region, conversion=crop.conversion
-    )
+        path, start=start, frames=len(track), region=region,
+        conversion=chosen_conversion(crop, pixels),
+    )  # fmt: skip
     crops = crops_of(frames_rgb, from_region, crop, len(track))
     return CroppedVideo(crops, to_crop, tracked, track, float(fps), (int(width), int(height)))

@@ -196,7 +196,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--cross", action="store_true", help="also each model on the other kind")
     parser.add_argument("--workers", type=int, default=None, help="miketalk build --workers")
     parser.add_argument(
-        "--compare-conversion", choices=("fast", "accurate"), default=None,
+        "--compare-conversion", choices=("auto", "fast", "accurate"), default=None,
         help="also build each crop model with this --crop-conversion and pair it, clip by "
         "clip, with the default's on the same test clips",
     )  # fmt: skip
