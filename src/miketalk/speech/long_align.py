@@ -37,6 +37,12 @@ align the pieces between them. Here:
    frame under it) is halved and each half aligned again, down to single words
    (:func:`miketalk.speech.long_trim.misfit_split`): words of another script, or
    placed where they are not said, are left out too.
+4. **Fill.** Where the first pass gave a stretch the wrong sound (an anchor's rough edge,
+   a trim that dropped a word said), its words are left out, or placed a few at a time,
+   though each sentence aligned alone places them: each such stretch between runs of
+   placed words is aligned again with the chunks either side, in the sound between the
+   words placed around them, passes 1 to 3 as above
+   (:func:`miketalk.speech.long_fill.fill_gaps`; ``fill=False``: without it).
 """
 
 from __future__ import annotations
@@ -49,7 +55,7 @@ from functools import partial
 import numpy as np
 
 from miketalk.errors import MiketalkError
-from miketalk.speech import long_anchor, long_trim
+from miketalk.speech import long_anchor, long_fill, long_trim
 from miketalk.speech.align.phones import SILENCE
 from miketalk.speech.long_cuts import coarse_span, pause_near_middle, settle_cut, voiced_share
 from miketalk.speech.types import Phone
@@ -124,6 +130,7 @@ def align_long(
     *,
     fit_limit: float | None = None,
     anchors: bool = True,
+    fill: bool = True,
 ) -> LongAlignment:
     """Place the words of ``cues`` (:class:`miketalk.corpus.script.Cue`) in a long recording.
 
@@ -145,6 +152,11 @@ def align_long(
         it) is cut at anchors, runs of words a recogniser hears
         (:mod:`miketalk.speech.long_anchor`), before it is halved. False: halved at once
         (the aligner before anchors).
+    fill : bool
+        After the second pass, each stretch of words left out (or placed only a few at a
+        time) is aligned again with the chunks either side, in the sound between the words
+        placed around them (:func:`miketalk.speech.long_fill.fill_gaps`), as a sentence
+        alone would be; kept where more words are placed. False: the aligner before it.
 
     Returns
     -------
@@ -174,18 +186,20 @@ def align_long(
             unaligned += [Unaligned(i, words[i], "its cue lies outside the audio") for i in indices]
             continue
         first_pass += _first_pass(samples, rate, lo, hi, indices, words, unaligned, anchors)
+    parts = _second_passes(samples, rate, first_pass, (0.0, duration), words, unaligned, fit_limit)
+    if fill:
+
+        def realign(lo: float, hi: float, indices: list[int], missing: list[Unaligned]) -> list:
+            again = _first_pass(samples, rate, lo, hi, indices, words, missing, anchors)
+            return _second_passes(samples, rate, again, (lo, hi), words, missing, fit_limit)
+
+        parts, unaligned = long_fill.fill_gaps(parts, unaligned, len(words), duration, realign)
     placed, chunks, phones, scores = [], [], [], []
-    missing = {u.index for u in unaligned}
-    at = 0  # the chunks are consecutive runs of the first pass: where this one begins
-    for group in _chunks(first_pass, missing):
-        lo, hi = _chunk_span(first_pass, at, len(group), duration, missing)
-        at += len(group)
-        for part in _fitting(samples, rate, (lo, hi), group, words, unaligned, fit_limit):
-            (a, b), group, spans, own, score = part
-            placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
-            chunks.append((a, b, len(group)))
-            phones.append(own)
-            scores.append(score)
+    for (a, b), group, spans, own, score in parts:
+        placed += [(i, w) for (i, _), w in zip(group, spans, strict=True)]
+        chunks.append((a, b, len(group)))
+        phones.append(own)
+        scores.append(score)
     unaligned.sort(key=lambda u: u.index)
     for u in unaligned:
         log.info("word %d %r not aligned: %s", u.index + 1, u.word, u.why)
@@ -193,6 +207,27 @@ def align_long(
     return LongAlignment(
         tuple(placed), tuple(unaligned), tuple(chunks), tuple(stitched), tuple(scores)
     )
+
+
+def _second_passes(
+    samples: np.ndarray,
+    rate: int,
+    first_pass: list[tuple[int, WordTiming]],
+    bounds: tuple[float, float],
+    words: list[str],
+    unaligned: list[Unaligned],
+    fit_limit: float | None,
+) -> list[long_fill.Part]:
+    """The first pass's words (placed inside ``bounds``) in chunks, each aligned again in its
+    own audio (:func:`_fitting`): the parts, in order."""
+    missing = {u.index for u in unaligned}
+    parts: list[long_fill.Part] = []
+    at = 0  # the chunks are consecutive runs of the first pass: where this one begins
+    for group in _chunks(first_pass, missing):
+        span = _chunk_span(first_pass, at, len(group), bounds[1], missing, bounds[0])
+        at += len(group)
+        parts += _fitting(samples, rate, span, group, words, unaligned, fit_limit)
+    return parts
 
 
 def stitch_phones(chunks: Sequence[Sequence[Phone]], duration: float) -> list[Phone]:
@@ -229,7 +264,7 @@ def _fitting(
     words: list[str],
     unaligned: list[Unaligned],
     fit_limit: float | None,
-) -> list[tuple[tuple[float, float], list, list[WordTiming], list[Phone], float | None]]:
+) -> list[long_fill.Part]:
     """A chunk's second pass; under ``fit_limit``, its halves' (see :func:`align_long`).
     Each part: its span, its words, their spans, its phones and its score."""
     lo, hi = span
@@ -419,18 +454,19 @@ def _chunk_span(
     first_pass: list[tuple[int, WordTiming]],
     at: int,
     count: int,
-    duration: float,
+    end: float,
     missing: set[int],
+    start: float = 0.0,
 ) -> tuple[float, float]:
     """The audio of the chunk of ``count`` words from ``first_pass[at]``: its words with up
     to :data:`CHUNK_MARGIN` each side, never past half the gap to the neighbouring chunk's
     words, and only :data:`MISSING_MARGIN` towards a word that was not placed (its audio is
-    somewhere in that gap)."""
+    somewhere in that gap), never outside ``[start, end]`` (the audio aligned)."""
     (i_first, first), (i_last, last) = first_pass[at], first_pass[at + count - 1]
-    before = first_pass[at - 1][1].end if at > 0 else 0.0
-    after = first_pass[at + count][1].start if at + count < len(first_pass) else duration
-    lo = max(0.0, first.start - CHUNK_MARGIN, (before + first.start) / 2)
-    hi = min(duration, last.end + CHUNK_MARGIN, (last.end + after) / 2)
+    before = first_pass[at - 1][1].end if at > 0 else start
+    after = first_pass[at + count][1].start if at + count < len(first_pass) else end
+    lo = max(start, first.start - CHUNK_MARGIN, (before + first.start) / 2)
+    hi = min(end, last.end + CHUNK_MARGIN, (last.end + after) / 2)
     if i_first - 1 in missing:
         lo = max(lo, first.start - MISSING_MARGIN)
     if i_last + 1 in missing:

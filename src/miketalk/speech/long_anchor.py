@@ -46,6 +46,10 @@ ANCHOR_WORDS = 3
 WINDOW_SECONDS, WINDOW_SLACK = 30.0, 6.0
 #: The heard words are matched to the script this many at a time (:func:`anchors`).
 BAND_WORDS = 60
+#: An anchor whose offset (its first word's place in the script less its place in the heard
+#: words) differs by more than this from both its neighbours', which differ by at most this,
+#: is a phrase heard elsewhere in the script (:func:`_in_line`).
+SPIKE_WORDS = 10
 #: A stretch between anchors with less sound than this (s) a word is widened by a word of
 #: each anchor around it (:func:`_roomy`).
 WORD_SECONDS = 0.12
@@ -198,7 +202,37 @@ def anchors(
         runs = [r for r in blocks if r[2] >= min_run]
         if runs:
             at, since = runs[-1][0] + runs[-1][2], runs[-1][1] + runs[-1][2]
-    return [(a, b, n) for a, b, n in blocks if n >= min_run]
+    return _in_line([(a, b, n) for a, b, n in blocks if n >= min_run])
+
+
+def _in_line(runs: list[tuple[int, int, int]]) -> list[tuple[int, int, int]]:
+    """``runs`` (:func:`anchors`) without those out of line with both neighbours: an
+    anchor whose offset (script word less heard word) differs by more than
+    :data:`SPIKE_WORDS` from both its neighbours', where theirs agree within it.
+
+    A short phrase of a script that repeats its phrases (GRID's "set red with", said some
+    forty times an hour) can match the heard words some fifty words ahead in the script
+    when the right place is misheard: the words between it and the anchor before are then
+    given no sound, and those after it the sound of others. On the hour of GRID clips,
+    three such anchors left 131 of the 7200 words unplaced. The words of an anchor left out
+    are placed between its neighbours like any others.
+    """
+    out = list(runs)
+    k = 1
+    while k < len(out) - 1:
+        (a0, b0, _), (a1, b1, _), (a2, b2, _) = out[k - 1], out[k], out[k + 1]
+        before, here, after = a0 - b0, a1 - b1, a2 - b2
+        if (
+            abs(here - before) > SPIKE_WORDS
+            and abs(here - after) > SPIKE_WORDS
+            and abs(after - before) <= SPIKE_WORDS
+        ):
+            log.debug("anchor at word %d heard as word %d: out of line, left out", a1, b1)
+            del out[k]
+            k = max(1, k - 1)
+        else:
+            k += 1
+    return out
 
 
 def anchored_pass(

@@ -43,7 +43,9 @@ the latter the whole recording's alignment leaves out; ``align_s`` the seconds o
 alignment; ``decision`` the rule's (:func:`miketalk.corpus.script_fit.judge`). Writes
 ``OUT/script_fit.tsv``, ``OUT/script_fit.md`` and ``OUT/unaligned.tsv`` (every word
 left out, with its line and why), and prints the table. ``--halving``: the long aligner
-before anchors (``align_long(..., anchors=False)``), for a paired comparison.
+before anchors (``align_long(..., anchors=False, fill=False)``), for a paired comparison;
+``--no-fill``: the long aligner before its last pass (``align_long(..., fill=False)``:
+:mod:`miketalk.speech.long_fill`).
 """
 
 from __future__ import annotations
@@ -86,6 +88,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--halving",
         action="store_true",
         help="the long aligner before anchors: a piece it cannot place is halved at once",
+    )
+    parser.add_argument(
+        "--no-fill",
+        action="store_true",
+        help="the long aligner before its last pass (the words left out aligned again)",
     )
     return run_bench(parser, argv, _run)
 
@@ -145,8 +152,8 @@ def cases(grid: Path, obama: Path, n: int) -> list[Case]:
     return out
 
 
-def measure(case: Case, anchors: bool = True) -> tuple[dict, list[dict]]:
-    """A case's row of the table and its left-out words (``anchors``: see
+def measure(case: Case, anchors: bool = True, fill: bool = True) -> tuple[dict, list[dict]]:
+    """A case's row of the table and its left-out words (``anchors``, ``fill``: see
     :func:`~miketalk.speech.long_align.align_long`)."""
     from miketalk.corpus.clip_sources import RATE
     from miketalk.corpus.script import Cue, text_words
@@ -168,15 +175,15 @@ def measure(case: Case, anchors: bool = True) -> tuple[dict, list[dict]]:
             for w, t, (a, b) in zip(words, starts[:-1], spans, strict=True)
         ]
     started = time.perf_counter()
-    raw = align_long(samples, RATE, cues, fit_limit=FIT_LIMIT, anchors=anchors)
+    raw = align_long(samples, RATE, cues, fit_limit=FIT_LIMIT, anchors=anchors, fill=fill)
     found = trusted(raw)
     seconds = time.perf_counter() - started
     counts = [len(w) for w in words]
     fit = measure_fit(found, counts, samples, RATE)
     refusal = judge(fit, "the joined clips")
-    forced, checked, missed = _clip_by_clip(sounds, words, found, anchors)
+    forced, checked, missed = _clip_by_clip(sounds, words, found, anchors, fill)
     misfit = sum("badly" in u.why for u in raw.unaligned)
-    before = len(align_long(samples, RATE, cues, anchors=anchors).unaligned)
+    before = len(align_long(samples, RATE, cues, anchors=anchors, fill=fill).unaligned)
     row = {
         "case": case.name,
         "kind": case.kind,
@@ -211,7 +218,7 @@ def measure(case: Case, anchors: bool = True) -> tuple[dict, list[dict]]:
     return row, listed
 
 
-def _clip_by_clip(sounds, words, found, anchors) -> tuple[int | None, int | None, int | None]:
+def _clip_by_clip(sounds, words, found, anchors, fill) -> tuple[int | None, int | None, int | None]:
     """Words placed clip by clip (forced aligner: a line is placed whole or not at all; long
     aligner), and how many of the latter the whole recording's alignment leaves out (None
     when the script has not one line per clip)."""
@@ -231,7 +238,9 @@ def _clip_by_clip(sounds, words, found, anchors) -> tuple[int | None, int | None
             forced += len(align(sound, RATE, line).words)
         except MiketalkError:
             pass
-        alone = align_long(sound, RATE, [Cue(tuple(line))], fit_limit=FIT_LIMIT, anchors=anchors)
+        alone = align_long(
+            sound, RATE, [Cue(tuple(line))], fit_limit=FIT_LIMIT, anchors=anchors, fill=fill
+        )
         checked += len(alone.words)
         missed += sum(first + i in left_out for i, _ in alone.words)
         first += len(line)
@@ -246,7 +255,9 @@ def _run(args: argparse.Namespace) -> str:
     rows, listed = [], []
     for case in cases(args.grid, args.obama, args.limit or 40):
         print(f"{case.name}...", file=sys.stderr, flush=True)
-        row, left_out = measure(case, anchors=not args.halving)
+        row, left_out = measure(
+            case, anchors=not args.halving, fill=not (args.halving or args.no_fill)
+        )
         rows.append(row)
         listed += left_out
     table = pd.DataFrame(rows)
