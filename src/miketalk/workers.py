@@ -59,6 +59,20 @@ def default_workers() -> int:
     return min(2, available_cores())
 
 
+def one_blas_thread() -> contextlib.AbstractContextManager:
+    """Hold the BLAS libraries loaded (numpy's OpenBLAS) to one thread, inside a ``with``.
+
+    miketalk parallelizes with its own workers, so a BLAS library's threads only compete
+    with them for the cores; and OpenBLAS's threads wait for work by spinning. The learned
+    coarticulation's fit (many small products of a tall Jacobian) took 132 s of wall and
+    CPU time with OpenBLAS's two threads while one other process ran on this 2-core
+    machine, and 10.3 s with one.
+    """
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def check_workers(workers: object, *, option: str = "--workers") -> int:
     """``workers`` as an int from 1 to :func:`available_cores`.
 

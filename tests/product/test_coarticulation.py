@@ -304,3 +304,20 @@ def test_weights_step_is_the_least_transport_cost() -> None:
         got = weights_step(list(zip(a, wa, strict=True)), list(zip(b, wb, strict=True)),
                            lambda u, v: 0.0 if u == v else _cost(u, v))  # fmt: skip
         assert got == pytest.approx(want, abs=1e-9)
+
+
+def test_one_blas_thread_holds_blas_to_one_thread_and_the_fit_is_the_same() -> None:
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from miketalk.workers import one_blas_thread
+
+    truth = CoarticulationParams(TRUE_MAGNITUDE, TRUE_RATE)
+    clips = synthetic_clips(truth, n_clips=8, seed=3, noise=0.05)
+    with threadpool_limits(limits=2, user_api="blas"):
+        two = fit(clips, TARGETS, leads=(0.0, 0.04))
+        with one_blas_thread():
+            blas = [i for i in threadpool_info() if i["user_api"] == "blas"]
+            assert blas and all(i["num_threads"] == 1 for i in blas)
+            one = fit(clips, TARGETS, leads=(0.0, 0.04))
+        assert all(i["num_threads"] == 2 for i in threadpool_info() if i["user_api"] == "blas")
+    assert one.magnitude == two.magnitude and one.rate == two.rate and one.lead == two.lead

@@ -72,7 +72,9 @@ def _main(argv: Sequence[str] | None) -> int:
     )
     if args.verbose:
         logging.getLogger("miketalk").setLevel(logging.INFO)
-    with handle_termination(), native_output_logged() as out:
+    from miketalk.workers import one_blas_thread
+
+    with handle_termination(), native_output_logged() as out, one_blas_thread():
         args.out = out
         try:
             return args.func(args)

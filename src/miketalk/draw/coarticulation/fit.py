@@ -24,6 +24,7 @@ from miketalk.errors import MiketalkError
 from miketalk.lipsync.timeline import Keyframe, Timeline
 from miketalk.speech.types import Phone
 from miketalk.visemes import VisemeTable
+from miketalk.workers import one_blas_thread
 
 if TYPE_CHECKING:
     from miketalk.corpus.eigenlips import CorpusEigenlips
@@ -378,7 +379,8 @@ def fit_coarticulation(
     coords = eigenlips.project(grey_mouths(images, box))
     targets = dict(zip(model.visemes, coords, strict=True))
     clips = training_clips(corpus_dir, corpus_eigenlips.coordinates, table=table)
-    params = fit(clips, targets, visemes=model.visemes, **settings)
+    with one_blas_thread():  # its Jacobian's products: threads only spin (workers.py)
+        params = fit(clips, targets, visemes=model.visemes, **settings)
     detrend = float(params.fit["detrend"])
     paper = [
         detrender(len(clip.real), clip.fps, detrend)
