@@ -28,14 +28,15 @@ refuses a script of which too little does:
    script fitting a part of a long video, or a part of a long script saying most of it.
 
 Measured (``python -m miketalk_lab.bench.script_fit``; the table in ``docs/build.md``):
-scripts of other videos keep at most 11 % of their words, explaining at most 10 % of the
+scripts of other videos keep at most 11 % of their words, explaining at most 11 % of the
 speech (the GRID clips two on in name order, which share half the words of each line; other
 GRID clips at most 8 %, the weekly addresses with GRID lines or GRID with their captions
 none); the weekly-address captions cut apart from their eight clips keep 73 % (plain
-transcript) and 65 % (a cue per clip), explaining 72 % and 61 %; GRID lines with extra
-words at their edges 74 % (10 clips) and 76 % (40; 74 % as cues); misheard words 93 and 89 %;
-right scripts 99.6 to 100 %. So 30 % of either sits between the two with a margin of some
-20 points below and 35 above. Before the long aligner's anchors
+transcript, and a cue per clip), explaining 72 %; GRID lines with extra words at their edges
+87 % (10 clips) and 82 % (40; 82 % as cues); misheard words 93 and 92 %; right scripts 100 %
+(the long aligner's last pass, :mod:`miketalk.speech.long_fill`; before it 65 to 76 % for
+cut-apart captions). So 30 % of either sits between the two with a margin of some 20 points
+below and 43 above. Before the long aligner's anchors
 (:mod:`miketalk.speech.long_anchor`), GRID lines with extra words over 40 clips in a plain
 transcript kept 20 % (its first pass failed throughout when most lines hold words that are
 not said) and were refused.
