@@ -228,7 +228,7 @@ def check_files(
     Every flow file of ``visemes`` exists, and is a whole OpenEXR file (its header and
     chunk table, :func:`miketalk.flow.exr.check_flow_file`); every file the manifest's
     ``files`` lists (a model written since checksums were recorded: its viseme images and
-    flow files; since 2026-11-28 also its coarticulation, trained face and background)
+    flow files; since 2026-11-27 also its coarticulation, trained face and background)
     exists, has its size there, and its SHA-256: all of them, not only those a text's
     transitions read (docs/safety.md has the cost). A file read in parts
     (:data:`READ_IN_PARTS`, the trained face's patches) is checked here by its size and
