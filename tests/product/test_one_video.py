@@ -257,15 +257,15 @@ def test_a_chunk_span_is_found_by_position_not_by_its_first_start() -> None:
     """Two chunks whose first words start at the same time (overlapping cues, cut apart by
     a word that was not placed): the second chunk's span starts half way from the first
     chunk's last word, not from the audio's start."""
-    from miketalk.speech.long_align import _chunk_span, _chunks
+    from miketalk.speech.long_chunks import chunk_span, chunks
     from miketalk.speech.word_timings import WordTiming
 
     first_pass = [(0, WordTiming("bin", 1.0, 1.4)), (2, WordTiming("blue", 1.0, 1.8))]
     missing = {1}
-    groups = _chunks(first_pass, missing)
+    groups = chunks(first_pass, missing)
     assert [len(g) for g in groups] == [1, 1]
-    assert _chunk_span(first_pass, 0, 1, 3.0, missing) == pytest.approx((0.5, 1.2))
-    assert _chunk_span(first_pass, 1, 1, 3.0, missing) == pytest.approx((1.2, 2.4))
+    assert chunk_span(first_pass, 0, 1, 3.0, missing) == pytest.approx((0.5, 1.2))
+    assert chunk_span(first_pass, 1, 1, 3.0, missing) == pytest.approx((1.2, 2.4))
 
 
 @pytest.fixture(scope="module")

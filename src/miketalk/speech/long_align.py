@@ -25,8 +25,9 @@ align the pieces between them. Here:
    is squeezed or stretched there: the second pass finds it and leaves its chunk
    out.
 2. **Chunks.** The first pass's words are cut into chunks wherever two
-   neighbours are :data:`CHUNK_PAUSE` apart (a breath between phrases), and at
-   most :data:`CHUNK_SECONDS` long.
+   neighbours are :data:`~miketalk.speech.long_chunks.CHUNK_PAUSE` apart (a breath
+   between phrases), and at most :data:`~miketalk.speech.long_chunks.CHUNK_SECONDS` long
+   (:mod:`miketalk.speech.long_chunks`).
 3. **Second pass.** Each chunk's words are aligned again in the chunk's own
    audio, with a little silence each side (where the aligner is at its best,
    see :mod:`miketalk.speech.align.phones`). A chunk that fails, or whose words
@@ -57,6 +58,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.speech import long_anchor, long_fill, long_trim
 from miketalk.speech.align.phones import SILENCE
+from miketalk.speech.long_chunks import chunk_span, chunks
 from miketalk.speech.long_cuts import coarse_span, pause_near_middle, settle_cut, voiced_share
 from miketalk.speech.types import Phone
 from miketalk.speech.word_timings import WordTiming
@@ -66,14 +68,6 @@ log = logging.getLogger(__name__)
 #: The longest audio the first pass aligns whole (s): longer audio is cut at anchors first,
 #: or halved at a pause (the coarse aligner holds some 19 MB a minute: 15 minutes, 290 MB).
 COARSE_SECONDS = 900.0
-#: A gap between two aligned words at least this long (s) may end a chunk.
-CHUNK_PAUSE = 0.25
-#: The longest chunk of the second pass (s).
-CHUNK_SECONDS = 12.0
-#: Audio kept each side of a chunk's words, at most (s), and half the gap to a neighbour.
-CHUNK_MARGIN = 0.8
-#: Audio kept on the side of a chunk where a word could not be placed (s).
-MISSING_MARGIN = 0.1
 #: A subtitle cue's words are looked for this far (s) outside its span.
 CUE_MARGIN = 0.5
 #: A word of the second pass whose loud frames (its 90th percentile level) are less than
@@ -223,8 +217,8 @@ def _second_passes(
     missing = {u.index for u in unaligned}
     parts: list[long_fill.Part] = []
     at = 0  # the chunks are consecutive runs of the first pass: where this one begins
-    for group in _chunks(first_pass, missing):
-        span = _chunk_span(first_pass, at, len(group), bounds[1], missing, bounds[0])
+    for group in chunks(first_pass, missing):
+        span = chunk_span(first_pass, at, len(group), bounds[1], missing, bounds[0])
         at += len(group)
         parts += _fitting(samples, rate, span, group, words, unaligned, fit_limit)
     return parts
@@ -430,45 +424,3 @@ def _first_pass(
     return _first_pass(samples, rate, lo, cut, indices[:k], words, unaligned, anchored) + (
         _first_pass(samples, rate, cut, hi, indices[k:], words, unaligned, anchored)
     )
-
-
-def _chunks(
-    first_pass: list[tuple[int, WordTiming]], missing: set[int]
-) -> list[list[tuple[int, WordTiming]]]:
-    """The first pass's words in chunks: cut at pauses, at unaligned words, at the length cap."""
-    groups: list[list[tuple[int, WordTiming]]] = []
-    for i, w in first_pass:
-        if groups:
-            j, last = groups[-1][-1]
-            gap = w.start - last.end
-            skipped = any(k in missing for k in range(j + 1, i))
-            long = w.end - groups[-1][0][1].start > CHUNK_SECONDS
-            if gap < CHUNK_PAUSE and not skipped and not long:
-                groups[-1].append((i, w))
-                continue
-        groups.append([(i, w)])
-    return groups
-
-
-def _chunk_span(
-    first_pass: list[tuple[int, WordTiming]],
-    at: int,
-    count: int,
-    end: float,
-    missing: set[int],
-    start: float = 0.0,
-) -> tuple[float, float]:
-    """The audio of the chunk of ``count`` words from ``first_pass[at]``: its words with up
-    to :data:`CHUNK_MARGIN` each side, never past half the gap to the neighbouring chunk's
-    words, and only :data:`MISSING_MARGIN` towards a word that was not placed (its audio is
-    somewhere in that gap), never outside ``[start, end]`` (the audio aligned)."""
-    (i_first, first), (i_last, last) = first_pass[at], first_pass[at + count - 1]
-    before = first_pass[at - 1][1].end if at > 0 else start
-    after = first_pass[at + count][1].start if at + count < len(first_pass) else end
-    lo = max(start, first.start - CHUNK_MARGIN, (before + first.start) / 2)
-    hi = min(end, last.end + CHUNK_MARGIN, (last.end + after) / 2)
-    if i_first - 1 in missing:
-        lo = max(lo, first.start - MISSING_MARGIN)
-    if i_last + 1 in missing:
-        hi = min(hi, last.end + MISSING_MARGIN)
-    return lo, hi
