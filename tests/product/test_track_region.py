@@ -141,8 +141,8 @@ def test_grey_frames_taken_from_the_luma_plane_are_ffmpegs_grey_conversion(
     _yuv_video(video, pix_fmt, codec)
     taken = list(iter_video_frames(video, grey=True))
     key = decode._file_key(video)
-    assert decode._lumas[key] == kind
-    decode._lumas[key] = None  # ffmpeg's own grey conversion
+    assert decode._logged[key].luma == kind
+    decode._logged[key] = decode._logged[key]._replace(luma=None)  # ffmpeg's grey conversion
     converted = list(iter_video_frames(video, grey=True))
     assert len(taken) == len(converted) == 4
     assert all(np.array_equal(a, b) for a, b in zip(taken, converted, strict=True))

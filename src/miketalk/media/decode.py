@@ -56,8 +56,7 @@ from miketalk.console import child_process
 from miketalk.errors import MiketalkError
 from miketalk.media.ffmpeg_log import RATE_RE as _RATE_RE
 from miketalk.media.ffmpeg_log import SIZE_RE as _SIZE_RE
-from miketalk.media.ffmpeg_log import luma_kind as _luma_kind
-from miketalk.media.ffmpeg_log import stated_duration, unreadable, warn_if_early_end
+from miketalk.media.ffmpeg_log import TV_TO_FULL, Logged, unreadable, warn_if_early_end
 from miketalk.media.timing import resample_rate
 
 __all__ = [
@@ -79,16 +78,13 @@ SLACK_FRAMES = 1.5
 
 #: swscale's flags for the colour conversion to RGB, by name. ``accurate`` is every
 #: whole frame's (:func:`read_video`); ``fast`` leaves out the accurate rounding, which
-#: puts swscale on a path 5 to 6 times slower (a 706x648 region of a 1080p frame: 4.0 ms
-#: against 0.7 ms) for RGB values 1.2 levels higher on average (at most 14, on strong
-#: colour edges); ``bitexact`` keeps its output the same on every CPU.
+#: puts swscale on a path 4 times slower (a 706x648 region of a 1080p frame: about 3.4 ms
+#: against 0.9 ms), for RGB 1.1 to 1.3 levels darker on average (up to 29 levels in
+#: places, at strong colour edges); ``bitexact`` keeps its output the same on every CPU.
 COLOUR_CONVERSIONS = {
     "accurate": "bicubic+accurate_rnd+full_chroma_int",
     "fast": "bicubic+full_chroma_int+bitexact",
 }
-#: Limited-range luma (16 to 235) to full range, rounded: swscale's grey conversion
-#: exactly (no value of ``(y - 16) * 255 / 219`` is a tie).
-_TV_TO_FULL = np.clip(np.round((np.arange(256) - 16) * 255 / 219), 0, 255).astype(np.uint8)
 
 
 def read_video(
@@ -143,8 +139,7 @@ def read_video(
     if size is None or not out:
         raise unreadable(path, log_text, decoded=False)
     width, height = int(size[1]), int(size[2])
-    _lumas[_file_key(path)] = _luma_kind(log_text)
-    _durations[_file_key(path)] = stated_duration(log_text)
+    _logged[_file_key(path)] = Logged.of(log_text)
     stated = None
     if rate is not None and int(rate[1]) != 0 and int(rate[2]) != 0:
         stated = Fraction(int(rate[1]), int(rate[2]))
@@ -163,7 +158,7 @@ def read_video(
         )
     decoded = np.frombuffer(out, np.uint8).reshape(-1, height, width, 3).copy()
     if start is None and frames is None:  # the whole video: does it end where it says?
-        warn_if_early_end(path, len(decoded), float(fps), _durations.get(_file_key(path)))
+        warn_if_early_end(path, len(decoded), float(fps), _logged[_file_key(path)].duration)
     return decoded, float(fps)
 
 
@@ -301,8 +296,9 @@ def iter_video_frames(
     frame_bytes = math.prod(shape)
     key = _file_key(path)
     rate = _constant_rates.get(key)
-    luma = _lumas.get(key) if grey else None
-    lut = _TV_TO_FULL if luma == "tv" else None
+    logged = _logged.get(key, Logged(None, None))
+    luma = logged.luma if grey else None
+    lut = TV_TO_FULL if luma == "tv" else None
     args = _video_args(
         path, "error", start, frames, rate, grey=grey, luma_plane=luma is not None,
         region=region, conversion=conversion,
@@ -326,7 +322,7 @@ def iter_video_frames(
             errors.seek(0)
             raise unreadable(path, errors.read().decode("utf-8", "replace"))
     if start is None and frames is None:
-        warn_if_early_end(path, count, rate or fps, _durations.get(key))
+        warn_if_early_end(path, count, rate or fps, logged.duration)
 
 
 def read_media_audio(
@@ -402,11 +398,8 @@ _constant_rates: dict[tuple[str, int, int], Fraction | None] = {}
 _constant_rates_lock = threading.Lock()
 #: Per file: its :func:`video_info`.
 _infos: dict[tuple[str, int, int], tuple[int, int, float]] = {}
-#: Per file: its luma plane's range when its grey frames are that plane (``tv``: to be
-#: mapped by :data:`_TV_TO_FULL`, ``pc``: as it is), None when ffmpeg converts them.
-_lumas: dict[tuple[str, int, int], str | None] = {}
-#: Per file: the seconds it states it lasts (its container's duration; None: not stated).
-_durations: dict[tuple[str, int, int], float | None] = {}
+#: Per file: what its reads logged of it.
+_logged: dict[tuple[str, int, int], Logged] = {}
 
 
 def _file_key(path: Path) -> tuple[str, int, int]:

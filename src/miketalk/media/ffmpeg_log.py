@@ -12,6 +12,9 @@ from __future__ import annotations
 import logging
 import re
 from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
 
 from miketalk.errors import MiketalkError
 
@@ -37,13 +40,31 @@ _NOT_MEDIA = (
 )
 
 #: 8-bit planar YUV formats whose luma plane is taken as it is for grey frames (the
-#: first plane, ``extractplanes=y``), then mapped to full range by
-#: :data:`miketalk.media.decode._TV_TO_FULL` where it is limited: the bytes of ffmpeg's own
-#: grey conversion (``-pix_fmt gray``, accurate rounding), for a third of its cost at 1080p
-#: (1.1 ms a frame).
+#: first plane, ``extractplanes=y``), then mapped to full range by :data:`TV_TO_FULL`
+#: where it is limited: the bytes of ffmpeg's own grey conversion (``-pix_fmt gray``,
+#: accurate rounding), for a third of its cost at 1080p (1.1 ms a frame).
 LUMA_PLANAR = frozenset(
     f"yuv{j}{s}p" for j in ("", "j") for s in ("420", "422", "444", "440", "411", "410")
 )
+
+
+#: Limited-range luma (16 to 235) to full range, rounded: swscale's grey conversion
+#: exactly (no value of ``(y - 16) * 255 / 219`` is a tie).
+TV_TO_FULL = np.clip(np.round((np.arange(256) - 16) * 255 / 219), 0, 255).astype(np.uint8)
+
+
+class Logged(NamedTuple):
+    """What a read's verbose log says of its file, kept per file by :mod:`miketalk.media.decode`."""
+
+    #: How its grey frames are taken (:func:`luma_kind`).
+    luma: str | None
+    #: The seconds it states it lasts (:func:`stated_duration`).
+    duration: float | None
+
+    @classmethod
+    def of(cls, log_text: str) -> Logged:
+        """From ffmpeg's verbose log."""
+        return cls(luma_kind(log_text), stated_duration(log_text))
 
 
 def tail(text: str) -> str:
@@ -118,6 +139,8 @@ __all__ = [
     "LUMA_PLANAR",
     "RATE_RE",
     "SIZE_RE",
+    "TV_TO_FULL",
+    "Logged",
     "luma_kind",
     "stated_duration",
     "tail",

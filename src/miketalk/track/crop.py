@@ -70,7 +70,7 @@ class FaceCropSettings:
     conversion : str
         ffmpeg's YUV-to-RGB conversion of the pixels the crops are drawn from:
         ``"accurate"`` (the whole frames' conversion; a corpus or model that records none
-        was read so), ``"fast"`` (no accurate rounding: 5 to 6 times cheaper, RGB 1.2
+        was read so), ``"fast"`` (no accurate rounding: about 4 times cheaper, RGB 1.1 to 1.3
         levels lower on average, up to 4 in a 1080p face's crop, up to 29 in a 360x288
         one's, where the crop enlarges the face) or ``"auto"``: fast when the frames'
         part the crops see holds at least :data:`AUTO_FAST_PIXELS` times the crop's
