@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from miketalk.errors import MiketalkError
-from miketalk_lab.bench.hard_heldout import pair_models, split_clips, strip_image
+from miketalk_lab.bench.hard_heldout import pair_models, strip_image
+from miketalk_lab.bench.train_test import draw_training, split_clips
 from miketalk_lab.evaluation.paired import paired, target_verdict
 
 
@@ -77,3 +78,40 @@ def test_strip_image_rows_and_columns():
     image = strip_image([a, b], columns=3)
     assert image.shape == (4 + 2 + 4, 3 * 6, 3)
     assert (image[4:6] == 255).all() and (image[6:] == 100).all() and (image[:4] == 0).all()
+
+
+def test_draw_training_is_seeded_and_never_draws_a_test_clip():
+    pool = [f"c{i:02d}" for i in range(20)]
+    test = ["c03", "c11"]
+    one = draw_training(pool, test, 8, 1)
+    assert one == draw_training(list(reversed(pool)), test, 8, 1)  # the pool's order is not used
+    assert len(set(one)) == 8 and not set(one) & set(test)
+    assert draw_training(pool, test, 8, 2) != one  # another draw, other clips
+    with pytest.raises(MiketalkError, match="numbered from 1"):
+        draw_training(pool, test, 8, 0)
+    with pytest.raises(MiketalkError, match="not enough"):
+        draw_training(pool, test, 19, 1)
+
+
+def test_draws_table_averages_over_draws_and_measures_the_spread():
+    from miketalk_lab.bench.hard_draws import draws_table
+
+    def table(plain, hard):
+        rows = []
+        for clip, a, b in zip("pqr", plain, hard, strict=True):
+            for model, r in (("plain", a), ("hard", b)):
+                rows.append({"clip": clip, "model": model, "test": model, "renderer": "morph",
+                             "lip_opening_corr_speech": r})  # fmt: skip
+        return pd.DataFrame(rows)
+
+    out = draws_table({0: table([0.5, 0.6, 0.7], [0.56, 0.66, 0.76]),
+                       1: table([0.6, 0.7, 0.8], [0.60, 0.70, 0.80])})  # fmt: skip
+    by = out.set_index("comparison")
+    assert by.loc["hard - plain, draw 0", "diff_mean"] == pytest.approx(0.06)
+    assert by.loc["hard - plain, draw 0", "verdict"] == "not met"
+    assert by.loc["hard - plain, draw 1", "diff_mean"] == pytest.approx(0.0)
+    mean = by.loc["hard - plain, over draws 0, 1"]
+    assert mean["diff_mean"] == pytest.approx(0.03) and mean["kind"] == "mean"
+    assert by.loc["plain 1 - plain 0", "diff_mean"] == pytest.approx(0.1)
+    assert by.loc["hard 1 - hard 0", "diff_mean"] == pytest.approx(0.04)
+    assert by.loc["plain 1 - plain 0", "verdict"] == ""  # no target on the spread

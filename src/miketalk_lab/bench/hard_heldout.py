@@ -3,7 +3,9 @@
 ``python -m miketalk_lab.bench.hard_heldout --pool DIR --out OUT [--train N] [--test M]
 [--full] [--cross] [--compare-conversion C]`` takes N training and M test clips of GRID's
 s1 (by default the training and held-out clips of ``.bench/config.yaml``'s face s1, in its
-order; beyond them, the pool's other clips in name order), and
+order; beyond them, the pool's other clips in name order; with ``--draw K``, the same test
+clips and N of the pool's others drawn with seed K: :mod:`miketalk_lab.bench.hard_draws`
+measures several draws), and
 
 1. makes each clip's *hard* version (:func:`miketalk_lab.hard_s1.make_hard_clip`: s1 keyed
    onto a textured room, moved by a known smooth similarity, 1280x720; the training
@@ -56,6 +58,7 @@ import pandas as pd
 
 from miketalk.errors import MiketalkError
 from miketalk_lab.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.train_test import draw_training, split_clips
 from miketalk_lab.evaluation.paired import paired, target_verdict
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
@@ -75,28 +78,6 @@ PAIRED_MEASURES = ("lip_opening_corr_speech", "mouth_lmd", "lip_opening_amplitud
 
 #: Each measure's target on the paired difference's mean (absolute), where the issue sets one.
 TARGETS = {"lip_opening_corr_speech": TARGET_R, "mouth_lmd": TARGET_LMD_PX}
-
-
-def split_clips(pool_ids: Sequence[str], train_order: Sequence[str], test_order: Sequence[str],
-                n_train: int, n_test: int) -> tuple[list[str], list[str]]:  # fmt: skip
-    """``n_train`` training and ``n_test`` test clips, never the same clip in both: the test
-    clips ``test_order``'s first ones, then the pool's others (name order) that no training
-    list names; the training clips ``train_order``'s first ones, then the pool's remaining
-    clips in name order. A pool too small is a :class:`MiketalkError`."""
-    pool = sorted(set(pool_ids))
-    known = set(pool)
-    test = [c for c in test_order if c in known][:n_test]
-    spare = [c for c in pool if c not in set(train_order) and c not in set(test)]
-    test += spare[: n_test - len(test)]
-    train = [c for c in train_order if c in known and c not in set(test)][:n_train]
-    rest = [c for c in pool if c not in set(train) and c not in set(test)]
-    train += rest[: n_train - len(train)]
-    if len(train) < n_train or len(test) < n_test:
-        raise MiketalkError(
-            f"the pool has {len(pool)} clips: not enough for {n_train} training and "
-            f"{n_test} test clips"
-        )
-    return train, test
 
 
 def pair_models(table: pd.DataFrame, a: tuple[str, str], b: tuple[str, str], *,
@@ -192,6 +173,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--test", type=int, default=20, help="held-out clips (default 20)")
     parser.add_argument("--config", type=pathlib.Path, default=ROOT / ".bench" / "config.yaml")
     parser.add_argument("--seed", type=int, default=0, help="the room's and motions' seed")
+    parser.add_argument("--draw", type=int, default=0, help="training draw: 0 the config's "
+                        "clips, K > 0 the pool's others shuffled with seed K")  # fmt: skip
     parser.add_argument("--full", action="store_true", help="also build plain with --frame full")
     parser.add_argument("--cross", action="store_true", help="also each model on the other kind")
     parser.add_argument("--workers", type=int, default=None, help="miketalk build --workers")
@@ -204,6 +187,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     def check(args: argparse.Namespace) -> str | None:
         if args.train < 2 or args.test < 2:
             return "--train and --test must be at least 2"
+        if args.draw < 0:
+            return "--draw must be 0 or more"
         return None
 
     return run_bench(parser, argv, _run, check=check)
@@ -275,6 +260,8 @@ def _run(args: argparse.Namespace) -> str:
     work.mkdir(parents=True, exist_ok=True)
     pool_ids = [p.stem for p in (pool / "video").glob("*.mpg")]
     train, test = split_clips(pool_ids, *_orders(args.config), args.train, args.test)
+    if args.draw:
+        train = draw_training(pool_ids, test, args.train, args.draw)
     (out / "clips.json").write_text(json.dumps({"train": train, "test": test}, indent=1) + "\n")
     seconds: dict[str, float] = {}
     tag = f"{len(train)}-{zlib.crc32(','.join(train).encode()):08x}"  # this training set's
@@ -397,7 +384,8 @@ def _summary(args, train, test, results, seconds, table, pairs, skipped, keep) -
     lines = [
         "# Held-out: plain s1 vs hard s1",
         "",
-        f"{len(train)} training clips (first: {', '.join(train[:3])}, ...), {len(test)} "
+        f"{len(train)} training clips (draw {args.draw}; first: {', '.join(train[:3])}, ...), "
+        f"{len(test)} "
         f"held-out clips ({', '.join(test)}); hard: seed {args.seed}, 1280x720.",
         "",
         "Builds: "
