@@ -9,6 +9,9 @@ the person mirrored). Two things it cannot see:
   as well as :data:`SECOND_FACE` means the frame shows the face twice (two copies of
   the person side by side). A second face of *another* person matches the reference less
   and may pass: then the mouth goes on the face that registers, and the other keeps its own.
+  Only for a model in the video's own pixels: a face crop (:mod:`miketalk.track`) shows
+  one face, the tracker's detector having counted them in the whole frame, and there the
+  face's own shifted copy matches the reference at up to 0.62 (the weekly addresses).
 * **a colour the model's mouth cannot match** (:func:`colour_shift`): registration works
   on grey levels, so a video with its colour channels swapped registers as well as the
   original; the mouth's colour offset is then far from anything the model's renders
