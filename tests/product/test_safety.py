@@ -827,6 +827,28 @@ def test_build_checks_workers_and_its_folder_before_any_work(tmp_path: Path) -> 
     assert time.monotonic() - started < 2.0
 
 
+def test_a_refused_run_leaves_no_folder_made_for_its_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``-o`` in folders that do not exist: the check that they can be written in makes
+    them, and before, a dub or build refused after it (a video not found) left them empty
+    behind."""
+    from miketalk import cli
+
+    (tmp_path / "t.txt").write_text("bin blue\n")
+    missing = str(tmp_path / "none.mp4")
+    for args in (["build", missing, "--transcript", str(tmp_path / "t.txt")],
+                 ["dub", missing, "--text", "Bin blue."]):  # fmt: skip
+        out = tmp_path / "new" / "deeper" / ("model" if args[0] == "build" else "o.mp4")
+        assert cli.main([*args, "-o", str(out)]) == 2
+        assert "not found" in capsys.readouterr().err
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["t.txt"]
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    atomic.check_writable(kept / "a" / "b" / "o.mp4")
+    assert kept.is_dir() and list(kept.iterdir()) == []  # a folder there before stays
+
+
 # ---------------------------------------------------------------------------
 # faithful output
 # ---------------------------------------------------------------------------

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import itertools
 import json
 import logging
 import os
@@ -228,7 +229,8 @@ def output_lock(path: str | os.PathLike[str]) -> Iterator[None]:
 def check_writable(path: str | os.PathLike[str]) -> None:
     """Check that a file can be written at ``path``: make (and remove) a temporary file beside it.
 
-    The directory is created if needed.
+    The folders it makes for the check are removed again when still empty (the writers
+    make them when they write): a run refused after the check leaves no empty folder.
 
     Raises
     ------
@@ -236,8 +238,17 @@ def check_writable(path: str | os.PathLike[str]) -> None:
         If the directory cannot be created or written in (read-only, not a
         directory, no space...), naming the file.
     """
+    path = Path(path)
+    made = list(itertools.takewhile(lambda p: not p.exists(), path.absolute().parents))
     with deferred_signals():
-        _temporary(Path(path), ".probe").unlink()
+        try:
+            _temporary(path, ".probe").unlink()
+        finally:
+            for folder in made:  # the deepest first
+                try:
+                    folder.rmdir()
+                except OSError:  # not made here, or no longer empty
+                    break
 
 
 def _commit(renames: list[tuple[Path, Path]]) -> None:
