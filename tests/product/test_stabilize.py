@@ -9,6 +9,7 @@ bundled ffmpeg. Nothing reads /work/shared.
 from __future__ import annotations
 
 import subprocess
+from dataclasses import replace
 from fractions import Fraction
 from pathlib import Path
 
@@ -338,3 +339,21 @@ def test_a_corpus_keeps_a_clip_whose_first_frames_are_grey(tmp_path):
     grey = [row.split("\t") for row in phones if row.startswith("grey\t")]
     assert [(p[2], p[3], p[5]) for p in grey[:2]] == [("pau", "1.200000", "0.000000"),
                                                       ("b", "1.300000", "0.100000")]  # fmt: skip
+
+
+def test_a_part_of_a_video_left_out_is_named_by_the_videos_frames_and_seconds(tmp_path, caplog):
+    """A build from one video cuts it into utterances: one left out was named by its id and
+    its own frame number ("clip u0003.3 skipped: frame 1 is left out"), which a user cannot
+    find in their video; now by the video's frames and seconds."""
+    frames, _ = _clip(12)
+    why = tuple("no frontal face" if k == 5 else None for k in range(12))
+    holed = replace(_decoded(_greyed(frames, [5]), "u0003", span=(280, 12), fps=FPS),
+                    left_out=why)  # fmt: skip
+    clips = {"steady": _decoded(frames, "steady"), "u0003": holed}
+    done = ingest_clips(tmp_path, clips=[c.clip for c in clips.values()],
+                        decode=lambda clip: clips[clip.id])  # fmt: skip
+    assert done["skipped"] == 1
+    named = ("frames 280-291 of u0003.mp4 (28.00-29.20 s): frame 285 is left out (no frontal "
+             "face), in its speech")  # fmt: skip
+    assert (tmp_path / "skipped.tsv").read_text().splitlines()[1:] == [f"u0003\t{named}"]
+    assert f"clip u0003 skipped: {named}" in caplog.text

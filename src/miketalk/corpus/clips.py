@@ -211,7 +211,7 @@ def ingest_clips(
         try:
             item, stabilized = stabilize_clip(item, stabilizer)
         except MiketalkError as err:
-            _skip(skipped, clip.id, str(err))
+            _skip(skipped, clip, str(err))
             continue
         steady, transforms, scores = (
             stabilized.frames,
@@ -370,7 +370,7 @@ def _decoded(
             if (following := next(queue, None)) is not None:
                 pending.append((following, pool.submit(attempt, following)))
             if isinstance(result, ClipError):
-                _skip(skipped, clip.id, str(result))
+                _skip(skipped, clip, str(result))
             else:
                 yield result
     except BaseException:  # a stop, an error, the consumer gone: wait for no clip
@@ -390,8 +390,9 @@ def _shots(decoded: Iterable[DecodedClip], skipped: list[tuple[str, str]]) -> It
     for whole in decoded:
         for part in whole.shots():
             if whole.cuts and len(part.frames) < MIN_SHOT_SECONDS * part.fps:
-                why = f"a shot of {len(part.frames)} frames (less than {MIN_SHOT_SECONDS:g} s)"
-                _skip(skipped, part.clip.id, why)
+                n = len(part.frames)
+                why = f"a shot of {n} frame{'s' * (n != 1)} (less than {MIN_SHOT_SECONDS:g} s)"
+                _skip(skipped, part.clip, why)
             else:
                 yield part
 
@@ -404,10 +405,17 @@ def _where(item: DecodedClip) -> dict:
             "frames": item.clip.span[1], "fps": item.fps}  # fmt: skip
 
 
-def _skip(skipped: list[tuple[str, str]], clip_id: str, why: str) -> None:
-    why = why.removeprefix(f"clip {clip_id}: ")
-    log.warning("clip %s skipped: %s", clip_id, why)
-    skipped.append((clip_id, why.replace("\t", " ").replace("\n", " ")))
+def _skip(skipped: list[tuple[str, str]], clip: Clip, why: str) -> None:
+    """Name a clip left out, in a warning and in ``skipped``: why, and, for a part of a
+    longer video, where it is in the video (its frames and seconds), so that a user finds
+    what was left out of their video."""
+    why = why.removeprefix(f"clip {clip.id}: ")
+    if clip.span is not None and clip.fps:
+        first, n = clip.span
+        why = (f"frames {first}-{first + n - 1} of {clip.media.name} ({first / clip.fps:.2f}-"
+               f"{(first + n) / clip.fps:.2f} s): {why}")  # fmt: skip
+    log.warning("clip %s skipped: %s", clip.id, why)
+    skipped.append((clip.id, why.replace("\t", " ").replace("\n", " ")))
 
 
 def _fit(samples: np.ndarray, n: int) -> np.ndarray:

@@ -92,7 +92,9 @@ def stabilize_clip(decoded: DecodedClip, stabilizer):
             first = int(inside[0])
             if decoded.tracked is not None and not decoded.tracked[first]:
                 why = decoded.left_out[first]
-                raise ClipError(f"{name}: frame {first} is left out ({why}), in its speech")
+                span = decoded.clip.span  # a part of a longer video: the video's frame
+                which = f"its frame {first}" if span is None else f"frame {span[0] + first}"
+                raise ClipError(f"{name}: {which} is left out ({why}), in its speech")
             raise ClipError(f"{stabilizer.failure(first, clip=name)}, in its speech")
         first, stop = kept_frames(failed, speech, n)
         log.warning(
