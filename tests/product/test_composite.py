@@ -225,3 +225,29 @@ def test_the_round_trip_calibration_measures_what_compositing_costs_a_perfect_mo
     linear, cubic = scores["linear"], scores["cubic"]
     assert cubic["roundtrip_sharpness_ratio"] > linear["roundtrip_sharpness_ratio"] + 0.05
     assert cubic["roundtrip_psnr_mouth"] > linear["roundtrip_psnr_mouth"]
+
+
+def test_each_shot_of_a_background_gets_the_mouth_in_its_own_light():
+    """A video cut from one light to another (one weekly address to the next): matched once
+    to the whole video's median light, the mouth was a dark blob in the brighter shot; now
+    each shot's own median."""
+    from miketalk.composite.background import Background, composited
+
+    dim = _texture(seed=11)
+    bright = np.clip(dim.astype(np.int16) + 50, 0, 255).astype(np.uint8)
+    frames = np.stack([dim, dim, bright, bright])
+    identity = np.repeat(np.eye(2, 3)[None], 4, axis=0)
+    middle = np.clip(dim.astype(np.int16) + 25, 0, 255).astype(np.uint8)
+    compositor = Compositor(MOUTH, SIZE)
+    inside = compositor.place(identity[0], SIZE).full_alpha(SIZE) > 0.01
+
+    def dubbed(steady_shots):
+        background = Background(frames, identity, None, 25.0, steady=middle,
+                                shot=np.array([0, 0, 1, 1]), steady_shots=steady_shots)  # fmt: skip
+        return list(composited([dim] * 4, background, compositor, fps=25.0, rest=dim))
+
+    once = dubbed(None)
+    each = dubbed({0: dim, 1: bright})
+    for k in range(4):
+        error = [np.abs(out[k].astype(int) - frames[k])[inside].mean() for out in (each, once)]
+        assert error[0] < 1.0 and error[1] > 10.0  # once: up to 25 levels off in both shots

@@ -80,6 +80,9 @@ class Background:
     shot : numpy.ndarray or None
         (N,) int: which run of tracked frames of one shot each frame belongs to (-1 where
         not shown): the loop turns within one (None: all one shot).
+    steady_shots : dict of int to numpy.ndarray, or None
+        Each shot's own :attr:`steady` (its light): the mouth's colour is matched to the
+        shot it is put into (None: to :attr:`steady` everywhere).
 
     The frames may be an array or a sequence read when needed
     (:mod:`miketalk.media.frame_source`): indexed by a whole number, with ``shape``.
@@ -94,6 +97,7 @@ class Background:
     steady: np.ndarray | None = None
     shown: np.ndarray | None = None
     shot: np.ndarray | None = None
+    steady_shots: dict[int, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -129,22 +133,31 @@ def composited(
     rest : numpy.ndarray, optional
         (H, W, 3) the model's silence image: the mouth's colour is then
         matched once for the whole background (:meth:`Compositor.colour_field`
-        of it and ``background.steady``) instead of frame by frame.
+        of it and ``background.steady``), or once for each of its shots
+        (``background.steady_shots``: a cut to another light), instead of frame by
+        frame.
     """
     offset = None
     if rest is not None and background.steady is not None:
         offset = compositor.colour_field(rest, background.steady)
+    by_shot: dict[int, np.ndarray] = {}
     for k, render in enumerate(renders):
         i = background.index(k, fps)
         if background.shown is not None and not background.shown[i]:
             yield np.array(background.frames[i], np.uint8, copy=True)
             continue
+        here = offset
+        shot = -1 if background.shot is None else int(background.shot[i])
+        if offset is not None and shot in (background.steady_shots or {}):
+            if shot not in by_shot:
+                by_shot[shot] = compositor.colour_field(rest, background.steady_shots[shot])
+            here = by_shot[shot]
         yield compositor(
             background.frames[i],
             render,
             background.transforms[i],
             field=background.field,
-            offset=offset,
+            offset=here,
         )
 
 

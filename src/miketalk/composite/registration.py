@@ -55,12 +55,15 @@ class Registration:
         Frames where the eyes are closed or closing.
     steady : numpy.ndarray
         ``(h, w, 3)`` the median of the frames stabilized onto the reference.
+    steady_shots : dict of int to numpy.ndarray, optional
+        With ``shots``: each shot's own median (its light).
     """
 
     transforms: np.ndarray
     field: np.ndarray | None
     blinks: tuple[int, ...]
     steady: np.ndarray
+    steady_shots: dict[int, np.ndarray] | None = None
 
 
 def register_video(
@@ -74,6 +77,7 @@ def register_video(
     usable: np.ndarray | None = None,
     scaled: str = "",
     refine: bool = False,
+    shots: np.ndarray | None = None,
 ) -> Registration:
     """Register frames of the reference's size to the model's reference, and check them.
 
@@ -102,6 +106,10 @@ def register_video(
         pixels (the identity) instead of being left out; the lower face's correlation with
         the reference is not asked for (the tracker placed the mouth), nor is a second
         copy of the face looked for in the crop (the tracker counted the faces).
+    shots : numpy.ndarray, optional
+        ``(N,)`` int, the shot of each frame (-1: none): each shot's median is also
+        kept (:attr:`Registration.steady_shots`), the light its mouth's colour is
+        matched to.
 
     Raises
     ------
@@ -171,7 +179,14 @@ def register_video(
             "give a frontal video of the same person"
         )
     _check_colour(median, stabilizer, source)
-    return Registration(transforms, field, blinks, median)
+    by_shot = None
+    if shots is not None:  # each shot's own light (the addresses' differ from shot to shot)
+        by_shot = {}
+        for shot in np.unique(shots[shots >= 0]):
+            frames_of = np.flatnonzero(shots == shot)
+            picked = frames_of[_spread(len(frames_of), _SAMPLE)]
+            by_shot[int(shot)] = np.median(steady[picked], axis=0).astype(np.uint8)
+    return Registration(transforms, field, blinks, median, by_shot)
 
 
 def lower_face_correlation(

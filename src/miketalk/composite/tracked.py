@@ -108,9 +108,10 @@ def tracked_background(
             f"face ({'; '.join(str(f) for f in failures[:3])}): give a video of the person "
             "facing the camera"
         )
+    shot = _shots(cropped.track.segments, n)
     found = register_video(
         cropped.crops, fps, stabilizer, source=source, progress=progress, smooth=smooth,
-        usable=cropped.tracked, refine=True,
+        usable=cropped.tracked, refine=True, shots=shot,
     )  # fmt: skip
     to_frame = np.stack([invert_affine(c) for c in cropped.to_crop])
     transforms = np.stack([compose_affine(f, t) for f, t in zip(to_frame, found.transforms,
@@ -118,7 +119,7 @@ def tracked_background(
     video = VideoFrames(path, count=n, fps=fps, start=start or 0.0)
     return Background(
         video, transforms, found.field, fps, found.blinks, source, found.steady,
-        shown=cropped.tracked.copy(), shot=_shots(cropped.track.segments, n),
+        shown=cropped.tracked.copy(), shot=shot, steady_shots=found.steady_shots,
     )  # fmt: skip
 
 
