@@ -132,6 +132,12 @@ def test_the_checks_read_what_a_run_left(tmp_path):
     assert lines == ["miketalk: error: no face"] and not traceback
     lines, traceback = stderr_lines("Traceback (most recent call last):\n  x\nValueError: y\n")
     assert traceback and lines == ["ValueError: y"]
+    still = np.full((60, 80), 100, np.uint8)
+    noisy, mouth = still.copy(), still.copy()
+    noisy[::6, ::5] += 40  # a re-encoding's scattered error
+    noisy[30, :] += 30  # and along a sharp edge
+    mouth[20:40, 30:55] += 30  # a mouth drawn
+    assert changed_pixels(still, noisy) == 0 and changed_pixels(still, mouth) > 300
     (tmp_path / "tmp").mkdir()
     for name in ("dub.mp4", "dub.json", "stderr.txt", ".dub.mp4.part", "tmp/x"):
         (tmp_path / name).write_text("")
