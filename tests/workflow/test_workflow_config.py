@@ -206,17 +206,18 @@ def test_a_video_face_plans_its_utterances_first(tmp_path: Path) -> None:
     assert "results/segments/v.json" in proc.stdout
 
 
-def test_a_face_in_its_face_crop_plans_its_corpus_to_its_held_out_test(tmp_path: Path) -> None:
-    """frame crop: the same rules as in the video's own pixels, but for the held-out dub
-    (the evaluation dubs a model in the video's own pixels only)."""
+def test_a_face_in_its_face_crop_plans_its_corpus_to_its_held_out_dub(tmp_path: Path) -> None:
+    """frame crop: the same rules as in the video's own pixels, the held-out dub included
+    (through the product's dub path), which reads its clips back against the corpus's
+    reference."""
     config = dot_test_config()
     config["faces"]["s1"] |= {"frame": "crop", "crop_size": 192}
     proc = dry_run(tmp_path, config)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     for rule in ("corpus_clips", "visemes_clips", "flows", "model", "utterance", "heldout",
-                 "figure_heldout"):  # fmt: skip
+                 "figure_heldout", "dub_heldout"):  # fmt: skip
         assert f"rule {rule}:" in proc.stdout, rule
-    assert "rule dub_heldout:" not in proc.stdout
+    assert "results/metrics/dub/s1/summary.csv" in proc.stdout
 
 
 @pytest.mark.parametrize(

@@ -232,15 +232,20 @@ def test_a_faces_frame_is_checked_before_any_job(face: str, change: dict, proble
     assert refused(config).startswith(problem)
 
 
-def test_a_crop_face_from_one_video_builds_in_its_crop_and_is_not_dubbed() -> None:
+def test_a_crop_face_from_one_video_builds_in_its_crop_and_is_dubbed() -> None:
     config = with_video_face(dot_test())
     config["faces"]["v"]["frame"] = "crop"
     exp = experiment(config)
     assert exp.corpus_build_settings("v")["crop"]["size"] == 256
     wanted = targets.all_outputs(exp)
     assert paths.at(paths.HELDOUT_SUMMARY, "v") in wanted
-    assert paths.at(paths.DUB_SUMMARY, "v") not in wanted
-    assert paths.at(paths.DUB_SUMMARY, "s1") in wanted  # s1's own pixels: dubbed
+    assert paths.at(paths.DUB_SUMMARY, "v") in wanted  # through the product's dub path
+    assert paths.at(paths.DUB_SUMMARY, "s1") in wanted  # s1's own pixels: dubbed as before
+    dub_inputs = Inputs(exp).crop_dub_inputs
+    assert dub_inputs(SimpleNamespace(face="v")) == {
+        "reference": paths.at(paths.CORPUS_REFERENCE, "v")
+    }
+    assert dub_inputs(SimpleNamespace(face="s1")) == {}  # a full face's inputs as they were
 
 
 # -- checks --------------------------------------------------------------------------------

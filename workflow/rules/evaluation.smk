@@ -62,6 +62,7 @@ rule heldout:
 rule dub_heldout:
     input:
         unpack(inputs.clip_inputs("test")),
+        unpack(inputs.crop_dub_inputs),
         model=rules.model.output[0],
         words=rules.corpus_clips.output.words,
         regions=rules.corpus_clips.output.regions,

@@ -74,8 +74,14 @@ def dub_heldout(
     follow: bool = defaults.BLEND_FOLLOW,
     skin: bool = defaults.BLEND_SKIN,
     interpolation: str = defaults.BLEND_INTERPOLATION,
+    times: dict | None = None,
 ) -> pd.DataFrame:
     """Dub every test clip with its own audio; measure, write videos and ``clips.csv``.
+
+    A model built in a face crop is dubbed through the product's own path, at the clips'
+    resolution, and measured at full resolution and in the corpus's crop pixels
+    (:func:`dub_crop_clips`, :mod:`miketalk_lab.evaluation.dub_crop`); its compositing
+    settings are the product's (the others are refused).
 
     Parameters
     ----------
@@ -115,6 +121,9 @@ def dub_heldout(
         reference's backdrop and clothes (:class:`miketalk.composite.compositor.Compositor`).
     interpolation : {"cubic", "linear"}
         Sampling of the render into the frames (:class:`~miketalk.composite.compositor.Compositor`).
+    times : dict, optional
+        For a face-crop model: filled with each clip's dub time (s, wall), which the tables
+        leave out.
     """
     from miketalk.composite.background_files import (
         model_compositor,
@@ -124,7 +133,6 @@ def dub_heldout(
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
     from miketalk.lipsync.timeline import plan
-    from miketalk.media.atomic import write_text_atomic
     from miketalk.media.video import write_mp4
     from miketalk.model.face import Model
     from miketalk.mouth import mouth_region
@@ -136,15 +144,21 @@ def dub_heldout(
 
     if renderer not in DUB_RENDERERS:
         raise MiketalkError(f"cannot dub with {renderer!r} (known: {', '.join(DUB_RENDERERS)})")
-    if model_crop(model_dir) is not None:
-        raise MiketalkError(
-            f"{model_dir} works in a face crop: the held-out dub composites into the clips "
-            "frame by frame, for a model in the video's own pixels only"
-        )
-    box = mouth_region(corpus_dir)
     if corpus_eigenlips is None:
         corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
     eigenlips = corpus_eigenlips.eigenlips
+    out = Path(out_dir)
+    if model_crop(model_dir) is not None:
+        _check_product_settings(colour=colour, blend=blend, method=method, smooth=smooth,
+                                follow=follow, skin=skin, interpolation=interpolation)  # fmt: skip
+        rows = dub_crop_clips(
+            model_dir=model_dir, corpus_dir=corpus_dir, clips=clips, out_dir=out,
+            renderer=renderer, eigenlips=eigenlips, morph=morph, strip_png=strip_png,
+            draw_strip=draw_strip, times=times,
+        )  # fmt: skip
+        return _write_tables(rows, renderer, clips_csv or out / "clips.csv",
+                             summary_csv or out / "summary.csv")  # fmt: skip
+    box = mouth_region(corpus_dir)
     stabilizer = model_stabilizer(model_dir)
     model = Model(model_dir, morph_options=morph)
     compositor = model_compositor(
@@ -152,7 +166,6 @@ def dub_heldout(
         interpolation=interpolation, **(blend or {}),
     )  # fmt: skip
     landmarks = face_landmarks()
-    out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for clip in clips:
@@ -198,17 +211,162 @@ def dub_heldout(
             "%s",
             json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}),
         )
+    return _write_tables(rows, renderer, clips_csv or out / "clips.csv",
+                         summary_csv or out / "summary.csv")  # fmt: skip
+
+
+def _write_tables(rows: list[dict], renderer: str, clips_csv, summary_csv) -> pd.DataFrame:
+    """``clips.csv`` (a row per clip) and ``summary.csv`` (each measure's mean and sd)."""
+    from miketalk.media.atomic import write_text_atomic
+
     table = pd.DataFrame(rows)
-    write_text_atomic(
-        clips_csv or out / "clips.csv", table.to_csv(index=False, float_format="%.5f")
-    )
+    write_text_atomic(clips_csv, table.to_csv(index=False, float_format="%.5f"))
     numbers = table.drop(columns=["clip"]).select_dtypes("number")
     summary = pd.concat([numbers.mean().add_suffix("_mean"), numbers.std(ddof=1).add_suffix("_sd")])
     summary = summary.to_frame().T.assign(clips=len(table), renderer=renderer)
-    write_text_atomic(
-        summary_csv or out / "summary.csv", summary.to_csv(index=False, float_format="%.4f")
-    )
+    write_text_atomic(summary_csv, summary.to_csv(index=False, float_format="%.4f"))
     return table
+
+
+def _check_product_settings(**given) -> None:
+    """A crop model is dubbed as ``miketalk dub`` dubs: the compositing's settings are the
+    product's (:mod:`miketalk.defaults`), and another is refused in one line."""
+    product = {
+        "colour": "clip",
+        "blend": None,
+        "method": "feather",
+        "smooth": defaults.BACKGROUND_SMOOTH,
+        "follow": defaults.BLEND_FOLLOW,
+        "skin": defaults.BLEND_SKIN,
+        "interpolation": defaults.BLEND_INTERPOLATION,
+    }
+    changed = [f"{k}={v!r}" for k, v in given.items() if v != product[k]]
+    if changed:
+        raise MiketalkError(
+            f"a face-crop model is dubbed as `miketalk dub` dubs, with its compositing: "
+            f"not {', '.join(changed)}"
+        )
+
+
+def dub_crop_clips(
+    *,
+    model_dir: str | Path,
+    corpus_dir: str | Path,
+    clips: list,
+    out_dir: str | Path,
+    renderer: str,
+    eigenlips,
+    morph: dict | None = None,
+    strip_png: str | Path | None = None,
+    draw_strip=None,
+    times: dict | None = None,
+) -> list[dict]:
+    """Dub every test clip of a face-crop model through the product and measure it.
+
+    Parameters
+    ----------
+    model_dir, corpus_dir : path
+        The model (built in a face crop) and its corpus (the crop, reference, mouth box).
+    clips : list of Clip
+        The test clips.
+    out_dir : path
+        ``<clip>.mp4``: the clip's frames | the dubbed ones, at the clip's resolution, with
+        its sound.
+    renderer : str
+        How the mouth is drawn (:data:`~miketalk_lab.evaluation.dub_crop.LIPSYNC_OF`).
+    eigenlips : Eigenlips
+        The corpus's.
+    morph : dict, optional
+        The face's morph settings.
+    strip_png, draw_strip : optional
+        The first clip's strip (real above dubbed, whole and the mouth):
+        ``draw_strip(frames, split=2, mouth=(x, y, w, h), scale=s)``.
+    times : dict, optional
+        Filled with each clip's dub time, seconds (wall; kept out of the tables, whose bytes
+        the same inputs repeat).
+
+    Returns
+    -------
+    list of dict
+        One row per clip: ``clip``, ``renderer``, ``frames`` (dubbed), ``compared`` (frames
+        read back in both), ``untracked`` (frames the product left without a new mouth),
+        :func:`~miketalk_lab.evaluation.dub_crop.paste_measures`, ``dub_*`` and ``render_*``
+        (:func:`~miketalk_lab.evaluation.dub_crop.read_back`'s frames
+        against the real ones) and ``amplitude_kept`` (the dub's lip-opening amplitude over
+        the render's).
+    """
+    from miketalk.corpus.clips import corpus_decoder, corpus_stabilizer
+    from miketalk.media.images import write_png
+    from miketalk.media.video import write_mp4
+    from miketalk.model.face import Model
+    from miketalk.mouth import mouth_region
+    from miketalk.speech.acoustic import RATE
+    from miketalk.visemes import default_table
+    from miketalk_lab.evaluation.dub_crop import (
+        dub_through_product,
+        lipsync_of,
+        mouth_span,
+        paste_measures,
+        read_back,
+        side_by_side_frames,
+        work_folder,
+    )
+    from miketalk_lab.evaluation.heldout import MAX_LAG, compare
+    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
+    from miketalk_lab.evaluation.landmarks import face_landmarks
+
+    box = mouth_region(corpus_dir)
+    decode, stabilizer = corpus_decoder(corpus_dir), corpus_stabilizer(corpus_dir)
+    lipsync = lipsync_of(renderer, model_dir)
+    model = Model(model_dir, morph_options=morph)
+    landmarks = face_landmarks()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for clip in clips:
+        with work_folder() as work:
+            dub = dub_through_product(clip, model=model, lipsync=lipsync, work=Path(work))
+            log.info("%s: dubbed through the product in %.2f s", clip.id, dub.seconds)
+            if times is not None:
+                times[clip.id] = dub.seconds
+            row = {"clip": clip.id, "renderer": renderer, "frames": len(dub.frames)}
+            row["untracked"] = sum(b is None for b in dub.boxes)
+            row |= paste_measures(dub)
+            real, dubbed, rendered, speech = read_back(
+                clip, dub, decode=decode, stabilizer=stabilizer, table=default_table()
+            )
+        row["compared"] = len(real)
+        marks = ClipLandmarks(landmarks, real)
+        for name, frames in (("dub", dubbed), ("render", rendered)):
+            scores = compare(real, frames, mouth_box=box, eigenlips=eigenlips, speech=speech)
+            _, measures = landmark_scores(marks.real, marks.of(frames), speech=speech,
+                                          max_lag=MAX_LAG)  # fmt: skip
+            row |= {f"{name}_{k}": v for k, v in (scores.summary | measures).items()
+                    if k != "frames"}  # fmt: skip
+        row["amplitude_kept"] = (
+            row["dub_lip_opening_amplitude_speech"] / row["render_lip_opening_amplitude_speech"]
+        )
+        rows.append(row)
+        sound = _clip_sound(clip)
+        write_mp4(out / f"{clip.id}.mp4", side_by_side_frames(dub), fps=dub.fps,
+                  n_frames=len(dub.frames), audio=sound, rate=RATE)  # fmt: skip
+        if strip_png is not None and draw_strip is not None and len(rows) == 1:
+            first = np.concatenate([dub.source[:40], dub.frames[:40]], axis=2)
+            scale = min(1.0, 256 / dub.frames.shape[2])  # whole frames about 256 px wide
+            write_png(strip_png, draw_strip(first, split=2, mouth=mouth_span(dub, 40),
+                                            scale=scale))  # fmt: skip
+    return rows
+
+
+def _clip_sound(clip) -> np.ndarray:
+    """The clip's sound (a clip cut from one video: its part), mono at the aligner's rate."""
+    from miketalk.media.decode import read_media_audio
+    from miketalk.speech.acoustic import RATE
+
+    if clip.span is None:
+        return read_media_audio(clip.media, rate=RATE)
+    return read_media_audio(clip.media, rate=RATE, start=clip.start,
+                            duration=clip.span[1] / clip.fps)  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -247,6 +405,7 @@ def main(argv: list[str] | None = None) -> int:
         help="how the render is sampled into the frames (default %(default)s)",
     )  # fmt: skip
     parser.add_argument("--clips", nargs="*", help="test clip ids (default: the face's test)")
+    parser.add_argument("--times", help="a TSV of each clip's dub time (a face-crop model's)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     face = yaml.safe_load(Path(args.config).read_text())["faces"][args.face]
@@ -258,13 +417,18 @@ def main(argv: list[str] | None = None) -> int:
         timings=corpus.get("timings"),
     )  # fmt: skip
     names = ("half_width", "above", "below", "chin_width", "feather")
+    times: dict[str, float] = {}
     dub_heldout(
         model_dir=args.model, corpus_dir=args.corpus, clips=clips, out_dir=args.out,
         renderer=args.renderer, morph=face.get("morph"), colour=args.colour,
         blend=dict(zip(names, args.blend, strict=True)) if args.blend else None,
         method=args.method, smooth=args.smooth, follow=not args.no_follow,
-        skin=not args.no_skin, interpolation=args.interpolation,
+        skin=not args.no_skin, interpolation=args.interpolation, times=times,
     )  # fmt: skip
+    if args.times:
+        Path(args.times).write_text(
+            "clip\tseconds\n" + "".join(f"{c}\t{t:.2f}\n" for c, t in times.items()), "utf-8"
+        )
     return 0
 
 

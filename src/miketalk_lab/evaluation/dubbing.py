@@ -56,6 +56,7 @@ __all__ = [
     "psnr_frames",
     "roundtrip_measures",
     "seam_ratio",
+    "seam_sums",
 ]
 
 
@@ -130,13 +131,20 @@ def _gradient(frame: np.ndarray) -> np.ndarray:
     return np.sqrt(gx * gx + gy * gy)
 
 
+def seam_sums(dubbed: np.ndarray, real: np.ndarray, alpha: np.ndarray) -> tuple[float, float]:
+    """One frame's summed gradient magnitude on the blend border (``alpha`` between 0.25 and
+    0.75), dubbed and real: :func:`seam_ratio`'s numerator and denominator, frame by frame."""
+    border = (alpha > 0.25) & (alpha < 0.75)
+    return float(_gradient(dubbed)[border].sum()), float(_gradient(real)[border].sum())
+
+
 def seam_ratio(dubbed: np.ndarray, real: np.ndarray, alphas: np.ndarray) -> float:
     """Mean gradient magnitude on the blend border, dubbed over real (see the module docstring)."""
     num = den = 0.0
     for d, r, a in zip(dubbed, real, alphas, strict=True):
-        border = (a > 0.25) & (a < 0.75)
-        num += float(_gradient(d)[border].sum())
-        den += float(_gradient(r)[border].sum())
+        n, m = seam_sums(d, r, a)
+        num += n
+        den += m
     return num / den if den > 0 else float("nan")
 
 

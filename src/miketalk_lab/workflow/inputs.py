@@ -112,6 +112,14 @@ class Inputs:
             files["segments"] = paths.at(paths.SEGMENTS, face)
         return files
 
+    def crop_dub_inputs(self, wildcards: Wildcards) -> dict:
+        """A face crop's held-out dub reads its test clips back registered to the corpus's
+        reference (:func:`~miketalk.corpus.clips.corpus_stabilizer`); a face in its video's
+        own pixels registers to its model's, and its rule's inputs stay as they were."""
+        if self.experiment.frame_settings(wildcards.face).crop is None:
+            return {}
+        return {"reference": paths.at(paths.CORPUS_REFERENCE, wildcards.face)}
+
     def clip_chain_first(self, wildcards: Wildcards) -> int:
         """A job's priority: :data:`CLIP_CHAIN` for a face from clips, else 0."""
         return CLIP_CHAIN if wildcards.face in self.experiment.clip_faces else 0

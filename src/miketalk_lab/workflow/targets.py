@@ -11,8 +11,8 @@ from miketalk_lab.workflow.vocabulary import DIRECT, STRATEGY_NAMES
 
 def heldout_tables(experiment: Experiment) -> list[str]:
     """The held-out summary and figures of every configured face with test clips, and of its
-    training-clips sweep; the held-out dub of a face in its video's own pixels only (a face
-    crop's model is not yet dubbed into the clips by the evaluation).
+    training-clips sweep, and the held-out dub (a face crop's through the product's own dub
+    path, :mod:`miketalk_lab.evaluation.dub_crop`).
 
     Parameters
     ----------
@@ -37,10 +37,7 @@ def heldout_tables(experiment: Experiment) -> list[str]:
                 paths.HELDOUT_STRIP_FIGURE,
             )
         ]
-        if experiment.frame_settings(face).crop is None:
-            out += [
-                paths.at(pattern, face) for pattern in (paths.DUB_SUMMARY, paths.DUB_STRIP_FIGURE)
-            ]
+        out += [paths.at(pattern, face) for pattern in (paths.DUB_SUMMARY, paths.DUB_STRIP_FIGURE)]
         if experiment.sweep_of(face):
             out += [
                 paths.at(paths.TRAINING_CLIPS_TABLE, face),
