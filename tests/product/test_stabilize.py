@@ -8,6 +8,7 @@ bundled ffmpeg. Nothing reads /work/shared.
 
 from __future__ import annotations
 
+import json
 import subprocess
 from dataclasses import replace
 from fractions import Fraction
@@ -357,3 +358,66 @@ def test_a_part_of_a_video_left_out_is_named_by_the_videos_frames_and_seconds(tm
              "face), in its speech")  # fmt: skip
     assert (tmp_path / "skipped.tsv").read_text().splitlines()[1:] == [f"u0003\t{named}"]
     assert f"clip u0003 skipped: {named}" in caplog.text
+
+
+def _spoken(frames: np.ndarray, left_out: dict[int, str], **clip) -> DecodedClip:
+    """4 s at 10 fps: "bin blue" (0.3-1.6 s), "at" (1.8-2.2), "f" (2.2-2.6), "two" (2.6-3.4),
+    the frames ``left_out`` flagged by the tracker."""
+    phones = (
+        Phone("pau", 0.0, 0.3), Phone("b", 0.3, 0.5), Phone("ih", 0.5, 0.7),
+        Phone("n", 0.7, 0.9), Phone("b", 0.9, 1.1), Phone("l", 1.1, 1.3), Phone("uw", 1.3, 1.6),
+        Phone("pau", 1.6, 1.8), Phone("ae", 1.8, 2.0), Phone("t", 2.0, 2.2), Phone("eh", 2.2, 2.4),
+        Phone("f", 2.4, 2.6), Phone("t", 2.6, 2.9), Phone("uw", 2.9, 3.4), Phone("pau", 3.4, 4.0),
+    )  # fmt: skip
+    words = tuple(WordTiming(w, a, b) for w, a, b in [
+        ("bin", 0.3, 0.9), ("blue", 0.9, 1.6), ("at", 1.8, 2.2), ("f", 2.2, 2.6), ("two", 2.6, 3.4),
+    ])  # fmt: skip
+    samples = (np.arange(4 * RATE) % 251).astype(np.int16)
+    return DecodedClip(
+        Clip("u0003", Path("u0003.mp4"), "bin blue at f two", **clip), frames, FPS, samples,
+        phones, words, tuple(left_out.get(k) for k in range(len(frames))),
+    )  # fmt: skip
+
+
+def test_an_utterance_keeps_the_words_on_either_side_of_frames_left_out(tmp_path, caplog):
+    """Frames the tracker left out in an utterance's speech (the head turned away, a second
+    face) cost the whole utterance, 4.5 s of speech for 1.3 s of frames; now it is cut at
+    its words: the words whose frames are tracked are kept, those over frames left out
+    dropped and named by the video's frames and seconds, and a piece left too short too."""
+    frames = np.concatenate([_clip(12)[0]] * 4)[:40]
+    left_out = {19: "no frontal face", 20: "several faces", 21: "several faces",
+                27: "no frontal face"}  # fmt: skip
+    clips = {"u0003": _spoken(frames, left_out, span=(280, 40), fps=FPS)}
+    done = ingest_clips(tmp_path, clips=[c.clip for c in clips.values()],
+                        decode=lambda clip: clips[clip.id])  # fmt: skip
+    table = (tmp_path / "clips.tsv").read_text().splitlines()[1:]
+    assert [row.split("\t")[:3] for row in table] == [["u0003.1", "0", "18"]]
+    assert table[0].split("\t")[5] == "bin blue"  # its own words
+    words = json.loads((tmp_path / "words.json").read_text())["words"]
+    assert [w["word"] for w in words] == ["bin", "blue"]
+    skipped = (tmp_path / "skipped.tsv").read_text().splitlines()[1:]
+    assert skipped == [
+        "u0003.2\tframes 298-301 of u0003.mp4 (29.80-30.20 s): 1 word over frames left out "
+        "(frame 299: no frontal face; frames 300-301: several faces): 'at'",
+        "u0003.3\tframes 302-305 of u0003.mp4 (30.20-30.60 s): 1 word between frames left "
+        "out, 4 frames (less than 0.6 s): 'f'",
+        "u0003.4\tframes 306-313 of u0003.mp4 (30.60-31.40 s): 1 word over frames left out "
+        "(frame 307: no frontal face): 'two'",
+    ]
+    assert done == {**done, "clips": 1, "frames": 18, "skipped": 3}
+    assert "clip u0003.2 skipped: frames 298-301 of u0003.mp4 (29.80-30.20 s)" in caplog.text
+    # the words after the frames left out are kept when long enough: a piece of their own
+    clips = {"u0003": _spoken(frames, {k: left_out[k] for k in (19, 20, 21)}, span=(280, 40),
+                              fps=FPS)}  # fmt: skip
+    ingest_clips(tmp_path, clips=[c.clip for c in clips.values()],
+                 decode=lambda clip: clips[clip.id])  # fmt: skip
+    table = (tmp_path / "clips.tsv").read_text().splitlines()[1:]
+    assert [row.split("\t")[:3] for row in table] == [["u0003.1", "0", "18"],
+                                                      ["u0003.3", "18", "18"]]  # fmt: skip
+    words = json.loads((tmp_path / "words.json").read_text())["words"]
+    assert [(w["word"], w["clip"], round(w["start"], 6)) for w in words] == [
+        ("bin", "u0003.1", 0.3), ("blue", "u0003.1", 0.9), ("f", "u0003.3", 1.8),
+        ("two", "u0003.3", 2.2),
+    ]  # fmt: skip
+    phones = [r.split("\t") for r in (tmp_path / "phones.tsv").read_text().splitlines()[1:]]
+    assert [p[2] for p in phones if p[0] == "u0003.3"] == ["eh", "f", "t", "uw", "pau"]

@@ -385,16 +385,22 @@ MIN_SHOT_SECONDS = 0.25
 
 
 def _shots(decoded: Iterable[DecodedClip], skipped: list[tuple[str, str]]) -> Iterable[DecodedClip]:
-    """Each clip cut at its shot changes (:meth:`DecodedClip.shots`), the too short parts
-    left out and named."""
+    """Each clip cut at its shot changes (:meth:`DecodedClip.shots`) and at the frames left
+    out in its speech (:func:`~miketalk.corpus.pieces.speech_pieces`), the parts too short
+    or dropped left out and named."""
+    from miketalk.corpus.pieces import speech_pieces
+
     for whole in decoded:
         for part in whole.shots():
             if whole.cuts and len(part.frames) < MIN_SHOT_SECONDS * part.fps:
                 n = len(part.frames)
                 why = f"a shot of {n} frame{'s' * (n != 1)} (less than {MIN_SHOT_SECONDS:g} s)"
                 _skip(skipped, part.clip, why)
-            else:
-                yield part
+                continue
+            kept, dropped = speech_pieces(part)
+            for clip, why in dropped:
+                _skip(skipped, clip, why)
+            yield from kept
 
 
 def _where(item: DecodedClip) -> dict:

@@ -9,7 +9,10 @@ first spoken phone and after its last one that do not register are left out,
 with everything on their side of them, and the sound, phones and words are cut
 to match (:meth:`~miketalk.corpus.clip_sources.DecodedClip.cut`). A frame in
 the speech that does not register still costs the clip: the speech is what the
-corpus is for, and a hole in it would tear the timing.
+corpus is for, and a hole in it would tear the timing. (A frame the face tracker left out
+in the speech has already cut the utterance at its words, :mod:`miketalk.corpus.pieces`:
+what still reaches here is an utterance of which no piece is kept, or a frame the
+registration refuses.)
 """
 
 from __future__ import annotations
