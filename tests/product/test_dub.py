@@ -337,3 +337,34 @@ def test_smoothing_in_time_is_scipys_gaussian_filter():
         t = np.random.default_rng(n).normal(size=(n, 2, 3))
         expected = gaussian_filter1d(t, 1.0, axis=0, mode="nearest")
         assert np.allclose(smooth_in_time(t, 1.0), expected, atol=1e-12)
+
+
+def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path, monkeypatch):
+    """A dub of a video with no frontal face anywhere (a profile, the picture turned on its
+    side) tracked all its frames before refusing (37 s for 394 720p frames, where build
+    looks at 7): now a first look at 7 frames spread over it refuses with build's line, and
+    a video that shows the face in some frames only is tracked as before."""
+    from miketalk.composite import background_files, tracked
+    from miketalk.track import detect
+    from miketalk.track.crop import FaceCropSettings
+
+    monkeypatch.setattr(background_files, "model_stabilizer", lambda model: None)
+    monkeypatch.setattr(background_files, "model_crop", lambda model: FaceCropSettings())
+    monkeypatch.setattr(tracked, "tracked_background", lambda video, *a, **k: ("tracked", video))
+    looked, real = [], detect.detect_faces
+    monkeypatch.setattr(
+        detect, "detect_faces", lambda image, **k: looked.append(1) or real(image, **k)
+    )
+    nobody = _write(tmp_path / "nobody.mkv", _clip(30)[0])  # the synthetic head: no dlib face
+    with pytest.raises(MiketalkError) as refused:
+        background_files.video_background(tmp_path, nobody)
+    assert str(refused.value) == (
+        f"no face found in {nobody} (7 of 7 frames looked at show none): it needs one "
+        "person's frontal face"
+    )
+    assert len(looked) <= 14  # 7 frames, at the tracker's two scales at most
+    grid = Path(__file__).parents[2] / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
+    some, _ = read_video(grid, frames=40)
+    some[:28] = 128  # his face in the last 12 frames only
+    path = _write(tmp_path / "some.mkv", some)
+    assert background_files.video_background(tmp_path, path) == ("tracked", path)

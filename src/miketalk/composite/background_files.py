@@ -374,13 +374,16 @@ def video_background(
     ------
     MiketalkError
         A model not built from a person, or a video that cannot be read, is shorter
-        than a second, or does not show the model's person.
+        than a second, or does not show the model's person (refused before it is tracked
+        when a first look at a few frames finds no face, :mod:`miketalk.track.first_look`).
     """
     stabilizer = model_stabilizer(model_dir)
     crop = model_crop(model_dir)
     if crop is not None:
         from miketalk.composite.tracked import tracked_background
+        from miketalk.track.first_look import first_look
 
+        first_look(video, source=str(video))  # no face anywhere: said before tracking it all
         return tracked_background(video, stabilizer, crop, source=str(video), progress=progress)
     frames, fps = check_video(video)
     return background_from_video(frames, fps, stabilizer, source=str(video), progress=progress)

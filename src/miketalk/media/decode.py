@@ -65,6 +65,7 @@ __all__ = [
     "iter_video_frames",
     "read_media_audio",
     "read_video",
+    "stated_seconds",
     "video_info",
 ]
 
@@ -236,6 +237,13 @@ def video_info(path: str | os.PathLike[str]) -> tuple[int, int, float]:
         if key:
             _infos[key] = info
     return info
+
+
+def stated_seconds(path: str | os.PathLike[str]) -> float | None:
+    """The seconds a video's container states it lasts (None: it does not say)."""
+    video_info(path)  # its first frame read once, and what ffmpeg's log said of it kept
+    logged = _logged.get(_file_key(Path(path)))
+    return logged.duration if logged is not None else None
 
 
 def iter_video_frames(

@@ -39,15 +39,19 @@ def check_one_face(frames: Sequence[np.ndarray], *, source: str) -> None:
     counts = [len(detector(np.ascontiguousarray(f), 1)) for f in frames]
     majority = len(counts) // 2 + 1
     if sum(c == 0 for c in counts) >= majority:
-        raise MiketalkError(
-            f"no face found in {source} ({sum(c == 0 for c in counts)} of {len(counts)} frames "
-            "looked at show none): it needs one person's frontal face"
-        )
+        raise MiketalkError(no_face_line(source, sum(c == 0 for c in counts), len(counts)))
     if sum(c > 1 for c in counts) >= majority:
         raise MiketalkError(
             f"several faces in {source} (up to {max(counts)} in one frame): it needs one "
             "person's face alone in the picture; crop the video to that person"
         )
+
+
+def no_face_line(source: str, none: int, looked: int) -> str:
+    """The line that refuses a video without a face: ``none`` of the ``looked`` frames
+    show one."""
+    return (f"no face found in {source} ({none} of {looked} frames looked at show none): it "
+            "needs one person's frontal face")  # fmt: skip
 
 
 def _detector():
