@@ -8,6 +8,7 @@ The rule end to end, on a video joined from GRID clips: ``tests/product/test_one
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,7 +26,13 @@ from miketalk.corpus.script_fit import (
 )
 from miketalk.errors import MiketalkError
 from miketalk.speech.long_align import LongAlignment, Unaligned
-from miketalk.speech.long_trim import misfit_split, trim_edges
+from miketalk.speech.long_trim import (
+    edge_off,
+    keep_edges,
+    misfit_split,
+    squeezed_edges,
+    trim_edges,
+)
 from miketalk.speech.types import Phone
 from miketalk.speech.word_timings import WordTiming
 
@@ -164,3 +171,87 @@ def test_trim_edges_drops_the_fewest_words(monkeypatch: pytest.MonkeyPatch) -> N
     assert trim_edges(sound, 16000, (0.0, 1.0), ["a", "b", "x", "d", "e"], place) is None
     a, b, spans = trim_edges(sound, 16000, (0.0, 1.0), ["b", "c", "d", "b"], place)
     assert (a, b, [w.word for w in spans]) == (1, 0, ["c", "d", "b"])
+
+
+def test_keep_edges_keeps_the_most_words_at_the_edges(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A piece between two runs placed, too short to halve: the last word of one line
+    ("for", said before the cut) and the first of the next ("we", said after it), with the
+    words between not said; at most one word kept at each edge; of two ways with as many,
+    the one the fine aligner fits better; none when no edge word places."""
+    from miketalk.speech.align import phones
+
+    said = {"for", "we"}
+
+    def place(kept):
+        if not set(kept) <= said:
+            raise MiketalkError("the coarse pass could not place every word")
+        return [WordTiming(w, 0.0, 0.1) for w in kept]
+
+    class Fit:  # the fine aligner's fit: better when the words start with "we"
+        def __init__(self, words):
+            self.score_per_frame = -10.0 if words[0] == "we" else -12.0
+
+    monkeypatch.setattr(phones, "align", lambda part, rate, words: Fit(words))
+    sound = np.zeros(16000, np.int16)
+    piece = ["for", "continues", "and", "more", "we"]
+    a, b, spans = keep_edges(sound, 16000, (0.0, 1.0), piece, place)
+    assert (a, b, [w.word for w in spans]) == (1, 1, ["for", "we"])
+    a, b, spans = keep_edges(sound, 16000, (0.0, 1.0), ["x", "y", "we", "we"], place)
+    assert (a, b, [w.word for w in spans]) == (0, 1, ["we"])  # one word at each edge at most
+    a, b, spans = keep_edges(sound, 16000, (0.0, 1.0), ["for", "x", "y", "z"], place)
+    assert (a, b, [w.word for w in spans]) == (1, 0, ["for"])
+    assert keep_edges(sound, 16000, (0.0, 1.0), ["x", "for", "we", "y"], place) is None
+    assert keep_edges(sound, 16000, (0.0, 1.0), ["for"], place) is None  # not all kept
+
+
+def test_edge_off_drops_the_edge_word_without_which_the_rest_fit() -> None:
+    """The last word off, or the first, whichever fits better at the limit or above; none
+    when neither fits or the chunk is under three words."""
+
+    def scorer(scores):
+        def score(a, b):
+            if scores[(a, b)] is None:
+                raise MiketalkError("cannot align")
+            return scores[(a, b)]
+
+        return score
+
+    assert edge_off(5, scorer({(0, 1): -20.0, (1, 0): -22.0}), -24.0) == (0, 1)
+    assert edge_off(5, scorer({(0, 1): None, (1, 0): -23.0}), -24.0) == (1, 0)
+    assert edge_off(5, scorer({(0, 1): -25.0, (1, 0): -30.0}), -24.0) is None
+    assert edge_off(2, scorer({(0, 1): -10.0, (1, 0): -10.0}), -24.0) is None
+    # only a squeezed edge word (phones of at most SQUEEZED_EDGE each) is tried
+    fits = scorer({(0, 1): -20.0, (1, 0): -22.0})
+    assert edge_off(5, fits, -24.0, (True, False)) == (1, 0)
+    assert edge_off(5, fits, -24.0, (False, False)) is None
+    spans = [WordTiming("a", 0.0, 0.3), WordTiming("b", 0.3, 0.6), WordTiming("c", 0.6, 0.69)]
+    phones = [Phone(n, 0.03 * k, 0.03 * (k + 1)) for k, n in enumerate("xyz")]  # "a": 3 phones
+    phones += [Phone("aa", 0.3, 0.6)] + [
+        Phone(n, 0.6 + 0.03 * k, 0.63 + 0.03 * k) for k in range(3) for n in "x"
+    ]
+    assert squeezed_edges(spans, phones) == (False, True)
+
+
+DATA = Path(__file__).resolve().parents[2] / "data" / "grid_s1"
+
+
+def test_a_chunk_with_a_word_not_said_at_its_edge_keeps_the_words_said() -> None:
+    """The chunk of the long aligner's second pass that 40 GRID clips joined with cues (and
+    extra words) gave "lay blue with y six now bin" ("bin" not said, squeezed in after
+    "now"): -25.5 per frame, under the limit. Halved, "lay blue with" was cut off inside its
+    speech and left out (-34.3, -29.0 and "with" over silence: three words said, placed
+    clip by clip); without "bin" the six fit (-21.9)."""
+    from miketalk.media.decode import read_media_audio
+    from miketalk.speech.align.phones import FIT_LIMIT
+    from miketalk.speech.long_align import _fitting
+
+    clips = ["lbid5a", "lbwy6n", "lgbm3s"]
+    sound = np.concatenate(
+        [read_media_audio(DATA / "video" / f"{c}.mpg", rate=16000) for c in clips]
+    )
+    words = "lay blue in d five again lay blue with y six now bin".split()
+    group = [(i, WordTiming(words[i], 0.0, 0.0)) for i in range(6, 13)]
+    unaligned: list[Unaligned] = []
+    parts = _fitting(sound, 16000, (2.84, 5.75), group, words, unaligned, FIT_LIMIT)
+    assert [[words[i] for i, _ in p[1]] for p in parts] == [words[6:12]]
+    assert [u.index for u in unaligned] == [12] and parts[0][4] >= FIT_LIMIT

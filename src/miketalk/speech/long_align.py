@@ -21,9 +21,11 @@ align the pieces between them. Here:
    aligner before anchors) is split at the pause nearest its middle and the words
    in proportion to their letters, as the voiced sound is on either side of the
    pause, and each half is aligned the same way, down to pieces of one word,
-   which are then reported as unaligned. A word given to the wrong side of a split
-   is squeezed or stretched there: the second pass finds it and leaves its chunk
-   out.
+   which are then reported as unaligned; a piece with no pause to halve at keeps only
+   a word at each edge, if the coarse aligner places them
+   (:func:`miketalk.speech.long_trim.keep_edges`: two lines' words either side of a
+   cut). A word given to the wrong side of a split is squeezed or stretched there: the
+   second pass finds it and leaves its chunk out.
 2. **Chunks.** The first pass's words are cut into chunks wherever two
    neighbours are :data:`~miketalk.speech.long_chunks.CHUNK_PAUSE` apart (a breath
    between phrases), and at most :data:`~miketalk.speech.long_chunks.CHUNK_SECONDS` long
@@ -35,9 +37,10 @@ align the pieces between them. Here:
    voiced audio unexplained, loses its words: they are reported as unaligned
    (:attr:`LongAlignment.unaligned`) and their span is left out, never forced.
    With ``fit_limit``, a chunk whose words fit the sound badly (their score per
-   frame under it) is halved and each half aligned again, down to single words
-   (:func:`miketalk.speech.long_trim.misfit_split`): words of another script, or
-   placed where they are not said, are left out too.
+   frame under it) loses a word at an edge if the rest then fit
+   (:func:`~miketalk.speech.long_trim.edge_off`), else is halved and each half aligned
+   again, down to single words (:func:`~miketalk.speech.long_trim.misfit_split`): words of
+   another script, or placed where they are not said, are left out too.
 4. **Fill.** Where the first pass gave a stretch the wrong sound (an anchor's rough edge,
    a trim that dropped a word said), its words are left out, or placed a few at a time,
    though each sentence aligned alone places them: each such stretch between runs of
@@ -278,6 +281,17 @@ def _fitting(
         )
         unaligned.append(Unaligned(group[0][0], words[group[0][0]], why))
         return []
+
+    def fit(a: int, b: int) -> float | None:  # the words but a at the start, b at the end
+        kept = [words[i] for i, _ in group[a : len(group) - b]]
+        return _align_span(samples, rate, lo, hi, kept)[2]
+
+    off = long_trim.edge_off(len(group), fit, fit_limit, long_trim.squeezed_edges(spans, own))
+    if off is not None:  # a word not said, squeezed in at an edge
+        a, b = off
+        why = f"the words beside it fit {lo:.2f}..{hi:.2f} s without it ({score:.1f} with it)"
+        unaligned += [Unaligned(i, words[i], why) for i, _ in group[:a] + group[len(group) - b :]]
+        return _fitting(samples, rate, span, group[a : len(group) - b], words, unaligned, fit_limit)
     k = long_trim.misfit_split(spans)
     cut = (spans[k - 1].end + spans[k].start) / 2
     halves = (((lo, cut), group[:k]), ((cut, hi), group[k:]))
@@ -411,6 +425,14 @@ def _first_pass(
 
     voiced = voiced_frames(samples[round(lo * rate) : round(hi * rate)], rate)
     cut = pause_near_middle(voiced, lo, hi)
+    if len(indices) >= 2 and cut is None and hi - lo <= long_trim.TRIM_SECONDS:
+        piece, place = [words[i] for i in indices], partial(coarse_span, samples, rate, lo, hi)
+        kept = long_trim.keep_edges(samples, rate, (lo, hi), piece, place)
+        if kept is not None:  # a cut between two lines: their words either side of it
+            a, b, spans = kept
+            why = f"the words around it fit {lo:.2f}..{hi:.2f} s without it"
+            unaligned += [Unaligned(i, words[i], why) for i in indices[a : len(indices) - b]]
+            return list(zip(indices[:a] + indices[len(indices) - b :], spans, strict=True))
     if len(indices) < 2 or cut is None:
         why = f"cannot be placed in {lo:.2f}..{hi:.2f} s ({failure})"
         unaligned += [Unaligned(i, words[i], why) for i in indices]
