@@ -400,7 +400,7 @@ def test_an_utterance_keeps_the_words_on_either_side_of_frames_left_out(tmp_path
         "u0003.2\tframes 298-301 of u0003.mp4 (29.80-30.20 s): 1 word over frames left out "
         "(frame 299: no frontal face; frames 300-301: several faces): 'at'",
         "u0003.3\tframes 302-305 of u0003.mp4 (30.20-30.60 s): 1 word between frames left "
-        "out, 4 frames (less than 0.6 s): 'f'",
+        "out, a piece of 4 frames (less than 0.6 s): 'f'",
         "u0003.4\tframes 306-313 of u0003.mp4 (30.60-31.40 s): 1 word over frames left out "
         "(frame 307: no frontal face): 'two'",
     ]

@@ -92,10 +92,10 @@ def speech_pieces(part: DecodedClip) -> tuple[list[DecodedClip], list[tuple[Clip
         b = min(spans[j + 1][0] if j + 1 < len(spans) and not good[j + 1] else n,
                 int(after.min()) if after.size else n)  # fmt: skip
         if b - a < MIN_PIECE_SECONDS * fps:
-            a, b = min(a, spans[i][0]), max(b, spans[j][1], a + 1)
-            why = (f"{_words(run)} between frames left out, {b - a} frames (less than "
-                   f"{MIN_PIECE_SECONDS:g} s): {text!r}")  # fmt: skip
-            dropped.append((_named(part, a, b, name), why))
+            why = (f"{_words(run)} between frames left out, a piece of {max(0, b - a)} frames "
+                   f"(less than {MIN_PIECE_SECONDS:g} s): {text!r}")  # fmt: skip
+            where = (a, b) if b > a else (spans[i][0], spans[j][1])  # no frame: its words'
+            dropped.append((_named(part, *where, name), why))
         else:
             piece = part.cut(a, b)
             kept.append(replace(piece, clip=replace(piece.clip, id=name, text=text)))
