@@ -28,18 +28,17 @@ refuses a script of which too little does:
    script fitting a part of a long video, or a part of a long script saying most of it.
 
 Measured (``python -m miketalk_lab.bench.script_fit``; the table in ``docs/build.md``):
-scripts of other videos keep at most 11 % of their words, explaining at most 11 % of the
-speech (the GRID clips two on in name order, which share half the words of each line; other
-GRID clips at most 8 %, the weekly addresses with GRID lines or GRID with their captions
-none); the weekly-address captions cut apart from their eight clips keep 73 % (plain
-transcript, and a cue per clip), explaining 72 %; GRID lines with extra words at their edges
-87 % (10 clips) and 82 % (40; 82 % as cues); misheard words 93 and 92 %; right scripts 100 %
-(the long aligner's last pass, :mod:`miketalk.speech.long_fill`; before it 65 to 76 % for
-cut-apart captions). So 30 % of either sits between the two with a margin of some 20 points
-below and 43 above. Before the long aligner's anchors
-(:mod:`miketalk.speech.long_anchor`), GRID lines with extra words over 40 clips in a plain
-transcript kept 20 % (its first pass failed throughout when most lines hold words that are
-not said) and were refused.
+scripts of other videos keep at most 9 % of their words, explaining at most 8 % of the
+speech (the GRID clips two on in name order, which share half the words of each line, and 10
+other GRID clips; the weekly addresses with GRID lines or GRID with their captions none); the
+weekly-address captions cut apart from their eight clips keep 75 % (plain transcript, and a
+cue per clip), explaining 72 %; GRID lines with extra words at their edges 87 % (10 clips) and
+85 % (40; 84 % as cues); misheard words 93 and 92 %; right scripts 100 % (the long aligner's
+last pass, :mod:`miketalk.speech.long_fill`; before it 65 to 76 % for cut-apart captions). So
+30 % of either sits between the two with a margin of some 21 points below and 45 above.
+Before the long aligner's anchors (:mod:`miketalk.speech.long_anchor`), GRID lines with
+extra words over 40 clips in a plain transcript kept 20 % (its first pass failed throughout
+when most lines hold words that are not said) and were refused.
 """
 
 from __future__ import annotations
