@@ -86,6 +86,16 @@ BLEND_FEATHER = 0.1
 #: (:func:`miketalk.composite.follow.follow_render`), so its jaw line does not show twice.
 BLEND_FOLLOW = True
 
+#: How a face-crop model's compositor warps the frame's jaw
+#: (:func:`miketalk.composite.background_files.model_compositor`): ``"on"`` (as
+#: :data:`BLEND_FOLLOW`: up to half a mouth width beyond the blend mask), ``"face"`` (held
+#: inside the crop's keep, its jaw ellipse and skin: ``Compositor(follow_within=...)``) or
+#: ``"off"``. A crop model's mask stops at the jaw line, so ``"on"`` bends a textured room
+#: beside the jaw (docs/dub.md, "Face-crop models' held-out dubs": 475 pixels a frame moved by
+#: more than 8 levels outside the mask on the hard clips, none ``"off"``, with the same
+#: amplitude, r and LMD and a seam ratio nearer 1).
+BLEND_FOLLOW_CROP = "off"
+
 #: How a render is sampled into a frame of the person (the compositor): ``"cubic"``
 #: (bicubic) or ``"linear"`` (bilinear). A dubbed mouth is resampled twice before anyone sees
 #: it (the corpus's stabilization made the render, the frame's transform places it), and

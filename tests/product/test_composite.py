@@ -251,3 +251,39 @@ def test_each_shot_of_a_background_gets_the_mouth_in_its_own_light():
     for k in range(4):
         error = [np.abs(out[k].astype(int) - frames[k])[inside].mean() for out in (each, once)]
         assert error[0] < 1.0 and error[1] > 10.0  # once: up to 25 levels off in both shots
+
+
+def test_the_jaws_warp_held_inside_a_region_leaves_the_frame_beyond_it_as_it_was():
+    """``follow_within``: a face crop's jaw warp moves no pixel outside its keep (the room
+    beside the jaw stays straight); None is the warp as before, to the byte."""
+    frame = _texture(seed=7)
+    yy = np.mgrid[0 : SIZE[0], 0 : SIZE[1]][0].astype(np.float32)
+    xx = np.mgrid[0 : SIZE[0], 0 : SIZE[1]][1].astype(np.float32)
+    drop = 5.0 * np.clip((yy - 100.0) / 15.0, 0.0, 1.0)  # the render's jaw 5 px lower
+    render = cv2.remap(frame, xx, yy - drop, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    t = _affine()
+    before = Compositor(MOUTH, SIZE)(frame, render, t)
+    assert np.array_equal(Compositor(MOUTH, SIZE, follow_within=None)(frame, render, t), before)
+    inside = Compositor(MOUTH, SIZE)
+    held = Compositor(MOUTH, SIZE, follow_within=inside.alpha)(frame, render, t)
+    outside = inside.place(t, SIZE).full_alpha(SIZE) == 0
+    moved = np.abs(before.astype(int) - frame.astype(int)).max(axis=2) > 8
+    assert (moved & outside).sum() > 50  # the warp as before bends what is beyond the mask
+    assert np.array_equal(held[outside], frame[outside])
+    off = Compositor(MOUTH, SIZE, follow=False)(frame, render, t)
+    assert np.array_equal(off[outside], frame[outside])
+
+
+def test_follow_render_within_zero_moves_nothing():
+    from miketalk.composite.follow import follow_render
+
+    h, w = 60, 80
+    yy = np.mgrid[0:h, 0:w][0].astype(np.float32)
+    here = _texture(seed=2, shape=(h, w)).astype(np.float32)
+    render = np.roll(here, 3, axis=0)
+    alpha = np.zeros((h, w), np.float32)
+    alpha[10:50, 20:60] = 1.0
+    out = follow_render(
+        here, render, alpha, yy, (30, 10, 20, 5), within=np.zeros((h, w), np.float32)
+    )
+    assert np.abs(out - here).max() < 1e-3

@@ -260,6 +260,11 @@ class Compositor:
     follow : bool
         Warp the frame's lower face about the mask to follow the render
         (:func:`follow_render`) before blending.
+    follow_within : numpy.ndarray, optional
+        (H, W) float32 in [0, 1] in the reference's coordinates: where that warp may move
+        the frame's pixels (None: wherever its weight reaches, half a mouth width beyond
+        the mask). A face crop's keep (its jaw ellipse and skin) holds it inside the face,
+        off a textured room beside the jaw.
     keep : numpy.ndarray, optional
         (H, W) float32 in [0, 1] multiplied into the blend mask: where the render may show
         (:func:`skin_weight`: not its backdrop or clothes).
@@ -280,6 +285,7 @@ class Compositor:
         follow: bool = defaults.BLEND_FOLLOW,
         keep: np.ndarray | None = None,
         interpolation: str = defaults.BLEND_INTERPOLATION,
+        follow_within: np.ndarray | None = None,
         **mask: float,
     ) -> None:
         if blend not in ("feather", "poisson"):
@@ -299,6 +305,9 @@ class Compositor:
         self.support = cv2.boundingRect((self.alpha > 0).astype(np.uint8))
         self.colour_match = colour_match
         self.follow = follow
+        self.follow_within = (
+            None if follow_within is None else np.asarray(follow_within, np.float32)
+        )
         self._sigma = 0.5 * self.mouth_box[2]
 
     def place(
@@ -389,7 +398,14 @@ class Compositor:
             band = 4.0 * placement.alpha * (1.0 - placement.alpha)
             mouth += colour_offset(mouth, here, band, sigma=self._sigma)
         if self.follow:
-            here = follow_render(here, mouth, placement.alpha, placement.map_y, self.mouth_box)
+            within = None
+            if self.follow_within is not None:
+                within = cv2.remap(
+                    self.follow_within, placement.map_x, placement.map_y, cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT,
+                )  # fmt: skip
+            here = follow_render(here, mouth, placement.alpha, placement.map_y, self.mouth_box,
+                                 within=within)  # fmt: skip
         if self.blend == "poisson":
             if self.follow:  # the frame the mouth is cloned into, its jaw moved
                 out[y0:y1, x0:x1] = np.clip(here + 0.5, 0, 255).astype(np.uint8)

@@ -57,6 +57,8 @@ def follow_render(
     alpha: np.ndarray,
     ref_y: np.ndarray,
     mouth_box: Box,
+    *,
+    within: np.ndarray | None = None,
 ) -> np.ndarray:
     """The frame's pixels about the mask moved to follow the render's (the jaw line).
 
@@ -71,6 +73,10 @@ def follow_render(
         (h, w) float32: the reference row each pixel shows (:attr:`Placement.map_y`).
     mouth_box : tuple of int
         ``(x, y, w, h)`` of the mouth in the reference.
+    within : numpy.ndarray, optional
+        (h, w) float32 in [0, 1] multiplied into the warp's weight: where it may move the
+        frame's pixels (a face crop's face, :class:`~miketalk.composite.compositor.
+        Compositor` ``follow_within``), so the room beside the jaw is never bent.
 
     Returns
     -------
@@ -90,6 +96,8 @@ def follow_render(
     weight = np.minimum(1.0, 2.0 * near)
     cy = mouth_box[1] + mouth_box[3] / 2
     weight *= np.clip((ref_y - (cy - 0.3 * w)) / (0.3 * w), 0.0, 1.0)
+    if within is not None:
+        weight *= within
     return backward_warp(here, weight[..., None] * flow)
 
 

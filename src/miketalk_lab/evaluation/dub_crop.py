@@ -123,6 +123,8 @@ class CropDub:
         The clip's frame rate.
     seconds : float
         The product's dub (registration, alignment, render, paste-back, encoding), wall.
+    background : Background or None
+        What the renders were pasted into (its transforms, field and frames).
     """
 
     video: Path
@@ -134,6 +136,7 @@ class CropDub:
     alphas: list
     fps: float
     seconds: float
+    background: object = None
 
 
 def _product_inputs(clip, work: Path) -> tuple[Path, Path | None, str | None, dict]:
@@ -223,7 +226,7 @@ def dub_through_product(clip, *, model, lipsync: tuple[str, str | None], work: P
         boxes.append(None if placed is None else placed.box)
         alphas.append(None if placed is None else placed.alpha)
     return CropDub(video, timings, frames, np.stack(source), renders, boxes, alphas, fps,
-                   seconds)  # fmt: skip
+                   seconds, background)  # fmt: skip
 
 
 def paste_measures(dub: CropDub) -> dict:
