@@ -287,3 +287,34 @@ def test_follow_render_within_zero_moves_nothing():
         here, render, alpha, yy, (30, 10, 20, 5), within=np.zeros((h, w), np.float32)
     )
     assert np.abs(out - here).max() < 1e-3
+
+
+@pytest.mark.parametrize("crop", [True, False])
+def test_a_crop_models_compositor_leaves_the_jaw_unwarped_a_full_frames_warps_it(
+    tmp_path, monkeypatch, crop
+):
+    """``BLEND_FOLLOW_CROP``: a face-crop model's compositor warps the jaw as it says (``off``
+    by default; ``face`` holds it in the keep), a full-frame model's as before; given settings
+    win."""
+    import json
+
+    from miketalk import defaults
+    from miketalk.composite.background_files import model_compositor
+    from miketalk.media.images import write_png
+    from miketalk.track.crop import FaceCropSettings, crop_doc
+
+    where = tmp_path / "background"
+    where.mkdir()
+    size = FaceCropSettings().size if crop else 96
+    doc = {"mouth_box": [size // 2 - 20, int(size * 0.7), 40, 12]}
+    if crop:
+        doc["crop"] = crop_doc(FaceCropSettings())
+    (where / "background.json").write_text(json.dumps(doc), "utf-8")
+    write_png(where / "reference.png", np.full((size, size, 3), (200, 140, 120), np.uint8))
+    write_png(where / "face_mask.png", np.full((size, size, 3), 255, np.uint8))
+    c = model_compositor(tmp_path, (size, size))
+    assert c.follow is not crop and c.follow_within is None
+    assert model_compositor(tmp_path, (size, size), follow=True).follow
+    monkeypatch.setattr(defaults, "BLEND_FOLLOW_CROP", "face")
+    c = model_compositor(tmp_path, (size, size))
+    assert c.follow and (c.follow_within is not None) is crop

@@ -87,7 +87,10 @@ def model_compositor(
 
     Its blend mask about the model's mouth box, kept off the reference's backdrop and
     clothes (:func:`~miketalk.composite.compositor.skin_weight` of the reference and its
-    face mask, unless ``skin=False``); ``settings`` go to the compositor.
+    face mask, unless ``skin=False``); ``settings`` go to the compositor. A face crop's mask
+    is also held inside its jaw ellipse (:func:`~miketalk.track.crop.jaw_mask`), and its jaw's
+    warp as :data:`miketalk.defaults.BLEND_FOLLOW_CROP` says (``follow_within`` or ``follow``
+    given in ``settings`` win).
     """
     from miketalk.composite.compositor import Compositor, skin_weight
     from miketalk.media.images import read_image
@@ -102,6 +105,10 @@ def model_compositor(
         from miketalk.track.crop import jaw_mask
 
         keep = jaw_mask(crop) if keep is None else keep * jaw_mask(crop)
+        if defaults.BLEND_FOLLOW_CROP == "face":  # the jaw's warp off the room beside the jaw
+            settings.setdefault("follow_within", keep)
+        elif defaults.BLEND_FOLLOW_CROP == "off":
+            settings.setdefault("follow", False)
     return Compositor(mouth_box_of(model_dir), size, keep=keep, **settings)
 
 
