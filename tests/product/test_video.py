@@ -289,8 +289,11 @@ def test_a_directory_that_cannot_be_written_is_reported_before_writing(tmp_path)
     (tmp_path / "file").write_bytes(b"")
     with pytest.raises(MiketalkError, match="cannot write"):
         check_writable(tmp_path / "file" / "v.mp4")
-    check_writable(tmp_path / "new" / "v.mp4")  # made on the way
-    assert list((tmp_path / "new").iterdir()) == []
+    check_writable(tmp_path / "new" / "deeper" / "v.mp4")  # made for the check, removed after
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "there").mkdir()
+    check_writable(tmp_path / "there" / "v.mp4")  # a folder that was there stays, empty
+    assert list((tmp_path / "there").iterdir()) == []
 
 
 # ---------------------------------------------------------------------------
