@@ -27,6 +27,7 @@ import numpy as np
 
 from miketalk.corpus.clip_sources import Clip, DecodedClip
 from miketalk.corpus.steady import speech_span
+from miketalk.track.result import failure_ranges
 
 #: A piece of an utterance shorter than this (s) is dropped. The corpus's stages see a
 #: piece as a clip of its own: the dominance fit compares each clip's mouth trajectory
@@ -117,19 +118,7 @@ def _left_out(part: DecodedClip, a: int, b: int) -> str:
     """``frame 283: no frontal face; frames 284-300: several faces``: the frames left out
     among ``[a, b)``, numbered in the video."""
     shift = part.clip.span[0] if part.clip.span is not None else 0
-    ranges: list[list] = []
-    for f in range(a, b):
-        why = part.left_out[f]
-        if why is None:
-            continue
-        if ranges and ranges[-1][1] == f and ranges[-1][2] == why:
-            ranges[-1][1] = f + 1
-        else:
-            ranges.append([f, f + 1, why])
-    return "; ".join(
-        (f"frame {s + shift}" if e - s == 1 else f"frames {s + shift}-{e - 1 + shift}") + f": {r}"
-        for s, e, r in ranges
-    )
+    return "; ".join(map(str, failure_ranges(part.left_out[a:b], start=a + shift)))
 
 
 __all__ = ["MIN_PIECE_SECONDS", "speech_pieces"]

@@ -9,7 +9,7 @@ farthest apart (:func:`misfit_split`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -57,21 +57,11 @@ def trim_edges(
     their clips, from 49 to 47 % in a plain transcript and from 55 to 65 % in cues
     (``python -m miketalk_lab.bench.script_fit``, with and without it).
     """
-    from miketalk.speech.align.phones import align
 
     part = samples[round(span[0] * rate) : round(span[1] * rate)]
     for total in range(1, min(max_trim, len(piece) - 1) + 1):
-        best, best_score = None, -np.inf
-        for a in range(total + 1):
-            kept = list(piece[a : len(piece) - (total - a)])
-            try:
-                spans = place(kept)
-                score = align(part, rate, kept).score_per_frame
-            except MiketalkError:
-                continue
-            score = -np.inf if score is None else score
-            if best is None or score > best_score:
-                best, best_score = (a, total - a, spans), score
+        ways = ((a, total - a, list(piece[a : len(piece) - (total - a)])) for a in range(total + 1))
+        best = _best_placed(part, rate, place, ways)
         if best is not None:
             return best
     return None
@@ -101,24 +91,41 @@ def keep_edges(
     (10 clips) kept 10 of their 60 words, not 5: words of a wrong script placed beside a
     short run that then was five words long; one at each edge, as before.
     """
-    from miketalk.speech.align.phones import align
 
     part = samples[round(span[0] * rate) : round(span[1] * rate)]
     for total in range(min(2 * max_keep, len(piece) - 1), 0, -1):
-        best, best_score = None, -np.inf
-        for a in range(min(total, max_keep), max(-1, total - max_keep - 1), -1):
-            kept = [*piece[:a], *piece[len(piece) - (total - a) :]]
-            try:
-                spans = place(kept)
-                score = align(part, rate, kept).score_per_frame
-            except MiketalkError:
-                continue
-            score = -np.inf if score is None else score
-            if best is None or score > best_score:
-                best, best_score = (a, total - a, spans), score
+        ways = (
+            (a, total - a, [*piece[:a], *piece[len(piece) - (total - a) :]])
+            for a in range(min(total, max_keep), max(-1, total - max_keep - 1), -1)
+        )
+        best = _best_placed(part, rate, place, ways)
         if best is not None:
             return best
     return None
+
+
+def _best_placed(
+    part: np.ndarray,
+    rate: int,
+    place: Callable[[Sequence[str]], list[WordTiming]],
+    ways: Iterable[tuple[int, int, list[str]]],
+) -> tuple[int, int, list[WordTiming]] | None:
+    """Of the ways ``(a, b, kept words)``, the first best one whose kept words ``place``
+    places and the fine aligner fits best in ``part``: ``(a, b, their spans)``, or None
+    when none is placed."""
+    from miketalk.speech.align.phones import align
+
+    best, best_score = None, -np.inf
+    for a, b, kept in ways:
+        try:
+            spans = place(kept)
+            score = align(part, rate, kept).score_per_frame
+        except MiketalkError:
+            continue
+        score = -np.inf if score is None else score
+        if best is None or score > best_score:
+            best, best_score = (a, b, spans), score
+    return best
 
 
 def edge_off(

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import enum
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Failure", "FailureRange", "Track"]
+__all__ = ["Failure", "FailureRange", "Track", "failure_ranges"]
 
 
 class Failure(enum.StrEnum):
@@ -24,12 +25,27 @@ class FailureRange:
 
     start: int
     stop: int
-    reason: Failure
+    reason: Failure | str
 
     def __str__(self) -> str:
         last = self.stop - 1
         frames = f"frame {self.start}" if last == self.start else f"frames {self.start}-{last}"
         return f"{frames}: {self.reason}"
+
+
+def failure_ranges(reasons: Sequence[Failure | str | None], start: int = 0) -> list[FailureRange]:
+    """Per-frame reasons (None: tracked) as ranges of consecutive frames left out for one
+    reason, the first frame numbered ``start`` (a part of a longer video: its first frame's
+    number in the video)."""
+    out: list[FailureRange] = []
+    for i, reason in enumerate(reasons, start):
+        if reason is None:
+            continue
+        if out and out[-1].stop == i and out[-1].reason == reason:
+            out[-1] = FailureRange(out[-1].start, i + 1, reason)
+        else:
+            out.append(FailureRange(i, i + 1, reason))
+    return out
 
 
 @dataclass(frozen=True)
@@ -88,15 +104,7 @@ class Track:
 
     def failures(self) -> list[FailureRange]:
         """The frames left out, as ranges of consecutive frames with one reason."""
-        out: list[FailureRange] = []
-        for i, reason in enumerate(self.reasons):
-            if reason is None:
-                continue
-            if out and out[-1].stop == i and out[-1].reason == reason:
-                out[-1] = FailureRange(out[-1].start, i + 1, reason)
-            else:
-                out.append(FailureRange(i, i + 1, reason))
-        return out
+        return failure_ranges(self.reasons)
 
     def cuts(self) -> list[int]:
         """Frames that start a new segment right after another one (a shot change or a jump)."""
