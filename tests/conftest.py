@@ -3,12 +3,19 @@
 Tests that need Festival or Chromium skip when they are missing, so that a
 developer can run the rest without them; ``make test`` and CI install both, and
 a skip there would hide a missing install step.
+
+A test's outcome never depends on what ``results/`` holds nor on the caller's
+``$MIKETALK_MODEL``: the whole session, its workers and every process they start look
+for the workflow's models in an empty folder (``$MIKETALK_RESULTS``), with no
+``$MIKETALK_MODEL`` (:func:`pytest_configure`; ``tests/test_suite_rules.py`` checks it).
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import signal
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -29,9 +36,21 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """pytest-xdist's workers (``make test`` runs ``-n 2``) start with Ctrl-C ignored, and
-    the processes they start would inherit that: the tests of what Ctrl-C does need Python's
-    own handler, as a terminal gives it."""
+    """The session's environment, before any test or worker starts.
+
+    - The workflow's models are looked for in an empty folder of this session's
+      (``$MIKETALK_RESULTS``), never in the checkout's ``results/``, and the caller's
+      ``$MIKETALK_MODEL`` is dropped: a test that needs a model builds or names its own.
+      The controller sets both; xdist's workers and every process a test starts inherit them.
+    - pytest-xdist's workers (``make test`` runs ``-n 2``) start with Ctrl-C ignored, and
+      the processes they start would inherit that: the tests of what Ctrl-C does need
+      Python's own handler, as a terminal gives it.
+    """
+    os.environ.pop("MIKETALK_MODEL", None)
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        empty = Path(tempfile.mkdtemp(prefix="miketalk-test-results-"))
+        os.environ["MIKETALK_RESULTS"] = str(empty)
+        config.add_cleanup(lambda: shutil.rmtree(empty, ignore_errors=True))
     if os.environ.get("PYTEST_XDIST_WORKER"):
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
@@ -82,3 +101,67 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     (``make test``) their files start at once on one worker while the rest share the other,
     instead of starting last."""
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
+@pytest.fixture()
+def work_started(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch):
+    """Festival and ffmpeg through wrappers that note each start; the notes' path.
+
+    A refusal "before any work" is tested by what never started, not by how fast it came:
+    ``$MIKETALK_FESTIVAL`` and ``$IMAGEIO_FFMPEG_EXE`` (imageio-ffmpeg's own setting) name
+    the wrappers, in this process and every process it starts, and each start of either
+    appends ``festival ARGS`` or ``ffmpeg ARGS`` as one line of the returned file, which
+    stays absent while neither ran.
+    """
+    import shlex
+
+    import imageio_ffmpeg
+
+    where = tmp_path_factory.mktemp("work_started")
+    notes = where / "started.txt"
+    programs = {
+        "festival": shutil.which(os.environ.get("MIKETALK_FESTIVAL") or "festival") or "festival",
+        "ffmpeg": imageio_ffmpeg.get_ffmpeg_exe(),
+    }
+    for name, real in programs.items():
+        wrapper = where / name
+        wrapper.write_text(
+            f'#!/bin/sh\necho "{name} $*" >> {shlex.quote(str(notes))}\n'
+            f'exec {shlex.quote(real)} "$@"\n'
+        )
+        wrapper.chmod(0o755)
+    monkeypatch.setenv("MIKETALK_FESTIVAL", str(where / "festival"))
+    monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", str(where / "ffmpeg"))
+    return notes
+
+
+@pytest.fixture()
+def finishes():
+    """``finishes(call, within=60)``: ``call()``'s result (or its exception), failing the
+    test when it has not returned after ``within`` seconds.
+
+    For a call whose fault would be never to return (a read to the end of an endless
+    device, a wait for a child that never ends): a generous deadline on a poll, never an
+    assertion on how fast it returned.
+    """
+    import threading
+
+    def run(call, *, within: float = 60.0):
+        outcome: dict = {}
+
+        def target() -> None:
+            try:
+                outcome["value"] = call()
+            except BaseException as err:  # handed to the test's thread
+                outcome["error"] = err
+
+        thread = threading.Thread(target=target, daemon=True)
+        thread.start()
+        thread.join(within)
+        if thread.is_alive():
+            pytest.fail(f"{call!r} had not returned after {within} s")
+        if "error" in outcome:
+            raise outcome["error"]
+        return outcome.get("value")
+
+    return run

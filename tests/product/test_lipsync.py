@@ -57,10 +57,22 @@ def test_alpha_follows_eq_10() -> None:
 
 
 def test_each_viseme_is_shown_within_half_a_frame_of_its_phone_middle() -> None:
-    timeline = lipsync.plan(ONE, TABLE, fps=30.0, duration=0.8)
-    for key in timeline.keyframes:
-        k = round(key.time * 30)
-        assert abs(k / 30 - key.time) <= 0.5 / 30 + 1e-9
+    """The phone's middle, from the phones themselves: the frame nearest to it draws the
+    phone's viseme, less than half a frame's morph away from it (alpha near 0 at the
+    transition leaving it, or near 1 at the one reaching it)."""
+    fps, half = 30.0, 0.5 / 30.0
+    for spec in (ONE, phones([("pau", 0.13), ("b", 0.07), ("iy", 0.21), ("pau", 0.17)])):
+        duration = spec[-1].end
+        timeline = lipsync.plan(spec, TABLE, fps=fps, duration=duration)
+        for phone in spec:
+            (viseme,) = TABLE.visemes_of(phone.name)
+            middle = (phone.start + phone.end) / 2
+            frame = min(timeline.frames, key=lambda f: abs(f.time - middle))
+            assert abs(frame.time - middle) <= half + 1e-9, (phone, frame)
+            shown = timeline.transitions[frame.transition]
+            leaving = shown.source == viseme and frame.time - shown.start <= half + 1e-9
+            reaching = shown.target == viseme and shown.start + shown.duration - frame.time <= half
+            assert leaving or reaching, (phone, viseme, frame, shown)
 
 
 def test_oversampling_bounds_the_per_frame_motion() -> None:

@@ -73,6 +73,7 @@ def test_the_default_model_is_found_from_any_working_directory(
     (checkout / model_parts.DEFAULT_MODEL).mkdir(parents=True)
     monkeypatch.setattr(model_parts, "__file__", str(module))
     monkeypatch.delenv("MIKETALK_MODEL", raising=False)
+    monkeypatch.delenv("MIKETALK_RESULTS", raising=False)  # the test session's empty folder
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
@@ -81,6 +82,10 @@ def test_the_default_model_is_found_from_any_working_directory(
     # under the working directory: that one
     (elsewhere / model_parts.DEFAULT_MODEL).mkdir(parents=True)
     assert default_model_dir() == model_parts.DEFAULT_MODEL
-    # $MIKETALK_MODEL above both
+    # $MIKETALK_RESULTS instead of both (its model, found or not)
+    monkeypatch.setenv("MIKETALK_RESULTS", str(tmp_path / "runs"))
+    runs = tmp_path / "runs"
+    assert default_model_dir() == runs / model_parts.DEFAULT_MODEL.relative_to("results")
+    # $MIKETALK_MODEL above all
     monkeypatch.setenv("MIKETALK_MODEL", str(tmp_path / "mine"))
     assert default_model_dir() == tmp_path / "mine"

@@ -218,18 +218,17 @@ def test_the_lock_waits_for_its_holder(tmp_path: Path) -> None:
         "from miketalk.media.atomic import output_lock\n"
         "with output_lock(Path(sys.argv[1])):\n"
         "    print('held', flush=True); time.sleep(1.0)\n"
+        "    Path(sys.argv[2]).write_text('done')\n"
     )
+    done = tmp_path / "holder-done"
     holder = subprocess.Popen(
-        [sys.executable, "-c", code, str(tmp_path / "v.mp4")], stdout=subprocess.PIPE, text=True
-    )
+        [sys.executable, "-c", code, str(tmp_path / "v.mp4"), str(done)],
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
     assert holder.stdout.readline().strip() == "held"
-    import time
-
-    started = time.monotonic()
     with output_lock(tmp_path / "v.mp4"):
-        waited = time.monotonic() - started
+        assert done.read_text() == "done"  # the holder's last step under the lock came first
     holder.wait(10)
-    assert waited > 0.5
     assert not lock_path(tmp_path / "v.mp4").exists()
 
 
@@ -571,42 +570,25 @@ def _alive(pid: int) -> bool:
     return stat[stat.rindex(")") + 2] != "Z"
 
 
-def _queued_seconds(pid: int) -> float | None:
-    """Seconds process ``pid``'s main thread has waited, ready to run, for a core (its
-    ``/proc/PID/schedstat`` run-queue wait); None once it has ended."""
-    try:
-        return int(Path(f"/proc/{pid}/schedstat").read_text().split()[1]) / 1e9
-    except (FileNotFoundError, IndexError, ValueError):
-        return None
+def _stop(proc: subprocess.Popen, signum: int, *, timeout: float = 10.0) -> None:
+    """Send ``signum`` to ``proc`` and wait for it to end.
 
-
-def _stop(proc: subprocess.Popen, signum: int, *, timeout: float = 10.0) -> tuple[float, float]:
-    """Send ``signum`` to ``proc`` and wait for it to end: the seconds it took, and those of
-    them it could not run for want of a core (on a machine loaded many times over, as when
-    the suite runs beside other work, that is most of the time; the promise, Ctrl-C to exit
-    in 2 s, is of the program, so the tests hold the difference to it).
+    The promise (a stop in 2 s) is measured in ``make bench``
+    (:mod:`miketalk_lab.bench.responsiveness`), not here: ``timeout`` is a generous deadline
+    for a stop, far shorter than the work the signal interrupts, so a lost signal or a wait
+    for the work's end still fails the test, and a busy machine does not.
 
     Raises
     ------
     subprocess.TimeoutExpired
         Still running after ``timeout`` seconds (a lost signal, a hang).
     """
-    import time
-
-    first = last = _queued_seconds(proc.pid) or 0.0
-    started = time.monotonic()
     proc.send_signal(signum)
-    while proc.poll() is None:
-        if time.monotonic() - started > timeout:
-            raise subprocess.TimeoutExpired(proc.args, timeout)
-        queued = _queued_seconds(proc.pid)
-        last = last if queued is None else queued
-        time.sleep(0.005)
-    return time.monotonic() - started, last - first
+    proc.wait(timeout)
 
 
 @pytest.mark.parametrize("signum", [2, 15, 9])
-def test_a_signal_ends_every_worker_within_two_seconds(signum: int) -> None:
+def test_a_signal_ends_every_worker_at_once(signum: int) -> None:
     import time
 
     # The signal lands as the main thread starts waiting on the workers' jobs: with
@@ -622,13 +604,11 @@ def test_a_signal_ends_every_worker_within_two_seconds(signum: int) -> None:
     try:
         workers = [int(p) for p in proc.stdout.readline().split()]
         assert len(workers) == 2
-        took, starved = _stop(proc, signum)
+        _stop(proc, signum)  # the jobs sleep 120 s: a signal seen at a job's end is lost
         ended = time.monotonic()
-        while any(_alive(p) for p in workers) and time.monotonic() - ended < 5:
+        while any(_alive(p) for p in workers) and time.monotonic() - ended < 30:
             time.sleep(0.02)
         assert not any(_alive(p) for p in workers)  # none orphaned, SIGKILL included
-        took += time.monotonic() - ended
-        assert took - starved < 2.0, f"{took:.2f} s, {starved:.2f} s of it waiting for a core"
         if signum != 9:
             assert proc.stdout.read().strip() == "stopped"
             assert proc.stderr.read() == ""  # no traceback from a worker, nor at the exit
@@ -643,24 +623,22 @@ def test_a_signal_handled_in_another_thread_stops_a_wait_on_a_worker() -> None:
     wait began). ``future.result()`` would wait for the job; ``results`` stops in a slice."""
     import signal
     import threading
-    import time
     from concurrent.futures import Future
 
     from miketalk.console import Terminated, handle_termination
     from miketalk.workers import map_in_pool, results
 
     never: Future = Future()
-    ends = threading.Timer(5.0, never.set_result, (None,))  # the old wait ends only here
+    ends = threading.Timer(60.0, never.set_result, (None,))  # the old wait ends only here
     ends.start()
     try:
         with handle_termination():
             old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
             try:
                 threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGTERM)).start()
-                started = time.monotonic()
                 with pytest.raises(Terminated):
                     list(results([never]))
-                assert time.monotonic() - started < 1.0
+                assert ends.is_alive()  # stopped in a slice, long before the job's end
             finally:
                 signal.pthread_sigmask(signal.SIG_SETMASK, old)
     finally:
@@ -761,9 +739,7 @@ def _aligning(proc: subprocess.Popen, out: Path) -> list[int]:
 @pytest.mark.parametrize(
     "busy", [_aligning, _decoding], ids=["the aligner runs", "the corpus decodes"]
 )
-def test_a_signal_stops_the_build_within_two_seconds(
-    s1_joined, tmp_path: Path, signum: int, busy
-) -> None:
+def test_a_signal_stops_the_build_at_once(s1_joined, tmp_path: Path, signum: int, busy) -> None:
     """Issue 40: while the segment stage's aligner (and its recogniser) holds the
     interpreter, in a forked child killed with the build; while the corpus stage's threads
     wait for their ffmpeg, which is killed."""
@@ -783,16 +759,16 @@ def test_a_signal_stops_the_build_within_two_seconds(
         children: list[int] = []
         while not children:
             assert proc.poll() is None, f"the build ended before {busy.__doc__}"
-            assert time.monotonic() < deadline, f"never {busy.__doc__}"
+            if time.monotonic() > deadline:  # a poll's generous deadline
+                pytest.fail(f"never {busy.__doc__}")
             children = busy(proc, out)
             time.sleep(0.002)
-        took, starved = _stop(proc, signum, timeout=30)
+        _stop(proc, signum, timeout=30)  # the build's work takes minutes more
         stdout, stderr = proc.communicate()
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    assert took - starved < 2.0, f"{took:.2f} s, {starved:.2f} s of it waiting for a core"
     assert proc.returncode == 128 + signum, stderr
     word = "terminated" if signum == 15 else "interrupted"
     assert stderr.strip() == f"miketalk: {word}" and stdout == ""
@@ -814,17 +790,16 @@ def test_a_worker_count_outside_the_cores_is_one_line(workers: object) -> None:
     assert check_workers(1) == 1
 
 
-def test_build_checks_workers_and_its_folder_before_any_work(tmp_path: Path) -> None:
-    import time
-
+def test_build_checks_workers_and_its_folder_before_any_work(
+    tmp_path: Path, work_started: Path
+) -> None:
     from miketalk.building.from_video import build_model_from_video
 
-    started = time.monotonic()
     with pytest.raises(MiketalkError, match=r"--workers must be"):
         build_model_from_video(tmp_path / "none.mp4", tmp_path / "m", transcript="x", workers=0)
     with pytest.raises(MiketalkError, match=r"cannot write /sys/m.*give another -o"):
         build_model_from_video(tmp_path / "none.mp4", "/sys/m", transcript="x", workers=1)
-    assert time.monotonic() - started < 2.0
+    assert not work_started.exists()  # no ffmpeg, no Festival
 
 
 def test_a_refused_run_leaves_no_folder_made_for_its_output(
@@ -935,15 +910,11 @@ def test_the_summary_says_what_a_low_frame_rate_cuts() -> None:
 
 
 @pytest.mark.parametrize("source", ["/dev/zero", "/dev/urandom"])
-def test_an_endless_text_file_is_refused_unread(source: str) -> None:
-    import time
-
+def test_an_endless_text_file_is_refused_unread(source: str, finishes) -> None:
     from miketalk.speech.text import read_text_file
 
-    started = time.monotonic()
     with pytest.raises(MiketalkError, match=r"more than 1048576 bytes"):
-        read_text_file(source)
-    assert time.monotonic() - started < 1.0
+        finishes(lambda: read_text_file(source))  # a read to the end would never return
 
 
 def test_a_text_file_is_read_in_bounded_size_and_as_text(tmp_path: Path) -> None:
@@ -1018,7 +989,7 @@ def joined_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, st
 
 
 @pytest.mark.parametrize("signum", [2, 15])
-def test_a_signal_during_a_long_alignment_stops_within_two_seconds(
+def test_a_signal_during_a_long_alignment_stops_it(
     joined_recording: tuple[Path, str], small_model: Path, tmp_path: Path, signum: int
 ) -> None:
     import time
@@ -1035,8 +1006,7 @@ def test_a_signal_during_a_long_alignment_stops_within_two_seconds(
             if "aligning" in line:
                 break
         time.sleep(1.0)  # inside the aligner
-        took, starved = _stop(proc, signum)
-        assert took - starved < 2.0, f"{took:.2f} s, {starved:.2f} s of it waiting for a core"
+        _stop(proc, signum)
         assert proc.returncode == 128 + signum
         assert "Traceback" not in proc.stderr.read()
     finally:
@@ -1132,17 +1102,14 @@ _CLIP = str(Path(__file__).resolve().parents[2] / "data" / "grid_s1" / "video" /
         (["build", _CLIP, "--transcript", "/dev/urandom", "-o", "m"], "more than 1048576"),
     ],
 )
-def test_bad_input_is_one_line_at_once(
-    face: Path, tmp_path: Path, args: list[str], fragment: str
+def test_bad_input_is_one_line_before_any_work(
+    face: Path, tmp_path: Path, args: list[str], fragment: str, work_started: Path
 ) -> None:
-    import time
-
-    started = time.monotonic()
     proc = (
         cli(*args, "--model", face, cwd=tmp_path) if args[0] == "say" else cli(*args, cwd=tmp_path)
     )
     one_line(proc, 2, fragment)
-    assert time.monotonic() - started < 20  # before any work
+    assert not work_started.exists()  # no ffmpeg, no Festival
 
 
 def test_a_full_disk_at_publication_is_exit_one_and_leaves_the_old_pair(

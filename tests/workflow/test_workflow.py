@@ -308,10 +308,8 @@ def test_metrics_within_bounds(run: Path) -> None:
 
 
 def test_rerun_has_nothing_to_do(run: Path) -> None:
-    start = time.monotonic()
     proc = snakemake(run)
     assert "Nothing to be done" in proc.stdout + proc.stderr
-    assert time.monotonic() - start < 30
 
 
 def _reordered(value: object) -> object:

@@ -28,15 +28,23 @@ COARTICULATION = "coarticulation.json"
 TRAINED_DIRECTORY, TRAINED_MANIFEST = "trained", "trained.json"
 
 
+def workflow_results() -> list[Path]:
+    """The folders where the workflow's results are looked for, first found first:
+    ``$MIKETALK_RESULTS`` alone when it is set, else ``results/`` under the working
+    directory and under the source checkout this package runs from."""
+    if env := os.environ.get("MIKETALK_RESULTS"):
+        return [Path(env)]
+    checkout = Path(__file__).resolve().parents[3]  # src/miketalk/model/
+    return [defaults.RESULTS, checkout / defaults.RESULTS]
+
+
 def default_model_dir() -> Path:
-    """``$MIKETALK_MODEL``, else :data:`DEFAULT_MODEL` under the working directory, else
-    under the source checkout this package runs from."""
+    """``$MIKETALK_MODEL``, else the synthetic face's model in the first of
+    :func:`workflow_results` that has one (the first's path when none has)."""
     if env := os.environ.get("MIKETALK_MODEL"):
         return Path(env)
-    if DEFAULT_MODEL.exists():
-        return DEFAULT_MODEL
-    checkout = Path(__file__).resolve().parents[3] / DEFAULT_MODEL  # src/miketalk/model/
-    return checkout if checkout.exists() else DEFAULT_MODEL
+    candidates = [defaults.model_dir(root=root) for root in workflow_results()]
+    return next((path for path in candidates if path.exists()), candidates[0])
 
 
 def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
@@ -86,4 +94,5 @@ __all__ = [
     "default_model_dir",
     "lipsync_models_in",
     "trained_trajectories",
+    "workflow_results",
 ]

@@ -16,10 +16,9 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from miketalk import defaults
 from miketalk.composite.background_files import has_background
 from miketalk.errors import MiketalkError
-from miketalk.model.parts import default_lipsync_model, lipsync_models_in
+from miketalk.model.parts import default_lipsync_model, lipsync_models_in, workflow_results
 from miketalk.serve.build import LABEL_FILE
 
 log = logging.getLogger(__name__)
@@ -85,15 +84,11 @@ class Entry:
 
 
 def workflow_models() -> list[Path]:
-    """The model folders the workflow made: ``results/model/*`` under the working directory,
-    and under the source checkout this package runs from, and ``$MIKETALK_MODEL``."""
-    roots = [defaults.RESULTS / "model"]
-    checkout = Path(__file__).resolve().parents[3]  # src/miketalk/serve/
-    if (checkout / "pyproject.toml").is_file():
-        roots.append(checkout / defaults.RESULTS / "model")
+    """The model folders the workflow made (``model/*`` in each of
+    :func:`~miketalk.model.parts.workflow_results`), and ``$MIKETALK_MODEL``."""
     found: list[Path] = []
-    for root in roots:
-        found += _models_under(root)
+    for root in workflow_results():
+        found += _models_under(root / "model")
     if env := os.environ.get("MIKETALK_MODEL"):
         found.append(Path(env))
     return found

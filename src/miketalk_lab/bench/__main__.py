@@ -23,7 +23,10 @@ from miketalk.media.atomic import write_text_atomic
 #: The project's root (``docs/results.md`` is under it).
 ROOT = Path(__file__).resolve().parents[3]
 
-MODULES = ("synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "one_video")
+MODULES = (
+    "synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "one_video",
+    "responsiveness",
+)  # fmt: skip
 
 
 def main() -> int:
