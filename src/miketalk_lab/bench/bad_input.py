@@ -78,18 +78,21 @@ def _miketalk() -> str:
     return str(Path(sys.executable).parent / "miketalk")
 
 
-def join_addresses(obama: Path, work: Path) -> dict:
-    """Join :data:`ADDRESSES` into ``work/source.mp4`` with ``source.txt`` (reused when
-    there); return ``{"fps", "frames", "starts"}`` (each address's first frame)."""
+def join_addresses(
+    obama: Path, work: Path, addresses: Sequence[str] = ADDRESSES, stem: str = "source"
+) -> dict:
+    """Join ``addresses`` (default :data:`ADDRESSES`) into ``work/STEM.mp4`` with
+    ``STEM.txt`` (reused when there); return ``{"fps", "frames", "starts"}`` (each
+    address's first frame)."""
     from miketalk.corpus.clip_sources import read_transcripts
     from miketalk.media.decode import iter_video_frames, read_media_audio, video_info
     from miketalk.media.video import write_mp4
 
-    info = work / "source.json"
-    if info.is_file() and (work / "source.mp4").is_file():
+    info = work / f"{stem}.json"
+    if info.is_file() and (work / f"{stem}.mp4").is_file():
         return json.loads(info.read_text())
     captions = read_transcripts(obama / "transcripts.txt")
-    paths = [obama / "video" / f"{a}.mp4" for a in ADDRESSES]
+    paths = [obama / "video" / f"{a}.mp4" for a in addresses]
     for path in paths:
         if not path.is_file():
             raise MiketalkError(f"{path} not found: --obama is the weekly addresses' folder")
@@ -106,9 +109,9 @@ def join_addresses(obama: Path, work: Path) -> dict:
             yield from iter_video_frames(path)
 
     work.mkdir(parents=True, exist_ok=True)
-    write_mp4(work / "source.mp4", frames(), fps=fps, audio=np.concatenate(sound), rate=_RATE,
+    write_mp4(work / f"{stem}.mp4", frames(), fps=fps, audio=np.concatenate(sound), rate=_RATE,
               n_frames=sum(counts), crf=16)  # fmt: skip
-    write_text_atomic(work / "source.txt", "\n".join(captions[a] for a in ADDRESSES) + "\n")
+    write_text_atomic(work / f"{stem}.txt", "\n".join(captions[a] for a in addresses) + "\n")
     doc = {"fps": fps, "frames": sum(counts),
            "starts": [int(s) for s in np.cumsum([0, *counts[:-1]])]}  # fmt: skip
     write_text_atomic(info, json.dumps(doc))

@@ -353,6 +353,8 @@ def results_markdown(
         bench_out / "one_video" / "summary.md",
         f"{bench} one_video",
     )
+    lines += _markdown_file("People other than s1: the weekly addresses ([anyone.md](anyone.md))",
+                            bench_out / "anyone" / "summary.md", f"{bench} anyone")  # fmt: skip
     lines += _markdown_file(
         "Forced aligner against GRID's word timings",
         bench_out / "real_face" / "aligner" / "summary.md",
@@ -399,8 +401,7 @@ def results_markdown(
         f"{run} results/metrics/sync_sweep.csv",
         SYNC_COLUMNS,
     )
-    lines += ["## `make bench`", ""]
-    lines += bench_section(bench_out)
+    lines += ["## `make bench`", "", *bench_section(bench_out)]
     return "\n".join(lines).rstrip() + "\n"
 
 

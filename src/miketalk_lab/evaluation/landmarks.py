@@ -117,6 +117,15 @@ class FaceLandmarks:
                 return (int(face.left()), int(face.top()), int(face.width()), int(face.height()))
         raise MiketalkError("the face detector found no face in the clip's frames")
 
+    def detect(self, frame: np.ndarray) -> Box | None:
+        """The largest face box ``(x, y, w, h)`` in one grey or RGB frame, or None (a
+        moving head: each frame's own box, where :meth:`face_box` finds one per clip)."""
+        found = list(self._detector(np.ascontiguousarray(frame), 0))
+        if not found:
+            return None
+        face = max(found, key=lambda r: (r.width() * r.height(), -r.left(), -r.top()))
+        return (int(face.left()), int(face.top()), int(face.width()), int(face.height()))
+
     def points(self, frames: np.ndarray, box: Box) -> np.ndarray:
         """The 68 landmarks of every frame, marked from one face box.
 
