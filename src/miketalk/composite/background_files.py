@@ -392,8 +392,9 @@ def video_background(
 
         first_look(video, source=str(video))  # no face anywhere: said before tracking it all
         return tracked_background(video, stabilizer, crop, source=str(video), progress=progress)
-    frames, fps = check_video(video)
-    return background_from_video(frames, fps, stabilizer, source=str(video), progress=progress)
+    from miketalk.composite.background import streamed_background
+
+    return streamed_background(video, stabilizer, source=str(video), progress=progress)
 
 
 def composite_renders(

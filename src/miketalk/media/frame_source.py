@@ -27,7 +27,11 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["ImageFrames", "VideoFrames"]
+__all__ = ["KEEP_BYTES", "ImageFrames", "VideoFrames"]
+
+#: The most bytes of frames a :class:`VideoFrames` keeps (at least 2 frames): 32 frames
+#: of 1080p (6.2 MB each), 10 of 4K (24.9 MB), instead of 32 of any size (800 MB at 4K).
+KEEP_BYTES = 256 << 20
 
 
 class _Cached:
@@ -149,7 +153,8 @@ class VideoFrames(_Cached):
     start : float
         Seconds from the beginning of the file.
     keep : int
-        Frames kept in memory (a step back within them reads nothing).
+        Frames kept in memory (a step back within them reads nothing), at most
+        :data:`KEEP_BYTES` of them (and at least 2).
     """
 
     def __init__(
@@ -165,6 +170,7 @@ class VideoFrames(_Cached):
 
         self._path = Path(path)
         width, height, _ = video_info(self._path)
+        keep = min(int(keep), max(2, KEEP_BYTES // (width * height * 3)))
         super().__init__(count, (height, width), keep)
         self._fps = float(fps)
         self._start = float(start)
