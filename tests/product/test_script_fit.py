@@ -255,3 +255,28 @@ def test_a_chunk_with_a_word_not_said_at_its_edge_keeps_the_words_said() -> None
     parts = _fitting(sound, 16000, (2.84, 5.75), group, words, unaligned, FIT_LIMIT)
     assert [[words[i] for i, _ in p[1]] for p in parts] == [words[6:12]]
     assert [u.index for u in unaligned] == [12] and parts[0][4] >= FIT_LIMIT
+
+
+def test_a_script_far_longer_than_its_video_is_refused_before_alignment(tmp_path, monkeypatch):
+    """Issue 50: a 1 MB one-line transcript for 18 s of video ran the aligner for over 5
+    minutes; now one line, before the aligner starts."""
+    from miketalk.corpus.one_video import segment_video
+    from miketalk.corpus.script_fit import MAX_WORDS_PER_SECOND, check_script_length
+    from miketalk.speech import long_align
+
+    data = Path(__file__).resolve().parents[2] / "data" / "grid_s1"
+    line = dict(x.split(" ", 1) for x in (data / "transcripts.txt").read_text().splitlines())
+    clip = data / "video" / "bbaf2n.mpg"  # 3 s, six words
+    check_script_length(int(MAX_WORDS_PER_SECOND * 3.0), 3.0, "v")  # at the limit: taken
+    with pytest.raises(MiketalkError, match=r"more than the 3\.0 s of v can hold"):
+        check_script_length(int(MAX_WORDS_PER_SECOND * 3.0) + 1, 3.0, "v")
+
+    def never(*args, **kwargs):
+        raise AssertionError("the aligner ran")
+
+    monkeypatch.setattr(long_align, "align_long", never)
+    script = tmp_path / "long.txt"
+    script.write_text(" ".join(list(line.values()) * 5))  # 1440 words on one line
+    with pytest.raises(MiketalkError, match=r"the script has 1440 words, more than the 3\.0 s"):
+        segment_video(clip, tmp_path / "s.json", transcript=script)
+    assert not (tmp_path / "s.json").exists()

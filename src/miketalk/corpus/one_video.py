@@ -205,6 +205,7 @@ def check_video_inputs(
         One line: a missing or unreadable video or script, another language, no
         face or several, no speech, everything held out.
     """
+    from miketalk.corpus.script_fit import check_script_length
     from miketalk.media.decode import read_media_audio, read_video
     from miketalk.speech.coverage import HOP_SECONDS, voiced_frames
 
@@ -218,6 +219,7 @@ def check_video_inputs(
     first, fps = read_video(media, frames=1)
     samples = read_media_audio(media, rate=RATE)
     duration = len(samples) / RATE
+    check_script_length(sum(len(c.words) for c in cues), duration, media.name)
     if heldout_seconds >= duration:
         raise MiketalkError(
             f"heldout_seconds ({heldout_seconds:g}) holds out all of the {duration:.1f} s video"

@@ -48,6 +48,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from miketalk.errors import MiketalkError
 from miketalk.speech.long_align import LongAlignment, Unaligned
 from miketalk.speech.types import Phone
 
@@ -59,6 +60,31 @@ MIN_STRETCH = 5
 #: explain less than :data:`MIN_EXPLAINED_SHARE` of the voiced audio.
 MIN_KEPT_SHARE = 0.3
 MIN_EXPLAINED_SHARE = 0.3
+#: The most words a script may hold for each second of its video: more cannot all be said
+#: there, and the script is refused before the aligner starts (a 1 MB one-line transcript
+#: for 18 s of video ran the aligner for more than 5 minutes). Measured (a transcript's
+#: words, :func:`miketalk.corpus.script.text_words`, over its clip's seconds): s1's 200 GRID
+#: clips 2.01 a second (GRID's fast six-word sentences in 3 s), the other GRID talkers 2.01,
+#: the weekly addresses 2.70 to 4.93 (the most: a caption line holding words said after the
+#: cut). Twice the most.
+MAX_WORDS_PER_SECOND = 10.0
+
+
+def check_script_length(words: int, seconds: float, name: str) -> None:
+    """Refuse a script of ``words`` words for ``seconds`` of video as far too long.
+
+    Raises
+    ------
+    MiketalkError
+        In one line, when ``words`` is more than :data:`MAX_WORDS_PER_SECOND` a second.
+    """
+    most = int(MAX_WORDS_PER_SECOND * seconds)
+    if words > most:
+        raise MiketalkError(
+            f"the script has {words} words, more than the {seconds:.1f} s of {name} can hold "
+            f"(at most {MAX_WORDS_PER_SECOND:g} words a second: {most}): is it this "
+            "video's, and all of it?"
+        )
 
 
 @dataclass(frozen=True)
