@@ -151,6 +151,33 @@ def check_word_lengths(text: str) -> None:
             )
 
 
+#: The most words one text is spoken with (some 60 minutes of speech). The work of each
+#: sentence is bounded (:func:`split_chunks`: at most ``max_words`` words a chunk, however
+#: long the line); the whole utterance is held while its frames are drawn (its sound, its
+#: phones and frames for the timeline): 9,600 words held 941 MB, and the largest file read
+#: (:data:`MAX_TEXT_BYTES`, one line of some 170,000 words) needed more than 7.7 GB.
+MAX_SPOKEN_WORDS = 10_000
+
+
+def check_spoken_length(text: str, *, limit: int = MAX_SPOKEN_WORDS) -> None:
+    """Refuse a text of more than ``limit`` words, in one line that says the limit.
+
+    Raises
+    ------
+    MiketalkError
+        When ``text`` has more than ``limit`` words (runs of letters or digits).
+    """
+    words = 0
+    for words, _ in enumerate(_WORD.finditer(text), 1):
+        if words > limit:
+            break
+    if words > limit:
+        raise MiketalkError(
+            f"the text has more than {limit:,} words (some 60 minutes of speech): miketalk "
+            f"speaks at most {limit:,} at a time; split it"
+        )
+
+
 def split_chunks(text: str, *, max_words: int = 40) -> list[str]:
     """Split normalized text into chunks of whole sentences, each speakable.
 

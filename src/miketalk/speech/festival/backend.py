@@ -40,7 +40,7 @@ from miketalk.speech.festival.output import (
 )
 from miketalk.speech.festival.run import FestivalRun, check_exit
 from miketalk.speech.festival.voices import DEFAULT_VOICE, Voice, get_voice, install_hint
-from miketalk.speech.text import normalize_text, split_chunks
+from miketalk.speech.text import check_spoken_length, normalize_text, split_chunks
 from miketalk.speech.types import Utterance
 
 if TYPE_CHECKING:
@@ -129,6 +129,7 @@ class FestivalBackend(SpeechBackend):
             Nothing speakable in ``text``, Festival missing, or Festival failing.
         """
         clean = normalize_text(text)
+        check_spoken_length(clean)
         chunks = self._run(split_chunks(clean, max_words=self.max_words), None)
         return join_chunks(clean, chunks)
 

@@ -25,7 +25,7 @@ from miketalk.speech.festival.output import (
     write_ends,
 )
 from miketalk.speech.festival.voices import VOICES, Voice, install_hint
-from miketalk.speech.text import normalize_text, split_chunks
+from miketalk.speech.text import check_spoken_length, normalize_text, split_chunks
 from miketalk.speech.types import Utterance
 
 
@@ -61,6 +61,7 @@ class FestivalRun(PendingSpeech):
 
     def __init__(self, backend: FestivalSession, text: str) -> None:
         clean = normalize_text(text)
+        check_spoken_length(clean)
         super().__init__(backend, clean)
         self._texts = split_chunks(clean, max_words=backend.max_words)
         self._deadline = time.monotonic() + backend.timeout
