@@ -1149,10 +1149,19 @@ def test_long_audio_is_halved_where_the_words_fit(
     audio, text = joined_recording
     samples = read_media_audio(audio)
     monkeypatch.setattr(long_align, "COARSE_SECONDS", 40.0)
+    coarse, anchored = [], []  # what the coarse pass was given (s); the spans cut at anchors
+    real_coarse, real_anchored = long_align.coarse_span, long_align.long_anchor.anchored_pass
+    monkeypatch.setattr(long_align, "coarse_span", lambda x, rate, lo, hi, said: (
+        coarse.append(hi - lo) or real_coarse(x, rate, lo, hi, said)))  # fmt: skip
+    monkeypatch.setattr(long_align.long_anchor, "anchored_pass", lambda *a: (
+        anchored.append(a[2]) or real_anchored(*a)))  # fmt: skip
     words = tuple(text.split())
     found = long_align.align_long(
         samples, 16000, [Cue(words, start=None, end=None)], anchors=anchors
     )
+    # cut before the coarse pass: it never aligned more than its limit at once
+    assert coarse and max(coarse) <= 40.0 < len(samples) / 16000
+    assert bool(anchored) == anchors  # at anchors, or (without them) halved at pauses
     assert len(found.unaligned) <= len(words) // 100, found.unaligned[:3]
     assert found.phones[0].start == 0.0 and found.phones[-1].end == pytest.approx(
         len(samples) / 16000
