@@ -6,7 +6,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 from miketalk_lab.bench import hd_scaling as hd
 
@@ -87,6 +86,6 @@ def test_tables_from_fake_runs():
 
 
 def test_the_sentences_have_ten_words():
+    assert len(hd.SENTENCES) >= 2  # the cold says take the first two (an empty tuple: all() holds)
     assert all(len(s.split()) == 10 for s in hd.SENTENCES)
     assert len(set(hd.SENTENCES)) == len(hd.SENTENCES)
-    assert Path(hd.__file__).name == "hd_scaling.py"
