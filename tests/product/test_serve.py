@@ -222,6 +222,7 @@ def test_a_build_shows_its_stages_as_it_runs(building, server) -> None:
 def test_typed_text_plays_with_its_cues_and_downloads(page, url: str, server) -> None:
     _open(page, url)
     labels = page.locator("#models li .name").all_inner_texts()
+    assert labels  # (an empty list would check nothing below)
     for label in labels:
         seen = _say(page, label, "Bin blue at F two now, please say it again soon.")
         assert not seen["error"]
