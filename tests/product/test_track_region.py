@@ -72,11 +72,20 @@ def test_the_crop_region_holds_every_crops_window_and_is_even() -> None:
 
 
 @pytest.mark.parametrize("conversion", ["accurate", "fast"])
-def test_the_crops_read_from_the_region_are_the_whole_frames_crops(conversion: str) -> None:
+def test_the_crops_read_from_the_region_are_the_whole_frames_crops(
+    conversion: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from miketalk.media import decode
+
+    read, real = [], decode.iter_video_frames
+    monkeypatch.setattr(decode, "iter_video_frames", lambda *a, **k: (
+        read.append(k.get("region")) or real(*a, **k)))  # fmt: skip
     settings = FaceCropSettings(conversion=conversion)
     cropped = crop_video(CLIP, frames=20, crop=settings)
     frames = iter_video_frames(CLIP, frames=20, conversion=conversion)
-    assert crop_region(cropped.to_crop, settings, cropped.size) is not None  # a part was read
+    # the colour frames were read as the region only (the tracker's grey ones whole)
+    assert read == [None, crop_region(cropped.to_crop, settings, cropped.size)]
+    assert read[1] is not None and read[1][2] * read[1][3] < 360 * 288
     expected = crops_of(frames, cropped.to_crop, settings, 20)
     assert np.array_equal(cropped.crops, expected)
 
