@@ -59,9 +59,10 @@ def test_a_frames_own_stabilized_mouth_composites_back_to_the_frame(with_field):
     placed = compositor.place(transform, SIZE, field=field).full_alpha(SIZE)
     inside = placed > 0.01
     assert inside.sum() > 2000
-    # resampling twice costs a little (55.3 dB through bicubic, 51.7 through bilinear);
+    # resampling twice costs a little (55.3 dB through bicubic, 51.7 through bilinear), and
+    # something: the frame left as it was, no mouth composited, measures 86 dB or more;
     # leaving the field's inverse out misplaces the mouth by up to 2 px (40.0 dB)
-    assert _psnr(out, frame, inside) > 45.0
+    assert 45.0 < _psnr(out, frame, inside) < 65.0
     assert np.array_equal(out[~inside], frame[~inside])
 
 
@@ -98,6 +99,10 @@ def test_colour_match_follows_the_frames_light():
     inside = Compositor(MOUTH, SIZE).place(transform, SIZE).full_alpha(SIZE) > 0.01
     assert _psnr(matched, frame, inside) > _psnr(plain, frame, inside) + 10
     assert _psnr(matched, frame, inside) > 30.0
+    # the render is what shows there: unmatched, its darker light (17.5 grey levels under the
+    # frame's); matched, the frame's (within 0.01)
+    level = frame[inside].mean()
+    assert level - plain[inside].mean() > 10 and abs(matched[inside].mean() - level) < 1
 
 
 def test_colour_offset_is_the_band_difference_for_a_constant_shift():
@@ -130,10 +135,11 @@ def test_poisson_blend_gives_back_the_frame_and_keeps_the_frames_light():
     stabilized = _stabilizer().apply(frame[None], transform[None])[0]
     compositor = Compositor(MOUTH, SIZE, blend="poisson", colour_match=False)
     inside = compositor.place(transform, SIZE).full_alpha(SIZE) > 0.5
-    assert _psnr(compositor(frame, stabilized, transform), frame, inside) > 44.0  # 47.8
+    # 49.4 dB; under 60, the render is cloned in (the frame left as it was: 67.9 dB or more)
+    assert 44.0 < _psnr(compositor(frame, stabilized, transform), frame, inside) < 60.0
     # a render 40 grey levels darker: the gradient-domain blend takes the frame's level
     darker = np.clip(stabilized.astype(np.int16) - 40, 0, 255).astype(np.uint8)
-    assert _psnr(compositor(frame, darker, transform), frame, inside) > 44.0  # 46.5; 16.9 feathered
+    assert 44.0 < _psnr(compositor(frame, darker, transform), frame, inside) < 60.0  # 47.8
     with pytest.raises(MiketalkError, match="blend"):
         Compositor(MOUTH, SIZE, blend="median")
 
