@@ -1,13 +1,15 @@
 """A talking-face model from one video of a person and what it says: the workflow's stages for
 a face from one video (:mod:`miketalk.building.stages`), one after the other.
 
-The work is done in a folder beside the model directory that is removed at the end; the
-model directory appears only when the model is complete (and replaces an older model only
-with ``force``). ``MODEL_DIR/build/`` keeps the utterances found (``segments.json``) and the
-corpus's tables of what was left out. Bad input is one line (:class:`MiketalkError`),
-before the long work where it can be: no video or no sound, no face or several, no speech,
-a transcript in another language or of another video, too little speech for the viseme
-classes.
+The work is done in a folder beside the model directory that is removed at the end, the
+model's lock held throughout (a second build of it is refused before its work); the model
+directory appears only when the model is complete, and replaces an older model only with
+``force`` and only when the older one holds nothing but its own files (those its manifest
+names, :func:`miketalk.media.ownership.check_replaceable`). ``MODEL_DIR/build/`` keeps the
+utterances found (``segments.json``) and the corpus's tables of what was left out. Bad input
+is one line (:class:`MiketalkError`), before the long work where it can be: no video or no
+sound, no face or several, no speech, a transcript in another language or of another video,
+too little speech for the viseme classes.
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ def build_model_from_video(
     )
     from miketalk.corpus.one_video import check_video_inputs, segment_video
     from miketalk.corpus.viseme_choice import choose_visemes_stage
+    from miketalk.model.write import list_model_files
 
     model_dir = Path(model_dir)
     workers = default_workers() if workers is None else check_workers(workers)
@@ -88,78 +91,105 @@ def build_model_from_video(
         raise MiketalkError(f"{err}; give another -o") from None
     if keep_corpus is not None and Path(keep_corpus).exists():
         raise MiketalkError(f"{keep_corpus} exists: --keep-corpus needs a new folder")
-    checked = check_video_inputs(  # before any work: one line for a bad video or script
-        video, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
-    )
-    with _work_folder(model_dir) as work:
-        spec, strategy = flow or defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
-        corpus, visemes, flows = work / "corpus", work / "visemes", work / "flows"
-        segments = work / "segments" / "segments.json"
-        settings = {"media": str(Path(video).resolve())}
-        out = argparse.Namespace(
-            targets=visemes / "candidates.tsv",
-            visemes=visemes / "visemes.tsv",
-            images=visemes / "images",
-            sheet=visemes / "contact_sheet.png",
+    with _model_lock(model_dir):  # another build of it: refused at once, before any check
+        checked = check_video_inputs(  # before any work: one line for a bad video or script
+            video, transcript=transcript, subtitles=subtitles, heldout_seconds=heldout_seconds
         )
-
-        def flows_of(name: str, mixed: Path | None = None) -> None:
-            flows_stage(
-                flows / name,
-                flows / f"{name}.tsv",
-                visemes=out.visemes,
-                images=out.images,
-                frames=corpus / "frames",
-                spec=spec,
-                strategy=name,
-                window=mixed_window,
-                mixed=mixed,
-                regions=corpus / "regions.json",
-                workers=workers,
+        with _work_folder(model_dir) as work:
+            spec, strategy = flow or defaults.BUILD_FLOW_METHOD, defaults.BUILD_FLOW_STRATEGY
+            corpus, visemes, flows = work / "corpus", work / "visemes", work / "flows"
+            segments = work / "segments" / "segments.json"
+            settings = {"media": str(Path(video).resolve())}
+            out = argparse.Namespace(
+                targets=visemes / "candidates.tsv",
+                visemes=visemes / "visemes.tsv",
+                images=visemes / "images",
+                sheet=visemes / "contact_sheet.png",
             )
 
-        steps = {
-            "segment": lambda: segment_video(
-                video, segments, transcript=transcript, subtitles=subtitles,
-                heldout_seconds=heldout_seconds, checked=checked,
-            ),
-            "corpus": lambda: corpus_stage(
-                corpus, settings, segments=segments, workers=workers, crop=crop
-            ),
-            "visemes": lambda: choose_visemes_stage(corpus_dir=corpus, grouping={}, out=out),
-            "eigenlips": lambda: eigenlips_stage(corpus, corpus / "eigenlips.npz"),
-            "flows (mixed)": lambda: flows_of("mixed"),
-            "flows (bridge)": lambda: flows_of(strategy, mixed=flows / "mixed"),
-            "model": lambda: model_stage(
-                work / "model", visemes=out.visemes, images=out.images, flows=flows / strategy,
-                spec=spec, strategy=strategy, grouping={}, phones=corpus / "phones.tsv",
-                eigenlips=corpus / "eigenlips.npz", media=settings["media"], segments=segments,
-            ),
-        }  # fmt: skip
-        seconds: dict[str, float] = {}
-        out.visemes.parent.mkdir(parents=True)
-        segments.parent.mkdir(parents=True)
-        bar = tqdm(total=len(steps), unit="stage", disable=not progress, file=sys.stderr)
-        with bar:
-            for name, step in steps.items():
-                bar.set_description(f"build: {name}")
-                started = time.perf_counter()
-                step()
-                seconds[name] = time.perf_counter() - started
-                bar.update(1)
-                if report is not None:
-                    report(name, seconds[name], peak_mb())
-        kept = work / "model" / "build"
-        kept.mkdir()
-        for name, where in KEPT.items():
-            shutil.copyfile(work / where / name, kept / name)
-        with output_lock(model_dir):
-            check_replaceable(model_dir, Kind.MODEL, inputs=inputs, force=force)
+            def flows_of(name: str, mixed: Path | None = None) -> None:
+                flows_stage(
+                    flows / name,
+                    flows / f"{name}.tsv",
+                    visemes=out.visemes,
+                    images=out.images,
+                    frames=corpus / "frames",
+                    spec=spec,
+                    strategy=name,
+                    window=mixed_window,
+                    mixed=mixed,
+                    regions=corpus / "regions.json",
+                    workers=workers,
+                )
+
+            steps = {
+                "segment": lambda: segment_video(
+                    video, segments, transcript=transcript, subtitles=subtitles,
+                    heldout_seconds=heldout_seconds, checked=checked,
+                ),
+                "corpus": lambda: corpus_stage(
+                    corpus, settings, segments=segments, workers=workers, crop=crop
+                ),
+                "visemes": lambda: choose_visemes_stage(corpus_dir=corpus, grouping={}, out=out),
+                "eigenlips": lambda: eigenlips_stage(corpus, corpus / "eigenlips.npz"),
+                "flows (mixed)": lambda: flows_of("mixed"),
+                "flows (bridge)": lambda: flows_of(strategy, mixed=flows / "mixed"),
+                "model": lambda: model_stage(
+                    work / "model", visemes=out.visemes, images=out.images, flows=flows / strategy,
+                    spec=spec, strategy=strategy, grouping={}, phones=corpus / "phones.tsv",
+                    eigenlips=corpus / "eigenlips.npz", media=settings["media"], segments=segments,
+                ),
+            }  # fmt: skip
+            seconds: dict[str, float] = {}
+            out.visemes.parent.mkdir(parents=True)
+            segments.parent.mkdir(parents=True)
+            bar = tqdm(total=len(steps), unit="stage", disable=not progress, file=sys.stderr)
+            with bar:
+                for name, step in steps.items():
+                    bar.set_description(f"build: {name}")
+                    started = time.perf_counter()
+                    step()
+                    seconds[name] = time.perf_counter() - started
+                    bar.update(1)
+                    if report is not None:
+                        report(name, seconds[name], peak_mb())
+            kept = work / "model" / "build"
+            kept.mkdir()
+            for name, where in KEPT.items():
+                shutil.copyfile(work / where / name, kept / name)
+            list_model_files(work / "model")  # its record too: --force replaces only what it names
+            check_replaceable(model_dir, Kind.MODEL, inputs=inputs, force=force)  # under its lock
             publish_directory(work / "model", model_dir)
-        if keep_corpus is not None:
-            Path(keep_corpus).parent.mkdir(parents=True, exist_ok=True)
-            shutil.move(corpus, keep_corpus)
+            if keep_corpus is not None:
+                Path(keep_corpus).parent.mkdir(parents=True, exist_ok=True)
+                shutil.move(corpus, keep_corpus)
     return seconds
+
+
+@contextlib.contextmanager
+def _model_lock(model_dir: Path) -> Iterator[None]:
+    """Hold the model's lock from before the build's checks to its end, or refuse at once when
+    another process holds it (:func:`output_lock`): a second build of the same model is
+    refused before its work, not when it publishes. The folders made for the lock are
+    removed again when the build fails and they are empty."""
+    made = [p for p in model_dir.absolute().parents if not p.exists()]
+    try:
+        model_dir.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise MiketalkError(
+            f"cannot write the model {model_dir}: {err.strerror or err} "
+            f"({model_dir.parent}); give another -o"
+        ) from None
+    try:
+        with output_lock(model_dir, wait=False):
+            yield
+    except BaseException:
+        for folder in made:  # the deepest first
+            try:
+                folder.rmdir()
+            except OSError:  # not empty
+                break
+        raise
 
 
 @contextlib.contextmanager
@@ -168,7 +198,6 @@ def _work_folder(model_dir: Path) -> Iterator[Path]:
     a folder that cannot be written in is one line."""
     with contextlib.ExitStack() as stack:
         try:
-            model_dir.parent.mkdir(parents=True, exist_ok=True)
             work = stack.enter_context(scratch_dir("build", directory=model_dir.parent))
         except OSError as err:
             raise MiketalkError(

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_paths
-from miketalk.media.ownership import Kind
+from miketalk.media.ownership import Kind, record_path, record_text
 from miketalk.media.scratch import scratch_dir
 from miketalk.speech.types import Phone
 from miketalk.visemes import VisemeTable
@@ -305,7 +305,10 @@ def write_cues(
     """Write each of ``paths`` in the format its suffix names.
 
     Everything is made before anything is written; then the files of each
-    directory replace older ones together, or not at all. ``guard`` runs just before
+    directory replace older ones together, or not at all, each with its record beside it
+    (:func:`miketalk.media.ownership.record_path`: its size and SHA-256), which tells a
+    later run that miketalk wrote it and that it is unchanged since (only then is it
+    replaced without ``--force``). ``guard`` runs just before
     they are published, under the output's lock (:func:`~miketalk.media.atomic.atomic_paths`).
 
     Raises
@@ -325,11 +328,16 @@ def write_cues(
         render_cues(f, phones, table, duration=duration, sound_file=sound_file, extended=extended)
         for f in formats
     ]
+    data = [text.encode("utf-8") for text in texts]
     by_dir: dict[Path, list[int]] = {}
     for i, path in enumerate(finals):
         by_dir.setdefault(path.parent.resolve(), []).append(i)
     for indices in by_dir.values():
-        with atomic_paths([finals[i] for i in indices], guard=guard) as temps:
-            for tmp, i in zip(temps, indices, strict=True):
-                tmp.write_text(texts[i], encoding="utf-8")
+        # each file with its record: what tells a later run that miketalk wrote it, as it is
+        named = [finals[i] for i in indices]
+        with atomic_paths([*named, *map(record_path, named)], guard=guard) as temps:
+            for tmp, i in zip(temps, indices, strict=False):
+                tmp.write_bytes(data[i])
+            for tmp, i in zip(temps[len(indices) :], indices, strict=True):
+                tmp.write_text(record_text(finals[i].name, data[i]), encoding="utf-8")
     return finals

@@ -59,8 +59,23 @@ from miketalk.media.scratch import deferred_signals, owner_tag, tag_owner_alive
 log = logging.getLogger(__name__)
 
 
+def _check_dots(final: Path) -> None:
+    """Refuse a path whose ``..`` follows a folder that does not exist (``sub/../talk.mp4``
+    with no ``sub``): the system does not resolve it, and making ``sub`` to get there left
+    it behind, empty."""
+    prefix = Path(final.anchor)
+    for part in final.parent.parts[1 if final.anchor else 0 :]:
+        if part == ".." and not prefix.is_dir():
+            raise MiketalkError(
+                f"cannot write {final}: there is no folder {prefix} for its '..' to leave; "
+                "name the folder without it"
+            )
+        prefix /= part
+
+
 def _temporary(final: Path, suffix: str) -> Path:
     """Create an empty temporary file beside ``final`` with the usual permissions."""
+    _check_dots(final)
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         fd, name = tempfile.mkstemp(
@@ -178,8 +193,10 @@ def lock_path(path: str | os.PathLike[str]) -> Path:
 
 
 @contextlib.contextmanager
-def output_lock(path: str | os.PathLike[str]) -> Iterator[None]:
-    """Hold the lock of output ``path`` while the body runs; wait while another process holds it.
+def output_lock(path: str | os.PathLike[str], *, wait: bool = True) -> Iterator[None]:
+    """Hold the lock of output ``path`` while the body runs; wait while another process holds it
+    (or, with ``wait`` False, refuse at once: a build holds its model's lock from before its
+    work to its end).
 
     ``fcntl.flock`` on :func:`lock_path`; the file is removed on release (a process that
     was waiting for it then finds the file it locked gone and locks the new one), so no
@@ -188,7 +205,8 @@ def output_lock(path: str | os.PathLike[str]) -> Iterator[None]:
     Raises
     ------
     MiketalkError
-        If the lock file cannot be made (a directory that cannot be written in).
+        If the lock file cannot be made (a directory that cannot be written in), or, with
+        ``wait`` False, another process holds the lock.
     """
     import fcntl
 
@@ -203,6 +221,11 @@ def output_lock(path: str | os.PathLike[str]) -> Iterator[None]:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
+                if not wait:
+                    raise MiketalkError(
+                        f"another miketalk is writing {path} now: wait for it to end, or give "
+                        "another -o"
+                    ) from None
                 if not waited:
                     log.warning("waiting for another miketalk that is writing %s", path)
                     waited = True
@@ -257,7 +280,7 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
         try:
             os.replace(*renames[0])
         except OSError as err:
-            kind = MachineFailure if err.errno in _MACHINE_ERRNOS else MiketalkError
+            kind = MachineFailure if err.errno in MACHINE_ERRNOS else MiketalkError
             raise kind(
                 f"cannot write {renames[0][1]}: {err.strerror or err}; it was left as it was"
             ) from None
@@ -290,7 +313,7 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
             roll_back(journal)
             if isinstance(err, OSError):
                 where = err.filename or first
-                kind = MachineFailure if err.errno in _MACHINE_ERRNOS else MiketalkError
+                kind = MachineFailure if err.errno in MACHINE_ERRNOS else MiketalkError
                 raise kind(
                     f"cannot write {where}: {err.strerror or err}; the old "
                     f"{' and '.join(f.name for _, f in renames)} were left as they were"
@@ -303,7 +326,7 @@ def _commit(renames: list[tuple[Path, Path]]) -> None:
 
 #: What an OSError of the machine (not of the user's choice of output) is: a full disk, a
 #: quota, an input/output error.
-_MACHINE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO})
+MACHINE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EIO})
 
 
 def sweep_beside(path: str | os.PathLike[str]) -> list[Path]:

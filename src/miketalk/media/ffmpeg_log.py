@@ -10,13 +10,14 @@ act on; :func:`unreadable` says what is true of the file, and logs ffmpeg's word
 from __future__ import annotations
 
 import logging
+import os
 import re
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from miketalk.errors import MiketalkError
+from miketalk.errors import MachineFailure, MiketalkError
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +66,21 @@ class Logged(NamedTuple):
     def of(cls, log_text: str) -> Logged:
         """From ffmpeg's verbose log."""
         return cls(luma_kind(log_text), stated_duration(log_text))
+
+
+def encoding_failure(folder: Path, log_text: str) -> MiketalkError:
+    """What a failed encoding into ``folder`` is, in one line: the machine's (a full disk, a
+    quota, an input/output error: :class:`MachineFailure`, exit status 1) when ffmpeg's log
+    says so, else ffmpeg's last words joined (:func:`tail`)."""
+    from miketalk.media.atomic import MACHINE_ERRNOS
+
+    for number in sorted(MACHINE_ERRNOS):
+        if os.strerror(number) in log_text:
+            return MachineFailure(
+                f"cannot write the video in {folder}: {os.strerror(number)} (ffmpeg stopped "
+                "encoding it); nothing was written"
+            )
+    return MiketalkError(f"ffmpeg failed encoding the video: {tail(log_text)}")
 
 
 def tail(text: str) -> str:

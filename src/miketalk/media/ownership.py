@@ -16,12 +16,14 @@ new files are published (:func:`miketalk.media.atomic.atomic_paths`' ``guard``).
   - a timeline JSON (:attr:`Kind.TIMELINE`): a miketalk timeline
     (:func:`miketalk.talk.output.is_timeline`);
   - mouth cues (:attr:`Kind.CUES_JSON`, :attr:`Kind.CUES_TSV`, :attr:`Kind.TEXTGRID`): a
-    file of the format and the layout miketalk writes there (Rhubarb's JSON with its
-    ``mouthCues``, Rhubarb's TSV lines, a TextGrid with the tiers phones, visemes and
-    keyframes);
+    file whose record beside it (:func:`record_path`, ``.NAME.miketalk.json``, written
+    with it) names its size and SHA-256. Its format tells nothing: Rhubarb writes the same
+    JSON and TSV, and a file miketalk wrote and the user then tuned by hand is the user's;
   - a wav (:attr:`Kind.WAV`): one whose RIFF ``INFO`` chunk names miketalk as its software
     (``ISFT``), as :func:`miketalk.media.audio.write_wav` marks it when asked;
-  - a model directory (:attr:`Kind.MODEL`): a directory with a model manifest.
+  - a model directory (:attr:`Kind.MODEL`): a directory with a model manifest, replaced
+    (with ``force``) only when it holds nothing but the files its manifest names
+    (:func:`foreign_entry`): a user's notes kept in an older model's folder are never removed.
 
   Anything else (a file of another kind, a directory where a file goes, a device) is refused
   in one line unless ``force``, which replaces a regular file of any kind (never a directory
@@ -38,9 +40,8 @@ import enum
 import hashlib
 import json
 import os
-import re
 from collections.abc import Iterable
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from miketalk.errors import MiketalkError
 
@@ -48,6 +49,10 @@ __all__ = [
     "Kind",
     "check_replaceable",
     "file_record",
+    "foreign_entry",
+    "model_files",
+    "record_path",
+    "record_text",
     "same_file",
     "written_by_miketalk",
 ]
@@ -57,9 +62,6 @@ TIMELINE_FORMAT = "miketalk-timeline/1"
 
 #: The software name a miketalk wav carries in its RIFF INFO chunk (``ISFT``).
 WAV_SOFTWARE = b"miketalk"
-
-_CUE_KEYS = {"start", "end", "value"}
-_TSV_LINE = re.compile(r"^\d+(?:\.\d+)?\t[A-HX]$")
 
 
 class Kind(enum.Enum):
@@ -82,9 +84,9 @@ class Kind(enum.Enum):
 _WORDS = {
     Kind.VIDEO: "an mp4 miketalk wrote (with its timeline JSON beside it)",
     Kind.TIMELINE: "a miketalk timeline",
-    Kind.CUES_JSON: "mouth cues miketalk wrote (Rhubarb JSON)",
-    Kind.CUES_TSV: "mouth cues miketalk wrote (Rhubarb TSV)",
-    Kind.TEXTGRID: "a TextGrid miketalk wrote (tiers phones, visemes, keyframes)",
+    Kind.CUES_JSON: "mouth cues miketalk wrote, unchanged since (Rhubarb JSON)",
+    Kind.CUES_TSV: "mouth cues miketalk wrote, unchanged since (Rhubarb TSV)",
+    Kind.TEXTGRID: "a TextGrid miketalk wrote, unchanged since",
     Kind.WAV: "a wav miketalk wrote",
     Kind.MODEL: "a miketalk model",
 }
@@ -118,14 +120,6 @@ def _json(path: Path) -> object:
         return None
 
 
-def _text_head(path: Path, size: int = 1 << 20) -> str | None:
-    try:
-        with path.open("rb") as f:
-            return f.read(size).decode("utf-8")
-    except (OSError, UnicodeDecodeError):
-        return None
-
-
 def _is_timeline_doc(doc: object) -> bool:
     if not isinstance(doc, dict):
         return False
@@ -147,29 +141,34 @@ def _video_is_ours(path: Path) -> bool:
         return False
 
 
-def _cues_json_is_ours(path: Path) -> bool:
-    doc = _json(path)
-    return (
-        isinstance(doc, dict)
-        and set(doc) == {"metadata", "mouthCues"}
-        and isinstance(doc["mouthCues"], list)
-        and all(isinstance(c, dict) and set(c) == _CUE_KEYS for c in doc["mouthCues"])
-    )
+#: The ``format`` of the record miketalk keeps beside a file it wrote (:func:`record_path`).
+RECORD_FORMAT = "miketalk-written/1"
 
 
-def _cues_tsv_is_ours(path: Path) -> bool:
-    text = _text_head(path, 64 << 20)
-    if text is None:
+def record_path(path: str | os.PathLike[str]) -> Path:
+    """The record of ``path`` that says miketalk wrote it: ``.NAME.miketalk.json`` beside it."""
+    path = Path(path)
+    return path.parent / f".{path.name}.miketalk.json"
+
+
+def record_text(name: str, data: bytes) -> str:
+    """The record (:func:`record_path`) of a file named ``name`` that miketalk writes with
+    the bytes ``data``: its name, size and SHA-256."""
+    doc = {"format": RECORD_FORMAT, "name": name, "size": len(data)}
+    return json.dumps(doc | {"sha256": hashlib.sha256(data).hexdigest()}) + "\n"
+
+
+def _recorded(path: Path) -> bool:
+    """Whether the record beside ``path`` names it as it is now (its size and SHA-256)."""
+    doc = _json(record_path(path))
+    if not isinstance(doc, dict) or doc.get("format") != RECORD_FORMAT:
         return False
-    lines = text.splitlines()
-    return bool(lines) and all(_TSV_LINE.match(line) for line in lines)
-
-
-def _textgrid_is_ours(path: Path) -> bool:
-    text = _text_head(path)
-    if text is None or not text.startswith('File type = "ooTextFile"'):
+    try:
+        if doc.get("name") != path.name or path.stat().st_size != doc.get("size"):
+            return False
+        return file_record(path)["sha256"] == doc.get("sha256")
+    except OSError:
         return False
-    return all(f'name = "{tier}"' in text for tier in ("phones", "visemes", "keyframes"))
 
 
 def _wav_is_ours(path: Path) -> bool:
@@ -199,9 +198,9 @@ def _model_is_ours(path: Path) -> bool:
 _OURS = {
     Kind.VIDEO: _video_is_ours,
     Kind.TIMELINE: lambda p: _is_timeline_doc(_json(p)),
-    Kind.CUES_JSON: _cues_json_is_ours,
-    Kind.CUES_TSV: _cues_tsv_is_ours,
-    Kind.TEXTGRID: _textgrid_is_ours,
+    Kind.CUES_JSON: _recorded,
+    Kind.CUES_TSV: _recorded,
+    Kind.TEXTGRID: _recorded,
     Kind.WAV: _wav_is_ours,
     Kind.MODEL: _model_is_ours,
 }
@@ -310,3 +309,56 @@ def _check_model_dir(path: Path, inputs: list[Path], *, force: bool, option: str
         raise MiketalkError(
             f"{path} exists and holds a model: give another {option} or --force to replace it"
         )
+    if model_files(path) is None:
+        raise MiketalkError(
+            f"{path} holds a model whose manifest does not list its files (one written before "
+            f"they were listed): miketalk cannot tell them from yours; empty it yourself, or "
+            f"give another {option}"
+        )
+    foreign = foreign_entry(path)
+    if foreign is not None:
+        raise MiketalkError(
+            f"{path} holds {foreign}, which its manifest does not name: --force replaces only "
+            f"a model's own files; move it out of {path}, or give another {option}"
+        )
+
+
+def model_files(path: str | os.PathLike[str]) -> frozenset[str] | None:
+    """The files the model in ``path`` names as its own (paths relative to it, ``/``-separated):
+    ``manifest.json`` and its manifest's ``files``; None when the manifest lists none (a
+    model written before its files were listed)."""
+    doc = _json(Path(path) / "manifest.json")
+    files = doc.get("files") if isinstance(doc, dict) else None
+    if not isinstance(files, dict) or not files:
+        return None
+    return frozenset(files) | {"manifest.json"}
+
+
+def foreign_entry(path: str | os.PathLike[str]) -> str | None:
+    """The first file (in name order) of the model directory ``path`` that is not one of its
+    own (:func:`model_files`), else the first folder that holds none of them: a user's file,
+    folder or link kept there, which replacing the model would remove. None when there is none.
+
+    Links are not followed (a link is an entry of its own, never one of the model's files);
+    hidden files count.
+    """
+    path = Path(path)
+    own = model_files(path) or frozenset({"manifest.json"})
+    folders = {p for f in own for p in PurePosixPath(f).parents}
+    empty = None
+    for root, dirs, names in os.walk(path, onerror=_raise):
+        base = PurePosixPath(Path(root).relative_to(path).as_posix())
+        dirs.sort()
+        links = [d for d in dirs if (Path(root) / d).is_symlink()]
+        for name in sorted(names + links):
+            if (base / name).as_posix() not in own or (Path(root) / name).is_symlink():
+                return (base / name).as_posix()
+        dirs[:] = [d for d in dirs if d not in links]
+        for name in dirs:
+            if empty is None and base / name not in folders:
+                empty = (base / name).as_posix() + "/"
+    return empty
+
+
+def _raise(err: OSError) -> None:
+    raise MiketalkError(f"cannot read {err.filename}: {err.strerror or err}") from None

@@ -28,6 +28,7 @@ decoding the file.
 
 from __future__ import annotations
 
+import logging
 import math
 import numbers
 import os
@@ -43,6 +44,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_path
 from miketalk.media.audio import check_rate, check_samples, write_wav
+from miketalk.media.ffmpeg_log import encoding_failure
 from miketalk.media.scratch import scratch_dir
 
 if sys.platform == "linux":
@@ -379,7 +381,9 @@ def _encode_video(
                 proc.kill()
                 proc.wait()
     if code != 0:
-        raise MiketalkError(f"ffmpeg failed encoding the video:\n{_tail(log.read_text())}")
+        text = log.read_text(errors="replace")
+        logging.getLogger(__name__).info("ffmpeg's log:\n%s", _tail(text))
+        raise encoding_failure(out.parent, text)
     return count
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 from collections.abc import Sequence
 from functools import cache
 from importlib import resources
@@ -44,7 +45,7 @@ def read_manifest(directory: str | os.PathLike[str]) -> dict:
     MiketalkError
         Naming the manifest and what is wrong with it.
     """
-    path = Path(directory) / "manifest.json"
+    path = check_inside(directory, Path(directory) / "manifest.json", "its manifest")
     if not path.is_file():
         raise MiketalkError(f"no model at {directory} (missing manifest.json)")
     try:
@@ -76,12 +77,14 @@ def read_manifest(directory: str | os.PathLike[str]) -> dict:
 
 
 def inside(directory: str | os.PathLike[str], relative: str, what: str) -> Path:
-    """``directory / relative``, for a path that stays inside ``directory``.
+    """``directory / relative``, for a path that stays inside ``directory``, its links
+    resolved (:func:`check_inside`).
 
     Raises
     ------
     MiketalkError
-        For an absolute path, a drive, a backslash, or a ``..`` component.
+        For an absolute path, a drive, a backslash, or a ``..`` component; for a link out
+        of the directory, or what is not a regular file.
     """
     posix = PurePosixPath(relative)
     if posix.is_absolute() or ".." in posix.parts or "\\" in relative or ":" in relative:
@@ -89,7 +92,38 @@ def inside(directory: str | os.PathLike[str], relative: str, what: str) -> Path:
             f"{what}, {relative!r}, is outside the model directory {directory}: a manifest "
             "names files by paths relative to its directory, inside it"
         )
-    return Path(directory) / posix
+    return check_inside(directory, Path(directory) / posix, what)
+
+
+def check_inside(
+    directory: str | os.PathLike[str], path: str | os.PathLike[str], what: str
+) -> Path:
+    """``path``, when it is a file of the model in ``directory``: its real path (every link
+    resolved) under the directory's real path and, when it exists, a regular file. The rule
+    of every file read from a model (the page serves a model's picture by it too): a link to
+    a system file in a model's folder is never read nor sent.
+
+    Raises
+    ------
+    MiketalkError
+        In one line naming ``path``, for a link that leaves the directory or a file that
+        is not a regular file (a device, a FIFO, a directory).
+    """
+    root, real = os.path.realpath(directory), os.path.realpath(path)
+    if os.path.commonpath([root, real]) != root:
+        raise MiketalkError(
+            f"{what}, {path}, is a link to a file outside the model directory {directory}: "
+            "miketalk reads only the model's own files; rebuild the model"
+        )
+    try:
+        mode = os.stat(real).st_mode
+    except OSError:
+        return Path(path)  # missing: said by whoever needs it
+    if not stat.S_ISREG(mode):
+        raise MiketalkError(
+            f"{what}, {path}, is not a regular file: miketalk reads only the model's own files"
+        )
+    return Path(path)
 
 
 def check_complete(flows: FlowDatabase, visemes: tuple[str, ...] | list[str]) -> None:
@@ -277,7 +311,7 @@ def check_files(
             continue
         listed.append((path, entry["sha256"]))
     for a, b in combinations(visemes, 2):
-        check_flow_file(flows.path_for(a, b))
+        check_flow_file(check_inside(directory, flows.path_for(a, b), "a flow file"))
 
     def digest(path: Path) -> str | None:
         try:

@@ -101,8 +101,10 @@ def list_model_files(out_dir: str | os.PathLike[str]) -> int:
     the manifest's ``files`` (hidden ones aside: a temporary file, never a part) is added
     with its size and SHA-256 (:data:`~miketalk.model.manifest.READ_IN_PARTS` also block by
     block), and the manifest rewritten in one step (:func:`write_text_atomic`), or left as
-    it is when nothing was added. ``build``'s record of its work (``build/``) is copied in
-    after this, and is not listed: no command reads it.
+    it is when nothing was added. ``build`` calls it again once its record of its work
+    (``build/``) is copied in, so that the manifest names every file of the model: ``build
+    --force`` replaces a model only when it holds nothing else
+    (:func:`miketalk.media.ownership.check_replaceable`).
 
     Returns
     -------

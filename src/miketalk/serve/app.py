@@ -17,7 +17,9 @@ page's own origin: another web site open in the same browser cannot send one wit
 CORS preflight, which the server never grants. On a loopback address the ``Host`` header
 must name it too (no DNS rebinding). A mistake is ``{"error": "<one line>"}`` with status
 400 (413 for an upload over the limit); anything else is logged with its traceback and the
-page gets one line.
+page gets one line. A request whose body stops coming for :attr:`Handler.timeout` seconds
+gets 408 and its connection closed (one warning line, its thread let go); a client that
+leaves mid-request is let go without a word.
 """
 
 from __future__ import annotations
@@ -144,17 +146,32 @@ class Handler(BaseHTTPRequestHandler):
             parts = urlsplit(self.path)
             route([unquote(p) for p in parts.path.split("/")[1:]], parse_qs(parts.query))
         except NotFound:
-            self._json({"error": "not found"}, HTTPStatus.NOT_FOUND, drain=True)
+            self._refuse({"error": "not found"}, HTTPStatus.NOT_FOUND)
         except UploadRefused as err:
-            self._json({"error": str(err)}, err.status, drain=True)
+            self._refuse({"error": str(err)}, err.status)
         except MiketalkError as err:
-            self._json({"error": " ".join(str(err).split())}, HTTPStatus.BAD_REQUEST, drain=True)
-        except (BrokenPipeError, ConnectionResetError):
+            self._refuse({"error": " ".join(str(err).split())}, HTTPStatus.BAD_REQUEST)
+        except TimeoutError:  # a body that stopped coming: answered, and the thread let go
+            log.warning(
+                "%s %s: the connection from %s stalled for %g s; closed",
+                self.command, urlsplit(self.path).path, self.address_string(), self.timeout,
+            )  # fmt: skip
+            self._drained = True  # what is left of its body is not read
+            message = f"nothing received for {self.timeout:g} s: send it again"
+            self._refuse({"error": message}, HTTPStatus.REQUEST_TIMEOUT)
+            self.close_connection = True
+        except ConnectionError:  # the client left (a broken pipe, a reset)
             self.close_connection = True
         except Exception:
             log.exception("%s %s failed", self.command, self.path)
-            with contextlib.suppress(OSError):
-                self._json({"error": _INTERNAL}, HTTPStatus.INTERNAL_SERVER_ERROR, drain=True)
+            self._refuse({"error": _INTERNAL}, HTTPStatus.INTERNAL_SERVER_ERROR)
+
+    def _refuse(self, doc: dict, status: int) -> None:
+        """Answer a refused request; a client that left or stalls gets nothing, in silence."""
+        try:
+            self._json(doc, status, drain=True)
+        except OSError:  # a broken pipe, a reset, a timeout: nobody to answer
+            self.close_connection = True
 
     def _host_allowed(self) -> bool:
         """On a loopback address, the Host header names it (no DNS rebinding)."""
@@ -360,6 +377,17 @@ class Server(ThreadingHTTPServer):
         """Bind, without HTTPServer's reverse lookup of the host's name (slow offline)."""
         socketserver.TCPServer.server_bind(self)
         self.server_name, self.server_port = str(self.server_address[0]), self.server_address[1]
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A connection the client left or let stall is one debug line, not a traceback on
+        the server's stderr; anything else is logged with its traceback."""
+        import sys
+
+        error = sys.exc_info()[1]
+        if isinstance(error, ConnectionError | TimeoutError):
+            log.debug("connection from %s ended: %s", client_address, error)
+            return
+        log.exception("a request from %s failed", client_address)
 
 
 def make_server(config: ServeConfig) -> Server:

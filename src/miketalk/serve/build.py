@@ -181,9 +181,11 @@ def main(argv: list[str]) -> int:
             )  # fmt: skip
             doc = {"label": job["label"], "built": time.strftime("%Y-%m-%d %H:%M:%S")}
             with contextlib.suppress(OSError):
+                from miketalk.model.write import list_model_files
                 from miketalk.serve.work import write_text
 
                 write_text(Path(job["model_dir"]) / "build" / LABEL_FILE, json.dumps(doc))
+                list_model_files(job["model_dir"])  # named: one of the model's own files
             send("done", seconds)
         except KeyboardInterrupt:
             send("cancelled")

@@ -69,18 +69,22 @@ class Entry:
         }
 
     def image(self) -> Path | None:
-        """A picture of the face: its person's first frame, else its rest viseme."""
-        frame = self.path / "background" / "0000.png"
-        if frame.is_file():
-            return frame
+        """A picture of the face: its person's first frame, else its rest viseme; only a
+        regular file inside the model's folder once its links are resolved
+        (:func:`miketalk.model.manifest.inside`), never what a link there points to."""
+        from miketalk.model.manifest import inside
+
         try:
-            manifest = json.loads((self.path / "manifest.json").read_text(encoding="utf-8"))
-            relative = manifest["images"]["#"]
-        except (OSError, ValueError, KeyError, TypeError):
+            frame = inside(self.path, "background/0000.png", "its picture")
+            if frame.is_file():
+                return frame
+            manifest = json.loads(
+                inside(self.path, "manifest.json", "its manifest").read_text(encoding="utf-8")
+            )
+            path = inside(self.path, manifest["images"]["#"], "its picture")
+        except (OSError, ValueError, KeyError, TypeError, MiketalkError):
             return None
-        path = (self.path / relative).resolve()
-        inside = path.is_relative_to(self.path.resolve()) and path.suffix.lower() == ".png"
-        return path if inside and path.is_file() else None
+        return path if path.suffix.lower() == ".png" and path.is_file() else None
 
 
 def workflow_models() -> list[Path]:

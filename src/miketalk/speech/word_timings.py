@@ -3,7 +3,9 @@
 A GRID ``.align`` file has one ``start end word`` line per word, times in units
 of 1/25000 s, with ``sil`` and ``sp`` (silence, short pause) among the words. A
 TextGrid is read with :mod:`praatio`: the interval tier named ``words`` (any
-case), else the first interval tier. Silences (empty labels, and ``sil`` / ``sp``
+case), else its only interval tier; a TextGrid of several interval tiers none of which is
+named ``words`` (one miketalk writes: ``phones`` and ``visemes``) is refused, not read by
+its first tier (phones read as words). Silences (empty labels, and ``sil`` / ``sp``
 as in GRID) are dropped, so the result holds spoken words only.
 """
 
@@ -119,6 +121,12 @@ def _read_textgrid(path: Path) -> list[WordTiming]:
     if not intervals:
         raise MiketalkError(f"{path} has no interval tier (of words)")
     named = [t for t in intervals if t.name.strip().lower() == "words"]
+    if not named and len(intervals) > 1:
+        tiers = ", ".join(t.name for t in intervals)
+        raise MiketalkError(
+            f"{path} has no tier named words (its interval tiers: {tiers}): name its tier of "
+            "words 'words' (a TextGrid miketalk writes has phones, not words)"
+        )
     tier = (named or intervals)[0]
     return [
         _timing(path, label.strip(), float(start), float(end))
