@@ -73,7 +73,9 @@ def cmd_dub(args: argparse.Namespace) -> int:
     progress = args.progress or sys.stderr.isatty()
 
     def register():  # the video's frames registered to the model's reference
-        background = video_background(model_dir, args.video, progress=progress)
+        background = video_background(
+            model_dir, args.video, progress=progress, check_person=not args.force
+        )
         check_constant_rate(args.video, fps, len(background))  # shown when they were taken
         return background
 
@@ -174,7 +176,10 @@ def add_dub_parser(sub) -> None:
     trajectory_option(dub)
     voice_option(dub)
     dub.add_argument(
-        "--force", action="store_true", help="replace an mp4 or .json miketalk did not write"
+        "--force",
+        action="store_true",
+        help="replace an mp4 or .json miketalk did not write; dub a face that is not the "
+        "model's person",
     )
     dub.add_argument("--json", action="store_true", help="print the result as JSON")
     dub.add_argument("--progress", action="store_true", help="always show progress bars")

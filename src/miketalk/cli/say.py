@@ -71,7 +71,9 @@ def cmd_say(args: argparse.Namespace) -> int:
             log.info("model %s opened, %.2f s after start", model.directory, seconds_since(started))
             from miketalk.composite.background_files import resolve_background
 
-            background = resolve_background(args.background, model, progress=args.progress)
+            background = resolve_background(
+                args.background, model, progress=args.progress, check_person=not args.force
+            )
             settings = lipsync_settings(
                 args, sampling, max_px, fps=output_fps(args, background, model)
             )
@@ -209,7 +211,9 @@ def _say_recorded(
     from miketalk.talk.say import Recorded, open_model, say
 
     with open_model(args.model) as model:
-        background = resolve_background(args.background, model, progress=args.progress)
+        background = resolve_background(
+            args.background, model, progress=args.progress, check_person=not args.force
+        )
         settings = lipsync_settings(args, sampling, max_px, fps=output_fps(args, background, model))
         said = say(
             Recorded(args.audio, text=text, timings=args.timings),

@@ -338,8 +338,11 @@ class BackgroundChoice(StrEnum):
 BACKGROUND_CHOICES: tuple[str, ...] = tuple(c.value for c in BackgroundChoice)
 
 
-def resolve_background(choice: str | None, model, *, progress: bool = False):
-    """The background of ``--background``: ``auto``, ``still`` or a video's path.
+def resolve_background(
+    choice: str | None, model, *, progress: bool = False, check_person: bool = True
+):
+    """The background of ``--background``: ``auto``, ``still`` or a video's path
+    (``check_person``: as :func:`video_background`'s).
 
     Returns
     -------
@@ -358,7 +361,7 @@ def resolve_background(choice: str | None, model, *, progress: bool = False):
         return None
     if choice == BackgroundChoice.AUTO:
         return read_background(model.directory) if has_background(model.directory) else None
-    return video_background(model.directory, choice, progress=progress)
+    return video_background(model.directory, choice, progress=progress, check_person=check_person)
 
 
 def model_crop(model_dir: str | os.PathLike[str]) -> FaceCropSettings | None:
@@ -370,7 +373,11 @@ def model_crop(model_dir: str | os.PathLike[str]) -> FaceCropSettings | None:
 
 
 def video_background(
-    model_dir: str | os.PathLike[str], video: str | os.PathLike[str], *, progress: bool = False
+    model_dir: str | os.PathLike[str],
+    video: str | os.PathLike[str],
+    *,
+    progress: bool = False,
+    check_person: bool = True,
 ) -> Background:
     """Any video of the model's person registered to its reference (``say --background
     VIDEO``, ``dub``): through its face crops for a model that works in one
@@ -382,15 +389,24 @@ def video_background(
     MiketalkError
         A model not built from a person, or a video that cannot be read, is shorter
         than a second, or does not show the model's person (refused before it is tracked
-        when a first look at a few frames finds no face, :mod:`miketalk.track.first_look`).
+        when a first look at a few frames finds no face, :mod:`miketalk.track.first_look`,
+        or another person's, :mod:`miketalk.track.identity`, unless ``check_person`` is
+        False: ``--force``).
     """
     stabilizer = model_stabilizer(model_dir)
     crop = model_crop(model_dir)
     if crop is not None:
-        from miketalk.composite.tracked import tracked_background
         from miketalk.track.first_look import first_look
 
         first_look(video, source=str(video))  # no face anywhere: said before tracking it all
+    if check_person:
+        from miketalk.media.images import read_image
+        from miketalk.track.identity import check_person as check
+
+        check(read_image(Path(model_dir) / DIRECTORY / REFERENCE), video, source=str(video))
+    if crop is not None:
+        from miketalk.composite.tracked import tracked_background
+
         return tracked_background(video, stabilizer, crop, source=str(video), progress=progress)
     from miketalk.composite.background import streamed_background
 
