@@ -224,6 +224,25 @@ def test_stabilize_brings_every_frame_onto_the_reference():
     assert before.max() > 1.0 and after.max() < 0.15
 
 
+def test_the_conform_field_takes_out_a_change_of_shape_the_similarity_cannot():
+    """The test above leaves the field nothing to do (a field of zeros passes it): a face of
+    another shape (wider at the brow and the chin, sheared), the same in every frame."""
+    reference = _head(2.0)
+    yy, xx = np.mgrid[0:H, 0:W].astype(np.float32)
+    u, v = (xx - 88) / 40, (yy - 70) / 52
+    frame = cv2.remap(reference, xx + 1.5 * (v**2 - 0.3), yy + 1.2 * u * v, cv2.INTER_CUBIC,
+                      borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
+    frames = np.stack([frame] * 6)
+    stab = Stabilizer.from_reference(reference, sample=frames)
+    result = stab.stabilize(frames)
+
+    def error(stabilized: np.ndarray) -> float:  # grey levels from the reference, on the face
+        return float(np.abs(stabilized.astype(float) - reference)[:, stab.mask].mean())
+
+    # measured: 0.24 with the field, 0.70 with the similarity alone
+    assert error(result.frames) < 0.5 * error(stab.apply(frames, result.transforms))
+
+
 def test_a_frame_of_noise_does_not_register():
     frames, _ = _clip(3)
     stab = Stabilizer.from_reference(frames[0], mouth_box=(74, 97, 29, 15))
