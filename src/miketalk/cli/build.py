@@ -69,6 +69,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         "held_out": sum(u["split"] == "test" for u in segments["utterances"]),
         "words": segments["words"],
         "unaligned_words": len(segments["unaligned"]),
+        "sound_lag_s": segments.get("sound_lag_s", 0.0),
         "seconds": round(total, 1),
         "stage_seconds": {k: round(v, 1) for k, v in seconds.items()},
         "stage_peak_mb": {k: round(v) for k, v in peaks.items()},
@@ -79,7 +80,12 @@ def cmd_build(args: argparse.Namespace) -> int:
         print(
             f"{args.output}: built from {summary['utterances']} utterances "
             f"({summary['unaligned_words']} of {summary['words']} words not aligned) "
-            f"in {total:.0f} s",
+            f"in {total:.0f} s"
+            + (
+                f"; its sound runs {1000 * summary['sound_lag_s']:.0f} ms behind the mouth"
+                if summary["sound_lag_s"]
+                else ""
+            ),
             file=args.out,
         )
     return 0

@@ -25,7 +25,9 @@ class Clip:
     A clip is a whole media file, or, with ``span`` (first frame, number of
     frames), that part of a longer one (an utterance cut from one video,
     :mod:`miketalk.corpus.one_video`), whose word timings are then given as
-    ``given_words`` (clip time) instead of a file.
+    ``given_words`` (clip time) instead of a file. Its sound is read ``sound_lag``
+    seconds later than its frames, the words as much earlier (the video's sound runs
+    that much behind its mouth: :mod:`miketalk.corpus.sound_lag`).
     """
 
     id: str
@@ -35,6 +37,7 @@ class Clip:
     span: tuple[int, int] | None = None
     fps: float | None = None
     given_words: tuple[WordTiming, ...] | None = None
+    sound_lag: float = 0.0
 
     @property
     def start(self) -> float:
@@ -233,14 +236,15 @@ def decode_clip(clip: Clip, *, crop: FaceCropSettings | None = None) -> DecodedC
             left_out = tuple(None if r is None else str(r) for r in cropped.track.reasons)
             to_crop, cuts = cropped.to_crop, tuple(cropped.track.cuts())
             samples = read_media_audio(
-                clip.media, rate=RATE, start=clip.start if count else None,
+                clip.media, rate=RATE, start=clip.start + clip.sound_lag if count else None,
                 duration=count / clip.fps if count else None,
             )  # fmt: skip
         elif clip.span is not None:
             frames, fps = read_video(clip.media, start=clip.start, frames=clip.span[1])
             samples = read_media_audio(
-                clip.media, rate=RATE, start=clip.start, duration=clip.span[1] / clip.fps
-            )
+                clip.media, rate=RATE, start=clip.start + clip.sound_lag,
+                duration=clip.span[1] / clip.fps,
+            )  # fmt: skip
         else:
             frames, fps = read_video(clip.media)
             samples = read_media_audio(clip.media, rate=RATE)
@@ -248,7 +252,7 @@ def decode_clip(clip: Clip, *, crop: FaceCropSettings | None = None) -> DecodedC
             raise MiketalkError(f"word timing file not found: {clip.timings}")
         words = read_word_timings(clip.timings) if clip.timings is not None else None
         if clip.given_words is not None:
-            words = list(clip.given_words)
+            words = _lagged(clip.given_words, clip.sound_lag)
         if words is not None and [w.word.lower() for w in words] != clip.words:
             raise MiketalkError(
                 f"the word timings ({' '.join(w.word for w in words)}) do not match the "
@@ -281,6 +285,17 @@ def decode_clip(clip: Clip, *, crop: FaceCropSettings | None = None) -> DecodedC
         to_crop,
         cuts,
     )
+
+
+def _lagged(words: Sequence[WordTiming], lag: float) -> list[WordTiming]:
+    """Words ``lag`` seconds earlier (their sound read that much later), none before 0."""
+    if not lag:
+        return list(words)
+    out = []
+    for w in words:
+        start = max(0.0, w.start - lag)
+        out.append(WordTiming(w.word, start, max(w.end - lag, start + 0.01)))
+    return out
 
 
 def _clipped(phones: Sequence[Phone], duration: float) -> list[Phone]:

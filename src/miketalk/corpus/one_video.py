@@ -262,6 +262,7 @@ def _utterance_clip(doc: dict, utterance: dict, media: str | Path | None) -> Cli
         span=(utterance["first_frame"], utterance["frames"]),
         fps=float(doc["fps"]),
         given_words=tuple(WordTiming(w, a, b) for w, a, b in utterance["words"]),
+        sound_lag=float(doc.get("sound_lag_s", 0.0)),
     )
 
 

@@ -271,12 +271,15 @@ def say_recording(
         The errors of :func:`align_recording`.
     """
     from miketalk.composite.background import background_doc
+    from miketalk.corpus.sound_lag import led, model_sound_lag
     from miketalk.speech.acoustic import Recording
     from miketalk.talk.utterance import write_utterance
 
     max_px_per_frame = settings.max_px_per_frame
     aligned = align_recording(recorded.audio, text=recorded.text, timings=recorded.timings)
-    timeline = plan(aligned.phones, table, fps=settings.fps, duration=aligned.duration)
+    lead = model_sound_lag(model.directory)  # his mouth leads his sound that much
+    phones, heard = led(aligned.phones, aligned.samples, aligned.rate, lead, aligned.duration)
+    timeline = plan(phones, table, fps=settings.fps, duration=aligned.duration)
     if max_px_per_frame is not None and settings.sampling == Sampling.BLUR:
         timeline = motion_blur(
             timeline, displacement=model.displacement, max_px_per_frame=max_px_per_frame
@@ -295,11 +298,12 @@ def say_recording(
             "max_px_per_frame": max_px_per_frame,
             "max_slowdown": None,
             "lipsync_model": drawing.lipsync_model.value,
+            "sound_lag_s": lead,
         }
         | (own_frames_doc(drawing) if drawing.own_frames else {})
         | background_doc(background),
         drawing=drawing,
-        recording=Recording(aligned.samples, aligned.rate),
+        recording=Recording(heard, aligned.rate),
         progress=progress,
         overwrite=overwrite,
         background=background,

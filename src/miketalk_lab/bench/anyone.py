@@ -192,7 +192,7 @@ def _fold_model(obama: Path, work: Path, held: Sequence[str], ids: Sequence[str]
     join_addresses(obama, work, train, stem)
     model = work / f"model_{'_'.join(held)}"
     seconds = float("nan")
-    if not (model / "model.json").is_file():
+    if not (model / "manifest.json").is_file():
         seconds = _run(
             [
                 _miketalk(),
