@@ -52,6 +52,9 @@ def test_the_real_mouth_a_frame_late_scores_lag_one_and_full_amplitude() -> None
     still = scores(real, _face(np.full(90, 5.0)), slice(10, 80))
     assert still["r"] == 0.0 and still["amplitude"] < 1e-9
     assert still["lmd"] > got["lmd"]
+    moved = real.copy()
+    moved[:, 48:68] += (5.0, 0.0)  # the mouth put 5 px aside, eyes 50 px apart
+    assert scores(real, moved, slice(10, 80))["centre"] == pytest.approx(5 / 50 * 72)
 
 
 def test_the_speech_is_where_the_sound_is() -> None:
@@ -88,5 +91,17 @@ def test_the_table_lists_the_renderers_and_the_calibration() -> None:
     lines = text.splitlines()
     assert [ln.split(" | ")[0] for ln in lines[2:]] == ["| morph", "| unrelated", "| real_late1"]
     assert "06:+0.30 08:+0.30" in lines[2]
+    rows["lip_dE"] = 3.0
+    assert "| 3.00 (0.00) |" in table(rows).splitlines()[2]
+    assert "| 2.00 (0.00) |  |  |  | 06:" in lines[2]  # no lip colours measured: empty cells
     with pytest.raises(KeyError):
-        table(rows.drop(columns="lmd"))
+        table(rows.drop(columns="r"))
+
+
+def test_the_lips_colour_is_read_inside_the_lip_line() -> None:
+    from miketalk_lab.bench.anyone import lip_colours
+
+    points, _ = real_landmarks(CLIP)
+    lab = lip_colours(CLIP, points[:10])
+    assert lab.shape == (10, 3) and np.isfinite(lab).all()
+    assert (lab[:, 1] > 5).all()  # lips are red: a* well above grey's 0

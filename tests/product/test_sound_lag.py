@@ -104,3 +104,38 @@ def test_a_video_whose_sound_was_delayed_is_measured_so(tmp_path: Path) -> None:
     assert got[0].seconds == 0.0 and abs(got[0].peak_frames) < 1
     assert abs(got[3].peak_frames - got[0].peak_frames - 3) < 0.5
     assert got[3].seconds == pytest.approx(got[3].peak_frames / 25)
+
+
+def _trained_face(model: Path, r2: float | None) -> Path:
+    """A model folder with a trained face whose build measured ``r2`` (None: no measure)."""
+    (model / "trained").mkdir(parents=True)
+    fit = {"frames": 415, "clips": 8}
+    if r2 is not None:
+        fit |= {"window": {"cv_r2": [0.5, 0.1]}, "heard": {"cv_r2": [r2, 0.0]}}
+    doc = {"format": "miketalk-trained/1", "default": "window", "fit": fit,
+           "trajectories": {"window": {}, "heard": {}}}  # fmt: skip
+    (model / "trained" / "trained.json").write_text(json.dumps(doc), "utf-8")
+    (model / "coarticulation.json").write_text("{}", "utf-8")
+    return model
+
+
+def test_a_trained_face_that_predicts_nothing_leaves_recordings_to_the_morph(
+    tmp_path: Path,
+) -> None:
+    from miketalk.draw.registry import choose_lipsync_model
+    from miketalk.model.parts import default_lipsync_model, trained_predicts
+
+    weak = _trained_face(tmp_path / "weak", 0.0)
+    strong = _trained_face(tmp_path / "strong", 0.42)
+    old = _trained_face(tmp_path / "old", None)
+    assert trained_predicts(weak) == (False, 0.0)
+    assert trained_predicts(strong) == (True, 0.42)
+    assert trained_predicts(old) == (True, None)
+    assert default_lipsync_model(weak, recorded=True) == "paper"
+    assert default_lipsync_model(strong, recorded=True) == "trained"
+    assert default_lipsync_model(old, recorded=True) == "trained"
+    assert default_lipsync_model(weak, recorded=False) == "learned"  # typed text: unchanged
+    assert choose_lipsync_model(weak, None, recorded=True).value == "paper"
+    # what is asked for is drawn
+    assert choose_lipsync_model(weak, "trained", recorded=True).value == "trained"
+    assert choose_lipsync_model(weak, None, trajectory="heard", recorded=True).value == "trained"

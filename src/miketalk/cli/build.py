@@ -42,6 +42,7 @@ def cmd_build(args: argparse.Namespace) -> int:
 
     from miketalk.building.frame import CROP, FrameSettings
     from miketalk.building.from_video import build_model_from_video
+    from miketalk.model.parts import default_lipsync_model, trained_predicts
 
     if args.crop_size is not None and args.frame != CROP:
         raise MiketalkError("--crop-size goes with --frame crop (the face crop's size)")
@@ -70,6 +71,8 @@ def cmd_build(args: argparse.Namespace) -> int:
         "words": segments["words"],
         "unaligned_words": len(segments["unaligned"]),
         "sound_lag_s": segments.get("sound_lag_s", 0.0),
+        "recording_lipsync": default_lipsync_model(args.output, recorded=True),
+        "trained_cv_r2": trained_predicts(args.output)[1],
         "seconds": round(total, 1),
         "stage_seconds": {k: round(v, 1) for k, v in seconds.items()},
         "stage_peak_mb": {k: round(v) for k, v in peaks.items()},
@@ -80,7 +83,12 @@ def cmd_build(args: argparse.Namespace) -> int:
         print(
             f"{args.output}: built from {summary['utterances']} utterances "
             f"({summary['unaligned_words']} of {summary['words']} words not aligned) "
-            f"in {total:.0f} s"
+            f"in {total:.0f} s; a recording is drawn by {summary['recording_lipsync']}"
+            + (
+                f" (the trained face's leave-clip-out R² {summary['trained_cv_r2']:.2f})"
+                if summary["trained_cv_r2"] is not None
+                else ""
+            )
             + (
                 f"; its sound runs {1000 * summary['sound_lag_s']:.0f} ms behind the mouth"
                 if summary["sound_lag_s"]

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.settings import LipsyncModel, resolve_lipsync_model
-from miketalk.model.parts import lipsync_models_in, trained_trajectories
+from miketalk.model.parts import lipsync_models_in, own_recording_model, trained_trajectories
 
 if TYPE_CHECKING:
     import numpy as np
@@ -139,6 +139,8 @@ def choose_lipsync_model(
         without the trajectory asked for.
     """
     directory = Path(model_dir)
+    if requested is None and trajectory is None and recorded:
+        requested = own_recording_model(directory)
     chosen = resolve_lipsync_model(
         requested, available=lipsync_models_in(directory), trajectory=trajectory,
         recorded=recorded,
@@ -176,6 +178,8 @@ def open_drawing(
     MiketalkError
         In one line, as :func:`choose_lipsync_model`, or for a malformed model part.
     """
+    if lipsync_model is None and trajectory is None and recorded:
+        lipsync_model = own_recording_model(model_dir)
     chosen = resolve_lipsync_model(
         lipsync_model, available=lipsync_models_in(model_dir), trajectory=trajectory,
         recorded=recorded,

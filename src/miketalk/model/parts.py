@@ -75,24 +75,61 @@ def lipsync_models_in(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
     return tuple(name for name, present in has.items() if present)
 
 
+#: The least leave-clip-out R^2 of the trained face's first component (for a recording: its
+#: ``heard`` trajectory's) for it to draw a recording by default: GRID s1's four clips give
+#: 0.35 to 0.42, six weekly addresses 0.00 (the phones predict none of his mouth's motion in
+#: a clip left out, and the trained face's dubs follow his opening with r 0.05 to 0.22).
+MIN_TRAINED_R2 = 0.1
+
+
+def trained_predicts(model_dir: str | os.PathLike[str]) -> tuple[bool, float | None]:
+    """Whether the trained face's cross-validation at its build (each clip predicted by a fit
+    on the others) found its first component predictable from the phones and the sound
+    (:data:`MIN_TRAINED_R2`), and that R^2 (None, and True, for a face fitted before it was
+    measured)."""
+    path = Path(model_dir) / TRAINED_DIRECTORY / TRAINED_MANIFEST
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        fit = doc["fit"]
+        kind = "heard" if "heard" in fit else doc["default"]
+        r2 = float(fit[kind]["cv_r2"][0])
+    except (OSError, ValueError, KeyError, IndexError, TypeError):
+        return True, None
+    return r2 >= MIN_TRAINED_R2, r2
+
+
+def own_recording_model(model_dir: str | os.PathLike[str]) -> str | None:
+    """``paper`` when the model has a trained face that its build found unable to predict
+    his mouth (:func:`trained_predicts`): a recording is then drawn by the paper's morph by
+    default; None: the preferred order decides."""
+    if not trained_trajectories(model_dir):
+        return None
+    return None if trained_predicts(model_dir)[0] else "paper"
+
+
 def default_lipsync_model(model_dir: str | os.PathLike[str], *, recorded: bool) -> str:
-    """The lip-sync model for an utterance when none is asked for: the first of
+    """The lip-sync model for an utterance when none is asked for: for a recording the
+    model's own choice (:func:`own_recording_model`), else the first of
     :data:`miketalk.lipsync.settings.PREFERRED_LIPSYNC_MODELS` (for a recording with
     ``recorded``, else for typed text) that the model in ``model_dir`` has."""
     from miketalk.lipsync.settings import resolve_lipsync_model
 
     present = lipsync_models_in(model_dir)
-    return resolve_lipsync_model(None, available=present, recorded=recorded).value
+    own = own_recording_model(model_dir) if recorded else None
+    return resolve_lipsync_model(own, available=present, recorded=recorded).value
 
 
 __all__ = [
     "COARTICULATION",
     "DEFAULT_MODEL",
+    "MIN_TRAINED_R2",
     "TRAINED_DIRECTORY",
     "TRAINED_MANIFEST",
     "default_lipsync_model",
     "default_model_dir",
     "lipsync_models_in",
+    "own_recording_model",
+    "trained_predicts",
     "trained_trajectories",
     "workflow_results",
 ]

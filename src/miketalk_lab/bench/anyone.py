@@ -8,8 +8,9 @@ issue's ``wa06,wa08`` first), the other addresses of ``DIR`` (``video/waNN.mp4``
 (:func:`miketalk_lab.bench.bad_input.join_addresses`) and built with ``miketalk build``
 as a user builds; each held-out address is then dubbed with its own recording and caption
 line, ``miketalk dub CLIP --audio CLIP --text LINE --model M``, once per lip-sync model
-(:data:`RENDERERS`), and once with an unrelated typed sentence (:data:`UNRELATED`, the
-row ``unrelated``: what a mouth that moves without following the speech scores).
+(:data:`RENDERERS`; ``own``: the one the model chooses for a recording), and once with an
+unrelated typed sentence (:data:`UNRELATED`, the row ``unrelated``: what a mouth that
+moves without following the speech scores).
 
 The judge is independent of the product: dlib's 68 landmarks on the full-resolution frames
 of the real clip and of each dub (the face box found on the real frame, an HD one at half size, and
@@ -24,9 +25,15 @@ divided by the eye distance (:func:`opening`), compared frame by frame:
 ``lag``
     the shift (frames, positive: the dub late) that best aligns the two over the clip,
     :func:`~miketalk_lab.evaluation.measures.lag_frames`; ``r_best`` the r at that shift;
-``lmd``
-    the mouth landmark distance (points 48-67), in pixels of the canonical crop (eyes 72
-    px apart): each frame's distance divided by its eye distance, times 72.
+``lmd``, ``centre``
+    the mouth landmark distance (points 48-67), and the distance between the two mouths'
+    centres (where the mouth is put: the crop path's registration), in pixels of the
+    canonical crop (eyes 72 px apart): each frame's distance divided by its eye distance,
+    times 72;
+``lip_dE``, ``lip_da``
+    the lips' colour (inside the outer lip line, outside the inner one, each video's own
+    landmarks): the CIELAB distance of the dub's mean colour from the real one's, and the
+    difference in a* (positive: redder), over the speech.
 
 The calibration row ``real_late1`` is the real landmarks one frame late (a perfect mouth
 drawn a frame late). Writes ``OUT/clips.csv`` (one row per clip and renderer),
@@ -59,6 +66,7 @@ ROOT = Path(__file__).resolve().parents[3]
 FOLDS = (("wa06", "wa08"), ("wa01", "wa02"), ("wa03", "wa04"), ("wa05", "wa07"))
 #: Each row's ``miketalk dub`` options (the lip-sync model and trajectory).
 RENDERERS = {
+    "own": (),
     "morph": ("--lipsync-model", "paper"),
     "learned": ("--lipsync-model", "learned"),
     "trained": ("--trajectory", "window"),
@@ -156,6 +164,27 @@ def dub_landmarks(video: Path, boxes: list) -> np.ndarray:
     return np.stack(points)
 
 
+def lip_colours(video: Path, points: np.ndarray) -> np.ndarray:
+    """Per frame the mean CIELAB colour ``(N, 3)`` (L 0-100, a* and b* about 0) of the lips
+    (inside the outer lip line, points 48-59, outside the inner one, 60-67)."""
+    import cv2
+
+    from miketalk.media.decode import iter_video_frames
+
+    out = np.full((len(points), 3), np.nan)
+    for k, frame in enumerate(iter_video_frames(video, frames=len(points))):
+        outer, inner = points[k, 48:60].astype(np.int32), points[k, 60:68].astype(np.int32)
+        x0, y0 = np.maximum(outer.min(axis=0) - 2, 0)
+        x1, y1 = outer.max(axis=0) + 3
+        mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.fillPoly(mask, [outer - (x0, y0)], 1)
+        cv2.fillPoly(mask, [inner - (x0, y0)], 0)
+        if mask.any():
+            box = np.float32(frame[y0:y1, x0:x1]) / 255
+            out[k] = cv2.cvtColor(box, cv2.COLOR_RGB2LAB)[mask > 0].mean(axis=0)
+    return out
+
+
 def scores(real: np.ndarray, dub: np.ndarray, speech: slice) -> dict[str, float]:
     """The row's measures (the module docstring) of landmarks ``(N, 68, 2)`` each."""
     from miketalk_lab.evaluation.measures import correlation, lag_frames
@@ -172,7 +201,10 @@ def scores(real: np.ndarray, dub: np.ndarray, speech: slice) -> dict[str, float]
         / eye_distance(real)
         * CROP_EYES
     )
+    centre = (np.linalg.norm(dub[:, 48:68].mean(axis=1) - real[:, 48:68].mean(axis=1), axis=1)
+              / eye_distance(real) * CROP_EYES)  # fmt: skip
     return {
+        "centre": float(centre[s].mean()),
         "r": correlation(a[s], b[s]),
         "amplitude": float(a[s].std() / b[s].std()),
         "lag": float(lag),
@@ -283,6 +315,7 @@ def measure_clip(clip: Path, dubs: dict[str, Path], out: Path) -> tuple[list, pd
     from miketalk_lab.evaluation.landmarks import delayed
 
     real, boxes = real_landmarks(clip)
+    real_lips = lip_colours(clip, real)
     fps = video_info(clip)[2]
     rate = 16000
     speech = speech_span(read_media_audio(clip, rate=rate), rate, fps, len(real))
@@ -295,7 +328,12 @@ def measure_clip(clip: Path, dubs: dict[str, Path], out: Path) -> tuple[list, pd
     }
     for name, video in dubs.items():
         points = dub_landmarks(video, boxes)
-        rows.append({"clip": clip.stem, "renderer": name, **scores(real, points, speech)})
+        lips = lip_colours(video, points) - real_lips[: len(points)]
+        spoken = lips[speech]
+        rows.append({"clip": clip.stem, "renderer": name, **scores(real, points, speech),
+                     "lip_dE": float(np.nanmean(np.linalg.norm(spoken, axis=1))),
+                     "lip_da": float(np.nanmean(spoken[:, 1])),
+                     "lip_dE_sd": float(np.nanstd(np.linalg.norm(spoken, axis=1)))})  # fmt: skip
         frames[name] = np.pad(opening(points), (0, len(real) - len(points)), constant_values=np.nan)
     strip(clip, dubs, real, out / f"strip_{clip.stem}.png")
     return rows, pd.DataFrame(frames)
@@ -306,8 +344,8 @@ def table(clips: pd.DataFrame) -> str:
     order = [*RENDERERS, "unrelated", "real_late1"]
     lines = [
         "| renderer | clips | r (speech) | amplitude | lag | r at best lag | LMD (crop px) "
-        "| r per clip | lag per clip |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| centre (crop px) | lips' ΔE | lips' Δa* | r per clip | lag per clip |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name in order:
         part = clips[clips["renderer"] == name]
@@ -315,7 +353,9 @@ def table(clips: pd.DataFrame) -> str:
             continue
         cell = [
             f"{part[m].mean():.2f} ({part[m].std(ddof=1):.2f})"
-            for m in ("r", "amplitude", "lag", "r_best", "lmd")
+            if m in part and part[m].notna().any()
+            else ""
+            for m in ("r", "amplitude", "lag", "r_best", "lmd", "centre", "lip_dE", "lip_da")
         ]
         per = " ".join(f"{c[2:]}:{v:+.2f}" for c, v in zip(part["clip"], part["r"], strict=True))
         lags = " ".join(f"{c[2:]}:{v:+.0f}" for c, v in zip(part["clip"], part["lag"], strict=True))
