@@ -13,10 +13,10 @@ from miketalk_lab.bench.anyone import (
     opening,
     real_landmarks,
     scores,
-    speech_span,
     table,
 )
 from miketalk_lab.evaluation.landmarks import delayed
+from miketalk_lab.evaluation.sound_sync import speech_span
 
 CLIP = Path(__file__).resolve().parents[2] / "data" / "grid_s1" / "video" / "bbas3a.mpg"
 

@@ -48,6 +48,7 @@ __all__ = [
     "led",
     "measure_sound_lag",
     "model_sound_lag",
+    "mouth_openings",
     "sound_envelope",
     "sound_lag",
 ]
@@ -148,7 +149,7 @@ def lag_of_curves(
     return SoundLag(peak / fps if kept else 0.0, peak, curve[best], curve, frames)
 
 
-def _openings(video: Path, start: int, count: int) -> np.ndarray:
+def mouth_openings(video: Path, start: int, count: int) -> np.ndarray:
     """The inner-lip opening over the eye distance of frames ``start`` to ``start + count``
     (NaN where no face is found)."""
     import cv2
@@ -199,7 +200,7 @@ def sound_lag(video: str | Path, spans: Sequence[tuple[int, int]]) -> SoundLag:
         if count < 3:
             break
         left -= count
-        openings.append(_openings(video, first, count))
+        openings.append(mouth_openings(video, first, count))
         sound = read_media_audio(video, rate=rate, start=first / fps, duration=count / fps)
         envelopes.append(sound_envelope(sound, rate, fps, count))
     if not openings:

@@ -59,6 +59,7 @@ import pandas as pd
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk_lab.bench.command import bench_parser, run_bench
+from miketalk_lab.evaluation.sound_sync import speech_span
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -109,22 +110,6 @@ def opening(points: np.ndarray) -> np.ndarray:
 def eye_distance(points: np.ndarray) -> np.ndarray:
     """The distance between the eyes' centres, per frame."""
     return np.linalg.norm(points[:, 36:42].mean(axis=1) - points[:, 42:48].mean(axis=1), axis=1)
-
-
-def speech_span(audio: np.ndarray, rate: int, fps: float, frames: int) -> slice:
-    """The frames from the first to the last whose sound (RMS over the frame) is within
-    20 dB of the clip's loud frames (its 90th percentile)."""
-    per = rate / fps
-    rms = np.array(
-        [
-            np.sqrt(np.mean(audio[round(k * per) : round((k + 1) * per)].astype(float) ** 2) + 1e-9)
-            for k in range(frames)
-        ]
-    )
-    loud = np.flatnonzero(rms >= np.percentile(rms, 90) / 10)
-    if not len(loud):
-        raise MiketalkError("no speech found in the clip's sound")
-    return slice(int(loud[0]), int(loud[-1]) + 1)
 
 
 def real_landmarks(video: Path) -> tuple[np.ndarray, list]:
