@@ -59,3 +59,28 @@ def test_a_video_keeps_at_most_its_byte_budget_of_frames(video, monkeypatch):
     for i in range(30):
         frames[i]
     assert len(frames._cache) == 2  # at least two, whatever the budget
+
+
+def test_registration_stabilizes_a_chunk_at_a_time_with_the_whole_videos_result(person):
+    """The stabilized copy of every frame (as much again as the frames registered) is no
+    longer held: the frames are stabilized 50 at a time, and the blinks and the light are
+    those of the whole stabilized video."""
+    from miketalk.composite.registration import _CHUNK, _SAMPLE, find_blinks, register_video
+
+    frames, _ = _clip(120)
+    stabilizer = model_stabilizer(person)
+    sizes, apply = [], stabilizer.apply
+
+    def counted(chunk, transforms, **kwargs):
+        sizes.append(len(chunk))
+        return apply(chunk, transforms, **kwargs)
+
+    stabilizer.apply = counted
+    found = register_video(frames, 25.0, stabilizer, smooth=0)
+    # the conform field reads at most _SAMPLE frames; the rest a chunk at a time
+    assert max(sizes) <= max(_CHUNK, _SAMPLE) < len(frames)
+    assert sum(n for n in sizes if n <= _CHUNK) == len(frames)
+    whole = apply(frames, found.transforms, field=found.field)
+    assert found.blinks == find_blinks(whole, stabilizer.mouth_box)
+    some = np.linspace(0, len(frames) - 1, 100).round().astype(int)
+    np.testing.assert_array_equal(found.steady, np.median(whole[some], axis=0).astype(np.uint8))

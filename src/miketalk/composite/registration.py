@@ -24,6 +24,7 @@ __all__ = [
     "BLINK_FACTOR",
     "MIN_LOWER_FACE",
     "Registration",
+    "eye_band",
     "find_blinks",
     "lower_face_correlation",
     "register_video",
@@ -166,9 +167,15 @@ def register_video(
     transforms = _fill(transforms)
     if smooth > 0 and len(transforms) > 1:
         transforms = smooth_in_time(transforms, smooth * fps)
-    steady = stabilizer.apply(frames, transforms, field=field)
-    blinks = find_blinks(steady, stabilizer.mouth_box)
-    median = np.median(steady[some], axis=0).astype(np.uint8)
+    picked = {}  # each shot's frames its light is measured on
+    if shots is not None:
+        for shot in np.unique(shots[shots >= 0]):
+            frames_of = np.flatnonzero(shots == shot)
+            picked[int(shot)] = frames_of[_spread(len(frames_of), _SAMPLE)]
+    kept = np.unique(np.concatenate([some, *picked.values()]))
+    band, steady = _stabilized(stabilizer, frames, transforms, field, kept)
+    blinks = _blinks_of(band)
+    median = np.median(steady[np.searchsorted(kept, some)], axis=0).astype(np.uint8)
     score = lower_face_correlation(median, stabilizer.reference, stabilizer.mouth_box)
     # tracked crops: the landmarks put the mouth in place; another session's light and
     # shadows are not another face (the weekly addresses' shots score -0.21 to 0.9)
@@ -181,12 +188,31 @@ def register_video(
     _check_colour(median, stabilizer, source)
     by_shot = None
     if shots is not None:  # each shot's own light (the addresses' differ from shot to shot)
-        by_shot = {}
-        for shot in np.unique(shots[shots >= 0]):
-            frames_of = np.flatnonzero(shots == shot)
-            picked = frames_of[_spread(len(frames_of), _SAMPLE)]
-            by_shot[int(shot)] = np.median(steady[picked], axis=0).astype(np.uint8)
+        by_shot = {
+            shot: np.median(steady[np.searchsorted(kept, at)], axis=0).astype(np.uint8)
+            for shot, at in picked.items()
+        }
     return Registration(transforms, field, blinks, median, by_shot)
+
+
+#: Frames stabilized at a time: only their eye band and the frames the light is measured on
+#: are kept, so memory does not grow with the video's length (a stabilized copy of every
+#: frame did).
+_CHUNK = 50
+
+
+def _stabilized(stabilizer, frames, transforms, field, kept: np.ndarray):
+    """Every frame's eye band (:func:`eye_band`) on the reference, and the frames ``kept``
+    (sorted indices) stabilized whole, the frames stabilized :data:`_CHUNK` at a time."""
+    bands, whole = [], []
+    for start in range(0, len(frames), _CHUNK):
+        part = stabilizer.apply(
+            frames[start : start + _CHUNK], transforms[start : start + _CHUNK], field=field
+        )
+        bands.append(eye_band(part, stabilizer.mouth_box))
+        here = kept[(kept >= start) & (kept < start + len(part))]
+        whole.append(part[here - start])
+    return np.concatenate(bands), np.concatenate(whole)
 
 
 def lower_face_correlation(
@@ -229,10 +255,21 @@ def find_blinks(
     factor : float
         See :data:`BLINK_FACTOR`.
     """
+    return _blinks_of(eye_band(stabilized, mouth_box), factor=factor)
+
+
+def eye_band(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np.ndarray:
+    """``(N, h, w)`` float32 grey: the eyes' band of frames on the reference (0.8 to 1.4 mouth
+    widths above the mouth box, two mouth widths about its centre)."""
     x, y, w, _ = mouth_box
     top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
     left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
-    band = stabilized[:, top:bottom, left:right].astype(np.float32).mean(axis=3)
+    return stabilized[:, top:bottom, left:right].astype(np.float32).mean(axis=3)
+
+
+def _blinks_of(band: np.ndarray, *, factor: float = BLINK_FACTOR) -> tuple[int, ...]:
+    """The frames whose eye band (:func:`eye_band`) differs from the usual (see
+    :func:`find_blinks`)."""
     change = np.abs(band - np.median(band, axis=0)).mean(axis=(1, 2))
     threshold = max(factor * float(np.median(change)), 3.0)
     return tuple(int(i) for i in np.flatnonzero(change > threshold))
