@@ -17,10 +17,12 @@ lower layer's, never a higher one's. The product's layers, bottom to top:
 5. flow: optical flow between visemes;
 6. render: images from images and flows (the morphs);
 7. lipsync: timed phones to a timeline of transitions and morph parameters;
-8. model: the model a face speaks with, on disk;
-9. draw (the mouth beyond the paper's morph: learned, trained) and composite (onto video);
+8. draw (the mouth beyond the paper's morph: learned, trained) and composite (onto video);
+9. model: the model a face speaks with, opened from disk and asked for its parts (its
+   morphs, its coarticulation and trained face, which draw's registry draws with, its
+   background video, crop and tracker reference, which composite plays into);
 10. building (a face's model from clips or a video) and talk (saying things: the entry point);
-11. cli.
+11. serve; 12. cli.
 
 Above the product: the synthetic face, then the laboratory (evaluation, figures,
 bench), then the workflow's scripts. So the product never imports the laboratory.
@@ -61,9 +63,9 @@ LAYERS: dict[str, int] = {
     "miketalk.flow": 5,
     "miketalk.render": 6,
     "miketalk.lipsync": 7,
-    "miketalk.model": 8,
-    "miketalk.draw": 9,
-    "miketalk.composite": 9,
+    "miketalk.draw": 8,
+    "miketalk.composite": 8,
+    "miketalk.model": 9,
     "miketalk.building": 10,
     "miketalk.talk": 10,
     "miketalk.serve": 11,

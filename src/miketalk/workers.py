@@ -46,6 +46,12 @@ __all__ = [
 ]
 
 
+#: Threads a model's frames are drawn in (:meth:`miketalk.model.morphs.Morphs.render`,
+#: :func:`miketalk.draw.learned.render_learned`): the machine's cores, at most 2 (the third
+#: core's worth of work, encoding the video, runs in ffmpeg beside them).
+RENDER_WORKERS = max(1, min(2, os.cpu_count() or 1))
+
+
 def available_cores() -> int:
     """The cores this process may run on."""
     try:

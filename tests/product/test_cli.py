@@ -189,13 +189,16 @@ def test_paper_mode_lengthens_and_max_slowdown_caps_it(
 def test_learned_lipsync_draws_the_models_coarticulation(
     model: Path, dirs: tuple[Path, Path]
 ) -> None:
-    from miketalk.draw.coarticulation import CoarticulationParams, write_params
+    from miketalk.draw.coarticulation import CoarticulationParams
+    from miketalk.model.write import write_coarticulation
     from miketalk.visemes import VisemeTable
 
     work, scratch = dirs
     learned_model = work.parent / "learned_model"
     shutil.copytree(model, learned_model)
-    write_params(CoarticulationParams.prior(VisemeTable().visemes, lead=0.02), learned_model)
+    write_coarticulation(
+        learned_model, CoarticulationParams.prior(VisemeTable().visemes, lead=0.02)
+    )
     outputs = {}
     # l2 asks for no model: typed text takes the model's learned coarticulation
     for name, option in (("l1", "learned"), ("l2", None), ("p", "paper")):

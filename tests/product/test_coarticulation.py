@@ -25,7 +25,7 @@ from miketalk.flow import pair_path, write_flow_pair
 from miketalk.lipsync.timeline import Keyframe, keyframes, plan
 from miketalk.media.images import write_png
 from miketalk.model.face import Model
-from miketalk.model.write import build_model
+from miketalk.model.write import build_model, write_coarticulation
 from miketalk.render.morph import Morpher
 from miketalk.render.multimorph import MultiMorpher
 from miketalk.speech import Phone
@@ -126,15 +126,16 @@ def test_params_round_trip_and_a_model_without_them_is_named(tmp_path: Path) -> 
     params = CoarticulationParams(
         TRUE_MAGNITUDE, TRUE_RATE, lead=0.02, fit={"loss": 1.5, "clips": 3}
     )
-    write_params(params, tmp_path)
-    assert read_params(tmp_path) == params
-    doc = json.loads((tmp_path / "coarticulation.json").read_text())
+    path = tmp_path / "coarticulation.json"
+    assert write_params(params, path) == path
+    assert read_params(path) == params
+    doc = json.loads(path.read_text())
     doc["rate"]["p"] = -1
-    (tmp_path / "coarticulation.json").write_text(json.dumps(doc))
+    path.write_text(json.dumps(doc))
     with pytest.raises(MiketalkError, match="rate must be positive"):
-        read_params(tmp_path)
-    with pytest.raises(MiketalkError, match="no learned coarticulation"):
-        read_params(tmp_path / "elsewhere")
+        read_params(path)
+    with pytest.raises(MiketalkError, match="cannot read"):
+        read_params(tmp_path / "elsewhere.json")
 
 
 # ---------------------------------------------------------------------------
@@ -255,7 +256,7 @@ def test_the_evaluation_renderer_reads_the_models_own_parameters(
     with Model(directory) as model:
         with pytest.raises(MiketalkError, match="no learned coarticulation"):
             list(render_model_learned(model, timeline))
-        write_params(params, directory)
+        write_coarticulation(directory, params)
         got = list(render_model_learned(model, timeline))
         want = list(render_learned(model, timeline, params))
     assert all(np.array_equal(x, y) for x, y in zip(got, want, strict=True))

@@ -307,6 +307,7 @@ def test_a_crop_models_compositor_leaves_the_jaw_unwarped_a_full_frames_warps_it
     from miketalk import defaults
     from miketalk.composite.background_files import model_compositor
     from miketalk.media.images import write_png
+    from miketalk.model.background import KeptBackground
     from miketalk.track.crop import FaceCropSettings, crop_doc
 
     where = tmp_path / "background"
@@ -318,9 +319,10 @@ def test_a_crop_models_compositor_leaves_the_jaw_unwarped_a_full_frames_warps_it
     (where / "background.json").write_text(json.dumps(doc), "utf-8")
     write_png(where / "reference.png", np.full((size, size, 3), (200, 140, 120), np.uint8))
     write_png(where / "face_mask.png", np.full((size, size, 3), 255, np.uint8))
-    c = model_compositor(tmp_path, (size, size))
+    model = KeptBackground(tmp_path)  # what a Model answers of its background
+    c = model_compositor(model, (size, size))
     assert c.follow is not crop and c.follow_within is None
-    assert model_compositor(tmp_path, (size, size), follow=True).follow
+    assert model_compositor(model, (size, size), follow=True).follow
     monkeypatch.setattr(defaults, "BLEND_FOLLOW_CROP", "face")
-    c = model_compositor(tmp_path, (size, size))
+    c = model_compositor(model, (size, size))
     assert c.follow and (c.follow_within is not None) is crop

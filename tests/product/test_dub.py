@@ -18,13 +18,14 @@ from test_stabilize import H, W, _clip, _head, _write_video
 
 from miketalk import cli
 from miketalk.composite.background import background_from_video, pingpong
-from miketalk.composite.background_files import read_background, save_background
 from miketalk.composite.registration import register_video
 from miketalk.errors import MiketalkError
 from miketalk.flow import pair_path, write_flow_pair
 from miketalk.media.decode import read_video
 from miketalk.media.images import write_png
 from miketalk.media.video import probe_durations
+from miketalk.model.background import save_background
+from miketalk.model.face import Model
 from miketalk.model.write import build_model
 from miketalk.stabilize import Stabilizer
 from miketalk.visemes import VISEMES
@@ -101,7 +102,8 @@ def test_pingpong_loops_without_a_jump():
 
 
 def test_the_background_round_trips_through_the_model(person: Path):
-    background = read_background(person)
+    with Model(person) as model:
+        background = model.background()
     assert len(background) == 40 and background.fps == 25.0
     _, truth = _clip(40)
     # the registration recovers the known motion (reference pixel -> frame): 0.29 px and
@@ -354,12 +356,13 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     side) tracked all its frames before refusing (37 s for 394 720p frames, where build
     looks at 7): now a first look at 7 frames spread over it refuses with build's line, and
     a video that shows the face in some frames only is tracked as before."""
+    from types import SimpleNamespace
+
     from miketalk.composite import background_files, tracked
     from miketalk.track import detect
     from miketalk.track.crop import FaceCropSettings
 
-    monkeypatch.setattr(background_files, "model_stabilizer", lambda model: None)
-    monkeypatch.setattr(background_files, "model_crop", lambda model: FaceCropSettings())
+    model = SimpleNamespace(stabilizer=lambda: None, crop=FaceCropSettings())
     monkeypatch.setattr(tracked, "tracked_background", lambda video, *a, **k: ("tracked", video))
     looked, real = [], detect.detect_faces
     monkeypatch.setattr(
@@ -367,7 +370,7 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     )
     nobody = _write(tmp_path / "nobody.mkv", _clip(30)[0])  # the synthetic head: no dlib face
     with pytest.raises(MiketalkError) as refused:
-        background_files.video_background(tmp_path, nobody)
+        background_files.video_background(model, nobody)
     assert str(refused.value) == (
         f"no face found in {nobody} (7 of 7 frames looked at show none): it needs one "
         "person's frontal face"
@@ -378,5 +381,5 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     some[:28] = 128  # his face in the last 12 frames only
     path = _write(tmp_path / "some.mkv", some)
     # the stand-in model has no reference to compare the person with (test_identity does)
-    tracked_path = background_files.video_background(tmp_path, path, check_person=False)
+    tracked_path = background_files.video_background(model, path, check_person=False)
     assert tracked_path == ("tracked", path)

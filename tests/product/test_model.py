@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -217,3 +218,37 @@ def test_manifest_paths_stay_inside_the_model(model_dir: Path, tmp_path: Path) -
     (escaped / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(MiketalkError, match="outside the model directory"):
         Model(escaped)
+
+
+def test_a_model_opened_again_unchanged_is_not_hashed_again_and_a_change_is_found(
+    model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The checksums of a model's files are checked once per unchanged model in a process
+    (live speech opens models often); a file changed since, or a model written less than
+    ``SETTLED_NS`` before its check, is hashed again."""
+    from miketalk.model import manifest
+
+    directory = tmp_path / "model"
+    shutil.copytree(model_dir, directory)
+    hashed: list[Path] = []
+    digest = manifest.file_digest
+    monkeypatch.setattr(manifest, "file_digest", lambda p: hashed.append(p) or digest(p))
+    monkeypatch.setattr(manifest, "_CHECKED", {})
+    listed = len(json.loads((directory / "manifest.json").read_text())["files"])
+    Model(directory).close()
+    Model(directory).close()
+    assert len(hashed) == 2 * listed  # just written: not settled, hashed at every open
+    monkeypatch.setattr(manifest, "SETTLED_NS", 0)
+    hashed.clear()
+    Model(directory).close()
+    assert len(hashed) == listed
+    with Model(directory) as again:
+        assert len(hashed) == listed and not again.changed_on_disk()
+    image = directory / "visemes" / "aa.png"
+    data = bytearray(image.read_bytes())
+    data[-20] ^= 0xFF  # the same size, another checksum
+    image.write_bytes(bytes(data))
+    stat = image.stat()
+    os.utime(image, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))  # a later time, surely
+    with pytest.raises(MiketalkError, match=r"aa\.png does not match its checksum"):
+        Model(directory)

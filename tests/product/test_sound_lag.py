@@ -122,8 +122,7 @@ def _trained_face(model: Path, r2: float | None) -> Path:
 def test_a_trained_face_that_predicts_nothing_leaves_recordings_to_the_morph(
     tmp_path: Path,
 ) -> None:
-    from miketalk.draw.registry import choose_lipsync_model
-    from miketalk.model.parts import default_lipsync_model, trained_predicts
+    from miketalk.model.parts import choose_lipsync_model, default_lipsync_model, trained_predicts
 
     weak = _trained_face(tmp_path / "weak", 0.0)
     strong = _trained_face(tmp_path / "strong", 0.42)

@@ -16,10 +16,11 @@ from test_dub import _model
 from test_stabilize import _clip, _write_video
 
 from miketalk.composite.background import background_from_video
-from miketalk.composite.background_files import model_stabilizer, video_background
+from miketalk.composite.background_files import video_background
 from miketalk.media import frame_source
 from miketalk.media.decode import read_video
 from miketalk.media.frame_source import VideoFrames
+from miketalk.model.face import Model
 
 
 @pytest.fixture(scope="module")
@@ -36,12 +37,13 @@ def video(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_a_full_frame_models_video_is_streamed_with_the_whole_reads_frames(person, video):
-    background = video_background(person, video)
+    model = Model(person)
+    background = video_background(model, video)
     assert isinstance(background.frames, VideoFrames)  # not an array of every frame
     frames, fps = read_video(video)
     assert len(background) == len(frames) and background.fps == fps
     assert all(np.array_equal(background.frames[i], frames[i]) for i in range(len(frames)))
-    held = background_from_video(frames, fps, model_stabilizer(person), source=str(video))
+    held = background_from_video(frames, fps, model.stabilizer(), source=str(video))
     np.testing.assert_array_equal(background.transforms, held.transforms)
     assert background.blinks == held.blinks
     np.testing.assert_array_equal(background.steady, held.steady)
@@ -68,7 +70,7 @@ def test_registration_stabilizes_a_chunk_at_a_time_with_the_whole_videos_result(
     from miketalk.composite.registration import _CHUNK, _SAMPLE, find_blinks, register_video
 
     frames, _ = _clip(120)
-    stabilizer = model_stabilizer(person)
+    stabilizer = Model(person).stabilizer()
     sizes, apply = [], stabilizer.apply
 
     def counted(chunk, transforms, **kwargs):

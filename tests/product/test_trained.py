@@ -218,13 +218,13 @@ def face_with(texture: np.ndarray, phones: tuple[Phone, ...], t: float) -> np.nd
 def test_trained_face_learns_and_draws_a_new_sentence(tmp_path: Path) -> None:
     corpus = _synthetic_corpus(tmp_path)
     model = tmp_path / "model"
-    doc = fit_trained(corpus, model, components=6)
+    doc = fit_trained(corpus, model / "trained", components=6)
     assert doc["default"] == "window" and doc["fit"]["clips"] == 8
-    again = fit_trained(corpus, tmp_path / "again", components=6)
+    again = fit_trained(corpus, tmp_path / "again" / "trained", components=6)
     a = np.load(model / "trained" / "trajectory.npz")
     b = np.load(tmp_path / "again" / "trained" / "trajectory.npz")
     assert all(np.array_equal(a[k], b[k]) for k in a.files) and again["fit"] == doc["fit"]
-    trained = read_trained(model)
+    trained = read_trained(model / "trained")
     rng = np.random.default_rng(99)
     texture = cv2.GaussianBlur(rng.uniform(90, 200, size=SIZE).astype(np.float32), (0, 0), 3)
     phones = _sentence(np.random.default_rng(7))
@@ -249,8 +249,8 @@ def test_a_trained_face_fitted_before_the_cross_validated_gain_still_draws(
     import json
 
     corpus = _synthetic_corpus(tmp_path)
-    fit_trained(corpus, tmp_path / "model", components=6)
-    now = read_trained(tmp_path / "model")
+    fit_trained(corpus, tmp_path / "model" / "trained", components=6)
+    now = read_trained(tmp_path / "model" / "trained")
     manifest = tmp_path / "model" / "trained" / "trained.json"
     doc = json.loads(manifest.read_text())
     for fit in doc["fit"].values():
@@ -258,7 +258,7 @@ def test_a_trained_face_fitted_before_the_cross_validated_gain_still_draws(
             fit.pop("amplitude_gain_cv", None)
     doc["selection"].pop("cv_gain")
     manifest.write_text(json.dumps(doc))
-    old = read_trained(tmp_path / "model")
+    old = read_trained(tmp_path / "model" / "trained")
     assert old.selection.cv_gain is False
     phones = _sentence(np.random.default_rng(7))
     timeline = plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
@@ -278,17 +278,17 @@ def test_a_trained_face_keeps_its_fit_settings_apart_and_reads_one_that_mixed_th
     from miketalk.draw.trained.training import FitSettings
 
     corpus = _synthetic_corpus(tmp_path)
-    doc = fit_trained(corpus, tmp_path / "model", components=6)
+    doc = fit_trained(corpus, tmp_path / "model" / "trained", components=6)
     assert doc["fitting"] == FitSettings().to_dict()
     assert not set(doc["fitting"]) & set(doc["selection"])
-    now = read_trained(tmp_path / "model")
+    now = read_trained(tmp_path / "model" / "trained")
     assert now.fitting == FitSettings()
     manifest = tmp_path / "model" / "trained" / "trained.json"
     before = json.loads(manifest.read_text())
     before["selection"] |= {"centred": True, "half": 4}
     del before["fitting"]
     manifest.write_text(json.dumps(before))
-    old = read_trained(tmp_path / "model")
+    old = read_trained(tmp_path / "model" / "trained")
     assert old.fitting == FitSettings(centred=True, half=4)
     assert old.selection == now.selection
     assert np.allclose(old.described().mean(axis=0), 0.0, atol=1e-9)  # centred
@@ -302,8 +302,8 @@ def test_a_trained_face_keeps_its_frames_visemes_and_one_fitted_before_draws_wit
     import json
 
     corpus = _synthetic_corpus(tmp_path)
-    fit_trained(corpus, tmp_path / "model", components=6)
-    now = read_trained(tmp_path / "model")
+    fit_trained(corpus, tmp_path / "model" / "trained", components=6)
+    now = read_trained(tmp_path / "model" / "trained")
     table = default_table()
     assert now.frame_visemes.shape == (len(now.frames.coords),)
     assert set(now.frame_visemes.tolist()) <= set(range(len(table.visemes)))
@@ -330,7 +330,7 @@ def test_a_trained_face_keeps_its_frames_visemes_and_one_fitted_before_draws_wit
     doc = json.loads((model / "trained.json").read_text())
     doc["selection"].pop("viseme")
     (model / "trained.json").write_text(json.dumps(doc))
-    old = read_trained(tmp_path / "model")
+    old = read_trained(tmp_path / "model" / "trained")
     assert old.frame_visemes is None and old.selection.viseme == 0.0
     assert old.plan(timeline)
 
@@ -354,8 +354,8 @@ def test_selection_settings_switch_old_and_new_and_centred_descriptions_fit(
     from miketalk.visemes import VisemeTable
 
     corpus = _synthetic_corpus(tmp_path)
-    fit_trained(corpus, tmp_path / "model", components=6)
-    trained = read_trained(tmp_path / "model")
+    fit_trained(corpus, tmp_path / "model" / "trained", components=6)
+    trained = read_trained(tmp_path / "model" / "trained")
     phones = _sentence(np.random.default_rng(7))
     timeline = plan(phones, default_table(), fps=30.0, duration=phones[-1].end)
     old = SelectionSettings(**(SelectionSettings().to_dict() | PREVIOUS_SELECTION))
@@ -424,7 +424,7 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     tmp_path: Path,
 ) -> None:
     corpus = _synthetic_corpus(tmp_path)
-    fit_trained(corpus, tmp_path / "model", components=6)
+    fit_trained(corpus, tmp_path / "model" / "trained", components=6)
     assert trained_trajectories(tmp_path / "model") == ("window", "regularized", "heard")
     # a held-out clip dubbed by a trained face hears the clip's own recording
     assert dub_renderer("trained", tmp_path / "model") == "trained_heard"
@@ -432,7 +432,7 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     assert dub_renderer("learned", tmp_path / "model") == "learned"
     with pytest.raises(MiketalkError, match="lipsync model must be one of paper, learned, trained"):
         dub_renderer("mouthy", tmp_path / "model")
-    face = read_trained(tmp_path / "model")
+    face = read_trained(tmp_path / "model" / "trained")
     assert face.kind_for(None, recorded=True) == "heard"
     assert face.kind_for(None, recorded=False) == "window"
     assert face.kind_for("window", recorded=True) == "window"
@@ -453,7 +453,7 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     doc = json.loads(manifest.read_text())
     del doc["trajectories"]["heard"], doc["fit"]["heard"]
     manifest.write_text(json.dumps(doc))
-    old = read_trained(tmp_path / "model")
+    old = read_trained(tmp_path / "model" / "trained")
     assert tuple(old.trajectories) == ("window", "regularized")
     assert dub_renderer("trained", tmp_path / "model") == "trained"
     assert old.kind_for(None, recorded=True) == "window"

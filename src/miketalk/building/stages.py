@@ -172,17 +172,21 @@ def model_stage(
         fallbacks=fallbacks_of(table),
     )
     if phones:  # a face from clips: learn from its frames
+        from miketalk.building.background import write_background
         from miketalk.corpus.eigenlips import read_eigenlips
         from miketalk.draw.coarticulation import fit_coarticulation
         from miketalk.draw.trained import fit_trained
+        from miketalk.model.face import Model
+        from miketalk.model.write import trained_folder, write_coarticulation
 
         corpus = Path(phones).parent
-        fit_coarticulation(
-            corpus, out, grouping=dict(grouping), corpus_eigenlips=read_eigenlips(eigenlips)
+        with Model(out) as model:
+            images = {v: model.image(v) for v in model.visemes}
+        params = fit_coarticulation(
+            corpus, images, grouping=dict(grouping), corpus_eigenlips=read_eigenlips(eigenlips)
         )
-        fit_trained(corpus, out, grouping=dict(grouping))
+        write_coarticulation(out, params)
+        fit_trained(corpus, trained_folder(out), grouping=dict(grouping))
         if media:  # its person's own frames, for say and dub
-            from miketalk.composite.background_files import write_background
-
             write_background(out, corpus_dir=corpus, media=media, segments=segments)
     list_model_files(out)  # last: every part listed, checked when the model opens

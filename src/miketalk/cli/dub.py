@@ -36,10 +36,11 @@ def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
     from miketalk.cli.common import festival_backend, has_text, read_text, seconds_since
     from miketalk.cli.say import check_lipsync_model, cli_inputs, lipsync_settings
-    from miketalk.composite.background_files import has_background, video_background
+    from miketalk.composite.background_files import video_background
     from miketalk.lipsync.settings import check_fps
     from miketalk.media.decode import video_info
     from miketalk.media.timing import check_constant_rate
+    from miketalk.model.background import has_background
     from miketalk.model.parts import default_model_dir
     from miketalk.talk.output import check_output
     from miketalk.talk.say import Recorded, open_model, say
@@ -72,16 +73,16 @@ def cmd_dub(args: argparse.Namespace) -> int:
     settings = lipsync_settings(args, args.sampling, max_px, fps=fps)
     progress = args.progress or sys.stderr.isatty()
 
-    def register():  # the video's frames registered to the model's reference
+    def register(model):  # the video's frames registered to the model's reference
         background = video_background(
-            model_dir, args.video, progress=progress, check_person=not args.force
+            model, args.video, progress=progress, check_person=not args.force
         )
         check_constant_rate(args.video, fps, len(background))  # shown when they were taken
         return background
 
     if args.audio is not None:
         with open_model(model_dir) as model:
-            background = register()
+            background = register(model)
             said = say(
                 Recorded(args.audio, text=text, timings=args.timings), output, model=model,
                 settings=settings, progress=progress, overwrite=args.force,
@@ -92,7 +93,7 @@ def cmd_dub(args: argparse.Namespace) -> int:
     else:
         # Festival works while the video registers
         with festival_backend(args).start(text) as speech, open_model(model_dir) as model:
-            background = register()
+            background = register(model)
             spoken = say(
                 speech, output, model=model, settings=settings, progress=progress,
                 overwrite=args.force, background=background, inputs=inputs,

@@ -146,10 +146,9 @@ def drawn_words(motion) -> str:
 
 def check_lipsync_model(args: argparse.Namespace) -> None:
     """Settle ``args.lipsync_model`` and check it against the model, in one line if it fails
-    (:func:`~miketalk.draw.registry.choose_lipsync_model`: not given, it is ``trained`` when a
+    (:func:`~miketalk.model.parts.choose_lipsync_model`: not given, it is ``trained`` when a
     ``--trajectory`` is asked for, else the model's own)."""
-    from miketalk.draw.registry import choose_lipsync_model
-    from miketalk.model.parts import default_model_dir
+    from miketalk.model.parts import choose_lipsync_model, default_model_dir
 
     recorded = args.audio is not None
     directory = args.model if args.model is not None else default_model_dir()
@@ -166,10 +165,8 @@ def output_fps(args: argparse.Namespace, background, model) -> float:
     """``--fps``, or by default the frame rate of the video a face crop's model plays its
     mouth into (its head motion frame for frame; 29.97 stays 29.97), else
     :data:`miketalk.defaults.FPS`. Sets ``args.fps`` to it."""
-    from miketalk.composite.background_files import model_crop
-
     if args.fps is None:
-        in_crop = background is not None and model_crop(model.directory) is not None
+        in_crop = background is not None and model.crop is not None
         args.fps = background.fps if in_crop else defaults.FPS
     return args.fps
 

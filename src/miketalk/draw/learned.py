@@ -22,17 +22,18 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any
 
 import cv2
 import numpy as np
 
-from miketalk.draw.coarticulation import CoarticulationParams, frame_weights, read_params
+from miketalk.draw.coarticulation import CoarticulationParams, frame_weights
 from miketalk.draw.coarticulation.weights import weights_at
 from miketalk.lipsync.motion import weights_step
 from miketalk.lipsync.sampling import Displacement
 from miketalk.lipsync.timeline import Timeline
-from miketalk.model.face import RENDER_WORKERS, Model
 from miketalk.render.multimorph import MultiMorpher, Weights
+from miketalk.workers import RENDER_WORKERS
 
 __all__ = ["MAX_SAMPLES", "Exposure", "learned_exposures", "render_learned", "render_model_learned"]
 
@@ -149,7 +150,7 @@ def drawn_states(exposures: Sequence[Exposure]) -> list[Weights]:
 
 
 def render_learned(
-    model: Model,
+    model: Any,
     timeline: Timeline,
     params: CoarticulationParams,
     *,
@@ -166,10 +167,11 @@ def render_learned(
 
     Parameters
     ----------
-    model : Model
+    model : miketalk.model.face.Model
+        Its images and morphs (a :class:`~miketalk.model.morphs.Morphs`).
     timeline : Timeline
     params : CoarticulationParams
-        E.g. :func:`miketalk.draw.coarticulation.read_params` of the model's directory.
+        E.g. the model's :attr:`~miketalk.model.face.Model.coarticulation`.
     workers : int, optional
         Threads drawing frames (default the model's :data:`RENDER_WORKERS`);
         the frames do not depend on it.
@@ -233,12 +235,12 @@ def _exposure_drawer(morpher: MultiMorpher):
     return draw
 
 
-def render_model_learned(model: Model, timeline: Timeline) -> Iterator[np.ndarray]:
-    """:func:`render_learned` with the parameters fitted into the model's directory.
+def render_model_learned(model: Any, timeline: Timeline) -> Iterator[np.ndarray]:
+    """:func:`render_learned` with the model's own coarticulation
+    (:attr:`miketalk.model.face.Model.coarticulation`).
 
     The ``(model, timeline)`` signature of
     :data:`miketalk_lab.evaluation.renderers.RENDERERS`; raises
-    :class:`~miketalk.errors.MiketalkError` for a model without
-    ``coarticulation.json`` (:func:`miketalk.draw.coarticulation.read_params`).
+    :class:`~miketalk.errors.MiketalkError` for a model without one.
     """
-    return render_learned(model, timeline, read_params(model.directory))
+    return render_learned(model, timeline, model.coarticulation)

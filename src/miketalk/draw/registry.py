@@ -1,23 +1,22 @@
 """The one registry of lip-sync models: each name (:class:`~miketalk.lipsync.settings.LipsyncModel`)
 to what draws its frames.
 
-:func:`choose_lipsync_model` settles which model an utterance uses (the one asked for, else
-the model's own) and checks that the model directory has it, reading only its small files;
-:func:`open_drawing` reads what that lip-sync model needs and returns a :class:`Drawing`,
-which :func:`miketalk.talk.utterance.write_utterance` asks for the frames.
+Each entry of :data:`DRAWERS` opens its :class:`Drawing` from the parts the model gives
+(:class:`miketalk.model.face.Model`: its coarticulation, its trained face);
+:func:`open_drawing` settles which lip-sync model an utterance uses (the one asked for,
+else the model's own) and asks the registry for it, and
+:func:`miketalk.talk.utterance.write_utterance` asks the drawing for the frames. What
+differs between the lip-sync models lives in their drawings, not in a choice made
+elsewhere.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
-from miketalk.errors import MiketalkError
 from miketalk.lipsync.settings import LipsyncModel, resolve_lipsync_model
-from miketalk.model.parts import lipsync_models_in, own_recording_model, trained_trajectories
 
 if TYPE_CHECKING:
     import numpy as np
@@ -28,32 +27,32 @@ if TYPE_CHECKING:
     from miketalk.lipsync.timeline import Timeline
     from miketalk.speech.acoustic import Recording
 
+#: What :meth:`Drawing.frames` returns: the rendered frames (a closable iterator); the viseme
+#: weights at each frame's middle and the states drawn (the learned coarticulation's, which
+#: the motion is measured on), else None and None.
+Frames = tuple["Iterator[np.ndarray]", "Sequence[Weights] | None", "Sequence[Weights] | None"]
+
 
 @dataclass(frozen=True)
 class Drawing:
-    """What draws an utterance's mouth: a lip-sync model with what it read from the model.
+    """What draws an utterance's mouth: a lip-sync model with what it read from the model;
+    this one the paper's (every transition from one viseme image all the way to the next).
 
     Attributes
     ----------
     lipsync_model : LipsyncModel
-        The model's name.
-    coarticulation : CoarticulationParams or None
-        ``learned``: the fitted coarticulation.
-    trained : TrainedFace or None
-        ``trained``: the trained face.
-    trajectory : str or None
-        ``trained``: its trajectory model, settled.
+        The model's name (a class attribute of each drawing).
+    own_frames : bool
+        Whether each frame is one of the person's own (no morph between visemes).
     """
 
-    lipsync_model: LipsyncModel
-    coarticulation: CoarticulationParams | None = None
-    trained: TrainedFace | None = None
-    trajectory: str | None = None
+    lipsync_model: ClassVar[LipsyncModel] = LipsyncModel.PAPER
+    own_frames: ClassVar[bool] = False
 
     @property
-    def own_frames(self) -> bool:
-        """Whether each frame is one of the person's own (no morph between visemes)."""
-        return self.trained is not None
+    def trajectory(self) -> str | None:
+        """``trained``: its trajectory model, settled; else None."""
+        return None
 
     def frames(
         self,
@@ -62,21 +61,33 @@ class Drawing:
         *,
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
-    ) -> tuple[Iterator[np.ndarray], Sequence[Weights] | None, Sequence[Weights] | None]:
-        """The rendered frames of ``timeline`` (a closable iterator); for ``learned``, the
-        viseme weights at each frame's middle and the states drawn, in order (several for a
-        frame blurred to keep consecutive states within ``max_px_per_frame``,
-        :func:`miketalk.draw.learned.learned_exposures`), which the motion is measured on;
-        else None and None."""
-        if self.trained is not None:
-            from miketalk.draw.trained.draw import render_trained
+    ) -> Frames:
+        """The frames of ``timeline`` drawn with ``model`` (see :data:`Frames`)."""
+        return model.render(timeline), None, None
 
-            rendered = render_trained(
-                model, timeline, trained=self.trained, kind=self.trajectory, recording=recording
-            )
-            return rendered, None, None
-        if self.coarticulation is None:
-            return model.render(timeline), None, None
+    def doc(self) -> dict:
+        """What the utterance's JSON records of it."""
+        return {"lipsync_model": self.lipsync_model.value}
+
+
+@dataclass(frozen=True)
+class LearnedDrawing(Drawing):
+    """The model's learned coarticulation (:mod:`miketalk.draw.coarticulation`)."""
+
+    lipsync_model: ClassVar[LipsyncModel] = LipsyncModel.LEARNED
+    coarticulation: CoarticulationParams
+
+    def frames(
+        self,
+        model: Any,
+        timeline: Timeline,
+        *,
+        recording: Recording | None = None,
+        max_px_per_frame: float | None = None,
+    ) -> Frames:
+        """The frames, with the viseme weights at each frame's middle and the states drawn,
+        in order (several for a frame blurred to keep consecutive states within
+        ``max_px_per_frame``, :func:`miketalk.draw.learned.learned_exposures`)."""
         from miketalk.draw.coarticulation import frame_weights
         from miketalk.draw.learned import drawn_states, learned_exposures, render_learned
 
@@ -88,103 +99,92 @@ class Drawing:
         rendered = render_learned(model, timeline, self.coarticulation, exposures=exposures)
         return rendered, middles, drawn_states(exposures)
 
+
+@dataclass(frozen=True)
+class TrainedDrawing(Drawing):
+    """The person's own frames along the trained face's trajectory
+    (:mod:`miketalk.draw.trained`)."""
+
+    lipsync_model: ClassVar[LipsyncModel] = LipsyncModel.TRAINED
+    own_frames: ClassVar[bool] = True
+    trained: TrainedFace
+    kind: str
+
+    @property
+    def trajectory(self) -> str:
+        """Its trajectory model, settled (:meth:`~miketalk.draw.trained.TrainedFace.kind_for`)."""
+        return self.kind
+
+    def frames(
+        self,
+        model: Any,
+        timeline: Timeline,
+        *,
+        recording: Recording | None = None,
+        max_px_per_frame: float | None = None,
+    ) -> Frames:
+        """The frames drawn from the person's own (``recording``: the sound the trajectory
+        may hear; ``max_px_per_frame`` does not apply)."""
+        from miketalk.draw.trained.draw import render_trained
+
+        rendered = render_trained(
+            model, timeline, trained=self.trained, kind=self.kind, recording=recording
+        )
+        return rendered, None, None
+
     def doc(self) -> dict:
-        """What the utterance's JSON records of it."""
-        doc: dict = {"lipsync_model": self.lipsync_model.value}
-        return doc | ({"trajectory": self.trajectory} if self.trained is not None else {})
+        """What the utterance's JSON records of it: also its trajectory."""
+        return super().doc() | {"trajectory": self.kind}
 
 
-def _paper(model_dir: Path, trajectory: str | None, recorded: bool) -> Drawing:
-    return Drawing(LipsyncModel.PAPER)
+def _paper(model: Any, trajectory: str | None, recorded: bool) -> Drawing:
+    return Drawing()
 
 
-def _learned(model_dir: Path, trajectory: str | None, recorded: bool) -> Drawing:
-    from miketalk.draw.coarticulation import read_params
-
-    return Drawing(LipsyncModel.LEARNED, coarticulation=read_params(model_dir))
+def _learned(model: Any, trajectory: str | None, recorded: bool) -> Drawing:
+    return LearnedDrawing(model.coarticulation)
 
 
-def _trained(model_dir: Path, trajectory: str | None, recorded: bool) -> Drawing:
-    from miketalk.draw.trained import read_trained
-
-    trained = read_trained(model_dir)
-    kind = trained.kind_for(trajectory, recorded=recorded)
-    return Drawing(LipsyncModel.TRAINED, trained=trained, trajectory=kind)
+def _trained(model: Any, trajectory: str | None, recorded: bool) -> Drawing:
+    trained = model.trained_face
+    return TrainedDrawing(trained, trained.kind_for(trajectory, recorded=recorded))
 
 
-#: Each lip-sync model's name -> what opens its drawing from a model directory.
-DRAWERS: dict[LipsyncModel, Callable[[Path, str | None, bool], Drawing]] = {
+#: Each lip-sync model's name -> what opens its drawing from a model
+#: (:class:`miketalk.model.face.Model`), the trajectory asked for and whether a recording
+#: drives the utterance.
+DRAWERS: dict[LipsyncModel, Callable[[Any, str | None, bool], Drawing]] = {
     LipsyncModel.PAPER: _paper,
     LipsyncModel.LEARNED: _learned,
     LipsyncModel.TRAINED: _trained,
 }
 
 
-def choose_lipsync_model(
-    model_dir: str | os.PathLike[str],
-    requested: str | None,
-    *,
-    trajectory: str | None = None,
-    recorded: bool,
-) -> LipsyncModel:
-    """The lip-sync model of an utterance with the model in ``model_dir``: ``requested``, else
-    the model's own (:func:`~miketalk.lipsync.settings.resolve_lipsync_model`), checked
-    against the directory by its small files alone (before Festival or numpy start).
-
-    Raises
-    ------
-    MiketalkError
-        In one line: a setting that does not fit (see ``resolve_lipsync_model``), a model
-        without the learned coarticulation or the trained face asked for, a trained face
-        without the trajectory asked for.
-    """
-    directory = Path(model_dir)
-    if requested is None and trajectory is None and recorded:
-        requested = own_recording_model(directory)
-    chosen = resolve_lipsync_model(
-        requested, available=lipsync_models_in(directory), trajectory=trajectory,
-        recorded=recorded,
-    )  # fmt: skip
-    if chosen == LipsyncModel.LEARNED:
-        from miketalk.draw.coarticulation import read_params
-
-        read_params(directory)  # the one-line error of a model without it
-    elif chosen == LipsyncModel.TRAINED:
-        kinds = trained_trajectories(directory)
-        if not kinds:
-            from miketalk.draw.trained.build import read_trained
-
-            read_trained(directory)  # the one-line error of a model without it
-        if trajectory is not None and trajectory not in kinds:
-            raise MiketalkError(
-                f"the trained face in {directory} has no {trajectory} trajectory (fitted "
-                "before it existed: rebuild the model)"
-            )
-    return chosen
-
-
 def open_drawing(
-    model_dir: str | os.PathLike[str],
+    model: Any,
     lipsync_model: str | None,
     *,
     trajectory: str | None = None,
     recorded: bool,
 ) -> Drawing:
-    """What draws an utterance of the model in ``model_dir`` with ``lipsync_model`` (None: the
-    model's own) and ``trajectory``: the registry's entry (:data:`DRAWERS`), opened.
+    """What draws an utterance of ``model`` with ``lipsync_model`` (None: the model's own, its
+    :attr:`~miketalk.model.face.Model.own_recording_model` for a recording, else the first
+    preferred among its :attr:`~miketalk.model.face.Model.lipsync_models`) and
+    ``trajectory``: the registry's entry (:data:`DRAWERS`), opened with the model's part.
 
     Raises
     ------
     MiketalkError
-        In one line, as :func:`choose_lipsync_model`, or for a malformed model part.
+        In one line: a setting that does not fit
+        (:func:`~miketalk.lipsync.settings.resolve_lipsync_model`), a model without the part
+        the lip-sync model needs, or a malformed part.
     """
     if lipsync_model is None and trajectory is None and recorded:
-        lipsync_model = own_recording_model(model_dir)
+        lipsync_model = model.own_recording_model
     chosen = resolve_lipsync_model(
-        lipsync_model, available=lipsync_models_in(model_dir), trajectory=trajectory,
-        recorded=recorded,
-    )  # fmt: skip
-    return DRAWERS[chosen](Path(model_dir), trajectory, recorded)
+        lipsync_model, available=model.lipsync_models, trajectory=trajectory, recorded=recorded
+    )
+    return DRAWERS[chosen](model, trajectory, recorded)
 
 
-__all__ = ["DRAWERS", "Drawing", "choose_lipsync_model", "open_drawing"]
+__all__ = ["DRAWERS", "Drawing", "LearnedDrawing", "TrainedDrawing", "open_drawing"]

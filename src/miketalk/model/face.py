@@ -1,57 +1,70 @@
-"""A talking-face model on disk: viseme images, their flow database, a manifest.
+"""A talking-face model, opened from its directory and asked for its parts.
 
 Layout of a model directory::
 
     manifest.json        format, visemes, image size, estimator + settings,
-                         and each transition's largest flow displacement
+                         each transition's largest flow displacement, and every
+                         file's size and SHA-256
     visemes/<slug>.png   one image per viseme (RGB)
     flows/               the flow database (:class:`miketalk.flow.FlowDatabase`)
+    coarticulation.json  the learned coarticulation (a face built from clips)
+    trained/             the trained face (a face built from clips)
+    background/          the background video and the tracker's reference
+                         (:mod:`miketalk.model.background`)
 
-The manifest is validated when the model is opened: strict JSON (no NaN), the
-structure of ``data/model_manifest.schema.json`` (JSON Schema), every viseme
-with an image and every ordered pair with a displacement, image paths inside
-the model directory, every image present and of the declared size, every flow
-file present and whole (its OpenEXR header and chunk table), and every file the
-manifest's ``files`` lists (a model written with them) of its size and SHA-256:
-:func:`miketalk.model.manifest.check_files`; an error names the file. Flows are
-then read lazily, and morphers for recently used transitions are cached.
-
-A timeline frame with several samples (motion blur,
-:func:`miketalk.lipsync.sampling.motion_blur`) is rendered as the weighted average
-of its morphs.
+:class:`Model` is the only reader of these files: everything else asks it (its images and
+morphs, :class:`~miketalk.model.morphs.Morphs`; :attr:`Model.coarticulation`,
+:attr:`Model.trained_face`, :meth:`Model.background`, :attr:`Model.crop`,
+:meth:`Model.stabilizer`, :meth:`Model.drawing`), and each part is read once, when first
+asked. The manifest is validated when the model is opened: strict JSON (no NaN), the
+structure of ``data/model_manifest.schema.json`` (JSON Schema), every viseme with an image
+and every ordered pair with a displacement, image paths inside the model directory, every
+image present and of the declared size, every flow file present and whole (its OpenEXR
+header and chunk table), and every file the manifest's ``files`` lists of its size and
+SHA-256 (:func:`miketalk.model.manifest.check_files`, remembered for files whose size,
+times and inode have not changed since: :func:`miketalk.model.manifest.checked_files`);
+an error names the file.
 """
 
 from __future__ import annotations
 
 import os
-import threading
-from collections import OrderedDict, deque
-from collections.abc import Iterable, Iterator, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
+from collections.abc import Callable
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
-from miketalk.lipsync.timeline import FrameSample, Timeline
 from miketalk.media.images import read_image
-from miketalk.model.manifest import check_files, files_stat, inside, read_manifest
-from miketalk.render.morph import Morpher
+from miketalk.model.background import KeptBackground
+from miketalk.model.manifest import checked_files, files_stat, inside, read_manifest
+from miketalk.model.morphs import RENDER_WORKERS, Morphs
+from miketalk.model.parts import (
+    COARTICULATION,
+    TRAINED_DIRECTORY,
+    choose_lipsync_model,
+    default_model_dir,
+    lipsync_models_in,
+    missing_part,
+    own_recording_model,
+    trained_trajectories,
+)
 from miketalk.render.morph_settings import MorphSettings
 
-if TYPE_CHECKING:  # pandas is not imported by `miketalk say`
-    pass
+if TYPE_CHECKING:
+    from miketalk.composite.background import Background
+    from miketalk.draw.coarticulation import CoarticulationParams
+    from miketalk.draw.registry import Drawing
+    from miketalk.draw.trained import TrainedFace
+    from miketalk.lipsync.settings import LipsyncModel
+    from miketalk.stabilize import Stabilizer
+    from miketalk.track.crop import FaceCropSettings
 
 
-#: Threads :meth:`Model.render` draws frames in (the machine's cores, at most 2: the
-#: third core's worth of work, encoding the video, runs in ffmpeg beside them).
-RENDER_WORKERS = max(1, min(2, os.cpu_count() or 1))
-
-
-class Model:
+class Model(Morphs):
     """A model opened from ``directory`` (see the module docstring).
 
     Parameters
@@ -80,42 +93,29 @@ class Model:
     ) -> None:
         self.directory = Path(directory)
         MorphSettings.of(morph_options)  # checked before anything is read
-        self.morph_options = dict(morph_options or {})
         manifest = read_manifest(self.directory)
         self.manifest = manifest
-        self.visemes: tuple[str, ...] = tuple(manifest["visemes"])
-        self.size: tuple[int, int] = tuple(manifest["size"])  # (H, W)
-        self.flows = FlowDatabase(self.directory / "flows")
+        visemes = tuple(manifest["visemes"])
+        size: tuple[int, int] = tuple(manifest["size"])  # (H, W)
+        flows = FlowDatabase(self.directory / "flows")
         # every file before any is decoded: a damaged one is named, not decoded
-        self._files_stat = check_files(self.directory, manifest, self.flows, self.visemes)
-        self._images: dict[str, np.ndarray] = {}
-        for viseme in self.visemes:
+        self._files_stat = checked_files(self.directory, manifest, flows, visemes)
+        images: dict[str, np.ndarray] = {}
+        for viseme in visemes:
             image = read_image(inside(self.directory, manifest["images"][viseme], "image"))
-            if image.shape[:2] != self.size:
+            if image.shape[:2] != size:
                 raise MiketalkError(
                     f"viseme image {manifest['images'][viseme]} is {image.shape[1]}x"
-                    f"{image.shape[0]}, the manifest says {self.size[1]}x{self.size[0]}"
+                    f"{image.shape[0]}, the manifest says {size[1]}x{size[0]}"
                 )
-            self._images[viseme] = image
-        self._displacement = {
+            images[viseme] = image
+        displacement = {
             tuple(k.split("|")): float(v) for k, v in manifest["max_displacement"].items()
         }
-        # each thread has its own morphers (a Morpher reuses its work buffers)
-        self._local = threading.local()
-        self._cache_size = cache_size
-        # every flow file is read by this one thread (FlowDatabase is not
-        # thread-safe), ahead of the render when prefetch() is told what comes
-        self._reader = ThreadPoolExecutor(1, thread_name_prefix="miketalk-flows")
-        self._reads: dict[tuple[str, str], Future] = {}
-        self._lock = threading.Lock()
-
-    def close(self) -> None:
-        """Wait for the flow reads under way and stop the reading thread (idempotent).
-
-        The model reads no more flows after this; images, displacements and
-        the morphers already made still work.
-        """
-        self._reader.shutdown(wait=True, cancel_futures=True)
+        super().__init__(
+            images, flows, displacement, size, cache_size=cache_size, morph_options=morph_options
+        )
+        self._kept = KeptBackground(self.directory)
 
     def changed_on_disk(self) -> bool:
         """Whether a file the manifest lists was replaced, resized or touched since the
@@ -129,184 +129,139 @@ class Model:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def image(self, viseme: str) -> np.ndarray:
-        """The viseme's image, (H, W, 3) uint8."""
-        self._check(viseme)
-        return self._images[viseme]
-
-    def displacement(self, a: str, b: str) -> float:
-        """The largest flow displacement of transition a -> b, in pixels (0 for a == b)."""
-        self._check(a)
-        self._check(b)
-        return 0.0 if a == b else self._displacement[(a, b)]
+    # --- how its mouth is drawn -------------------------------------------------------
 
     @property
-    def _morphers(self) -> OrderedDict[tuple[str, str], Morpher]:
-        """This thread's morphers, least recently used first."""
-        cache = getattr(self._local, "morphers", None)
-        if cache is None:
-            cache = self._local.morphers = OrderedDict()
-        return cache
+    def lipsync_models(self) -> tuple[str, ...]:
+        """The lip-sync models it has: ``paper`` always, ``learned`` with its
+        coarticulation, ``trained`` with its trained face."""
+        return lipsync_models_in(self.directory)
 
-    def morpher(self, a: str, b: str) -> Morpher:
-        """A morpher for transition a -> b (cached; each thread has its own)."""
-        key = (a, b)
-        morphers = self._morphers
-        if key in morphers:
-            morphers.move_to_end(key)
-            return morphers[key]
-        try:
-            forward, backward = self._read(a, b).result()
-            for flow in (forward, backward):
-                if flow.shape[:2] != self.size:
-                    raise MiketalkError(
-                        f"flow file {self.flows.path_for(a, b)} holds flows of "
-                        f"{flow.shape[1]}x{flow.shape[0]} pixels, but the model's images are "
-                        f"{self.size[1]}x{self.size[0]}: it belongs to another model"
-                    )
-            morpher = Morpher(self.image(a), self.image(b), forward, backward, **self.morph_options)
-        except MiketalkError as err:
-            path = self.flows.path_for(a, b)
-            if path.name in str(err):
-                raise
-            raise MiketalkError(
-                f"flow file {path} ({a} -> {b}) does not fit the model: {err}"
-            ) from None
-        finally:
-            with self._lock:
-                self._reads.pop(key, None)
-        morphers[key] = morpher
-        if len(morphers) > self._cache_size:
-            morphers.popitem(last=False)
-        return morpher
+    @property
+    def own_recording_model(self) -> str | None:
+        """The lip-sync model it draws a recording with when none is asked for, when its
+        build chose one (:func:`miketalk.model.parts.own_recording_model`); None: the
+        preferred order decides."""
+        return own_recording_model(self.directory)
 
-    def prefetch(self, transitions: Iterable[tuple[str, str]]) -> None:
-        """Start reading the flows of ``transitions`` (in order) in the background.
+    @property
+    def trajectories(self) -> tuple[str, ...]:
+        """The trajectory models of its trained face (none: no trained face)."""
+        return trained_trajectories(self.directory)
 
-        :meth:`morpher` then finds them read (or being read) instead of reading
-        them itself; rendering a timeline overlaps with reading its flows.
-        """
-        for a, b in transitions:
-            if a != b and (a, b) not in self._morphers:
-                self._read(a, b)
+    @cached_property
+    def coarticulation(self) -> CoarticulationParams:
+        """Its learned coarticulation (:mod:`miketalk.draw.coarticulation`); a model without
+        one, or a malformed one, is a one-line :class:`MiketalkError`."""
+        from miketalk.draw.coarticulation import read_params
 
-    def _read(self, a: str, b: str) -> Future:
-        key = (a, b)
-        with self._lock:
-            if key not in self._reads:
-                self._check(a)
-                self._check(b)
-                self._reads[key] = self._reader.submit(self._read_pair, a, b)
-            return self._reads[key]
+        return self._part("learned", COARTICULATION, read_params)
 
-    def _read_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
-        """Flows ``a -> b`` and ``b -> a`` (the reading thread)."""
-        return self.flows.flow(a, b), self.flows.flow(b, a)
+    @cached_property
+    def trained_face(self) -> TrainedFace:
+        """Its trained face (:mod:`miketalk.draw.trained`); a model without one, or a
+        malformed one, is a one-line :class:`MiketalkError`."""
+        from miketalk.draw.trained import read_trained
 
-    def flow_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
-        """Flows ``a -> b`` and ``b -> a`` (float32) through the model's one reading thread.
+        return self._part("trained", TRAINED_DIRECTORY, read_trained)
 
-        The :class:`~miketalk.flow.FlowDatabase` is read by one thread only (it is
-        not thread-safe); the reading future is dropped once collected, as
-        :meth:`morpher` does.
-        """
-        future = self._read(a, b)
-        try:
-            forward, backward = future.result()
-        finally:
-            with self._lock:
-                if self._reads.get((a, b)) is future:
-                    self._reads.pop((a, b))
-        for flow in (forward, backward):
-            if flow.shape[:2] != self.size:
-                raise MiketalkError(f"flow {a} -> {b} is not of the model's size {self.size}")
-        return (
-            np.ascontiguousarray(forward, np.float32),
-            np.ascontiguousarray(backward, np.float32),
+    def _part(self, lipsync_model: str, relative: str, read: Callable[[Path], object]):
+        """The part ``lipsync_model`` draws with, read from ``relative`` by ``read``."""
+        if lipsync_model not in self.lipsync_models:
+            raise missing_part(self.directory, lipsync_model)
+        return read(self.directory / relative)
+
+    def check_trained_patches(self, spans: list[tuple[int, int]]) -> int:
+        """Check the byte ``spans`` of the trained face's patches against their blocks'
+        SHA-256 in the manifest before they are drawn
+        (:func:`miketalk.model.manifest.check_parts`); the number of blocks checked."""
+        from miketalk.draw.trained.mouths import PATCHES
+        from miketalk.model.manifest import check_parts
+
+        relative = f"{TRAINED_DIRECTORY}/{PATCHES}"
+        return check_parts(self.directory, self.manifest, relative, spans)
+
+    def choose_lipsync_model(
+        self, requested: str | None, *, trajectory: str | None = None, recorded: bool
+    ) -> LipsyncModel:
+        """The lip-sync model of an utterance: ``requested``, else the model's own, checked
+        against what it has (:func:`miketalk.model.parts.choose_lipsync_model`)."""
+        return choose_lipsync_model(
+            self.directory, requested, trajectory=trajectory, recorded=recorded
         )
 
-    def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
-        """The morph from viseme a to b at ``alpha``."""
-        if a == b or alpha <= 0.0:
-            return self.image(a)
-        if alpha >= 1.0:
-            return self.image(b)
-        return self.morpher(a, b).frame(alpha)
+    def drawing(
+        self, lipsync_model: str | None = None, *, trajectory: str | None = None, recorded: bool
+    ) -> Drawing:
+        """What draws an utterance with ``lipsync_model`` (None: the model's own) and
+        ``trajectory``: the registry's entry, given this model's part
+        (:func:`miketalk.draw.registry.open_drawing`)."""
+        from miketalk.draw.registry import open_drawing
 
-    def exposure(
-        self, timeline: Timeline, samples: Sequence[tuple[int, float, float]]
-    ) -> np.ndarray:
-        """A motion-blurred frame: the average of the morphs ``(transition, alpha, weight)``.
+        return open_drawing(self, lipsync_model, trajectory=trajectory, recorded=recorded)
 
-        The weights sum to 1; the sum is accumulated in float32 in the order
-        given (so the same samples give the same bytes) and rounded.
+    # --- the person's video: background, crop, tracker reference -----------------------
+
+    @property
+    def has_background(self) -> bool:
+        """Whether it keeps a background video (built from video of a person)."""
+        return self._kept.exists
+
+    @property
+    def crop(self) -> FaceCropSettings | None:
+        """The face crop it works in (None: the frames' own pixels, or no background)."""
+        return self._kept.crop
+
+    @property
+    def mouth_box(self) -> tuple[int, int, int, int]:
+        """The mouth box ``(x, y, w, h)`` of its tracker reference."""
+        return self._kept.mouth_box
+
+    @property
+    def reference(self) -> np.ndarray:
+        """Its tracker reference, the frame other video of the person registers to."""
+        return self._kept.reference
+
+    @property
+    def face_mask(self) -> np.ndarray:
+        """The reference's face, (H, W) bool."""
+        return self._kept.face_mask
+
+    def stabilizer(self) -> Stabilizer:
+        """A :class:`~miketalk.stabilize.Stabilizer` onto its tracker reference.
+
+        Raises
+        ------
+        MiketalkError
+            If it keeps no background (it was not built from video of a person).
         """
-        total = np.zeros((*self.size, 3), np.float32)
-        for i, alpha, weight in samples:
-            t = timeline.transitions[i]
-            image = self.frame(t.source, t.target, alpha)
-            cv2.addWeighted(image, weight, total, 1.0, 0.0, dst=total, dtype=cv2.CV_32F)
-        return np.clip(np.rint(total), 0, 255).astype(np.uint8)
+        return self._kept.stabilizer()
 
-    def draw(self, timeline: Timeline, sample: FrameSample) -> np.ndarray:
-        """One frame of ``timeline``: its one morph, or the :meth:`exposure` of its samples."""
-        if sample.samples:
-            return self.exposure(timeline, sample.samples)
-        t = timeline.transitions[sample.transition]
-        return self.frame(t.source, t.target, sample.alpha)
+    def background(self) -> Background:
+        """Its background video (read once: its frames when first played, then kept).
 
-    def render(
-        self, timeline: Timeline, *, lookahead: int = 8, workers: int | None = None
-    ) -> Iterator[np.ndarray]:
-        """The frames of a timeline, in order (:meth:`draw`).
-
-        The flows of the next ``lookahead`` transitions are read in a thread
-        while the current one is drawn, and ``workers`` threads draw frames
-        side by side (the morph kernel runs without the GIL). The frames do not
-        depend on the number of workers.
-
-        Parameters
-        ----------
-        timeline : Timeline
-            What to draw.
-        lookahead : int
-            Transitions whose flows are read ahead.
-        workers : int, optional
-            Threads drawing frames (default :data:`RENDER_WORKERS`; 1 draws in
-            the calling thread).
+        Raises
+        ------
+        MiketalkError
+            If it keeps none.
         """
-        workers = RENDER_WORKERS if workers is None else max(1, int(workers))
-        pairs = [(t.source, t.target) for t in timeline.transitions]
-        ahead = 0
+        if not hasattr(self, "_background"):
+            self._background = self._kept.read()
+        return self._background
 
-        def read_ahead(sample: FrameSample) -> None:
-            nonlocal ahead
-            last = sample.samples[-1][0] if sample.samples else sample.transition
-            if last >= ahead - lookahead // 2:
-                ahead = min(len(pairs), last + lookahead)
-                self.prefetch(pairs[sample.transition : ahead])
 
-        if workers == 1:
-            for sample in timeline.frames:
-                read_ahead(sample)
-                yield self.draw(timeline, sample)
-            return
-        pending: deque[Future] = deque()
-        with ThreadPoolExecutor(workers, thread_name_prefix="miketalk-render") as pool:
-            try:
-                for sample in timeline.frames:
-                    read_ahead(sample)
-                    pending.append(pool.submit(self.draw, timeline, sample))
-                    if len(pending) > 8 * workers:
-                        yield pending.popleft().result()
-                while pending:
-                    yield pending.popleft().result()
-            finally:
-                for future in pending:
-                    future.cancel()
+def open_model(directory: str | os.PathLike[str] | None, **options: object) -> Model:
+    """Open a model (None: :func:`~miketalk.model.parts.default_model_dir`), with a hint on
+    how to build the default one when it is missing; ``options`` go to :class:`Model`."""
+    path = Path(directory) if directory is not None else default_model_dir()
+    if not (path / "manifest.json").exists():
+        hint = (
+            "build the default model with `make run` (or `snakemake --cores all model`)"
+            if directory is None
+            else "pass --model with a directory built by the workflow"
+        )
+        raise MiketalkError(f"no model at {path}: {hint}")
+    return Model(path, **options)
 
-    def _check(self, viseme: str) -> None:
-        if viseme not in self._images:
-            raise MiketalkError(
-                f"the model has no viseme {viseme!r} (it has {' '.join(self.visemes)})"
-            )
+
+__all__ = ["RENDER_WORKERS", "Model", "open_model"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import stat
+import time
 from collections.abc import Sequence
 from functools import cache
 from importlib import resources
@@ -241,8 +242,9 @@ DIGEST_THREADS = max(1, min(2, os.cpu_count() or 1))
 
 
 def files_stat(directory: str | os.PathLike[str], manifest: dict) -> tuple:
-    """``(name, size, mtime_ns, inode)`` of each file the manifest's ``files`` lists (None
-    for one that cannot be read): what tells a model kept open that a file changed since."""
+    """``(name, size, mtime_ns, ctime_ns, inode)`` of each file the manifest's ``files``
+    lists (None for one that cannot be read): what tells a model kept open that a file
+    changed since (any write to a file or its times moves its ctime, which no one sets)."""
     stats = []
     for relative in sorted(manifest.get("files", {})):
         try:
@@ -250,8 +252,85 @@ def files_stat(directory: str | os.PathLike[str], manifest: dict) -> tuple:
         except OSError:
             stats.append((relative, None))
         else:
-            stats.append((relative, st.st_size, st.st_mtime_ns, st.st_ino))
+            stats.append((relative, st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino))
     return tuple(stats)
+
+
+#: The models whose files :func:`checked_files` found whole in this process: their
+#: directory, manifest and flow files' stat, and the files' :func:`files_stat`.
+_CHECKED: dict[tuple, tuple] = {}
+
+#: At most this many models are remembered (the oldest forgotten first).
+CHECKED_MODELS = 32
+
+#: How long before its check a model's files must have last changed for it to be
+#: remembered by :func:`checked_files` (ns).
+SETTLED_NS = 2_000_000_000
+
+
+def _unlisted_stat(
+    directory: str | os.PathLike[str], flows: FlowDatabase, visemes: Sequence[str]
+) -> tuple:
+    """The stat of the files :func:`check_files` reads beyond those the manifest lists: the
+    flow files and the files read in parts (``()`` when a flow file is missing)."""
+    out = []
+    for a, b in combinations(visemes, 2):
+        try:
+            st = os.stat(flows.path_for(a, b))
+        except OSError:
+            return ()  # a flow file missing: never remembered, always checked
+        out.append((st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino))
+    for relative in READ_IN_PARTS:
+        try:
+            st = os.stat(inside(directory, relative, "a file of the model"))
+        except OSError:
+            out.append(None)
+        else:
+            out.append((st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino))
+    return tuple(out)
+
+
+def checked_files(
+    directory: str | os.PathLike[str], manifest: dict, flows: FlowDatabase, visemes: Sequence[str]
+) -> tuple:
+    """:func:`check_files`, once per unchanged model in a process.
+
+    A model whose manifest, flow files, files read in parts and listed files all have the
+    size, modification and change times and inode they had when :func:`check_files` last
+    passed them here is not hashed again (opening it again then costs its images, not its
+    checksums); any change to any of them, or to the manifest's text, checks it all again.
+    A model with a file changed less than :data:`SETTLED_NS` before its check is not
+    remembered: a file's times are kept to the kernel's clock tick, so a change within
+    the same tick as the write before it would not show (git's "racily clean" entries).
+
+    Returns
+    -------
+    tuple
+        The files' :func:`files_stat`.
+    """
+    started = time.time_ns()
+    try:
+        st = os.stat(Path(directory) / "manifest.json")
+    except OSError:
+        return check_files(directory, manifest, flows, visemes)
+    unlisted = _unlisted_stat(directory, flows, visemes)
+    stat = files_stat(directory, manifest)
+    manifest_stat = (st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino)
+    key = (os.path.realpath(directory), json.dumps(manifest, sort_keys=True), tuple(visemes))
+    state = (manifest_stat, unlisted, stat)
+    if unlisted and _CHECKED.get(key) == state:
+        return stat
+    checked = check_files(directory, manifest, flows, visemes)
+    times = [*manifest_stat[1:3]]
+    times += [t for item in unlisted if item for t in item[1:3]]  # (size, mtime, ctime, ino)
+    times += [t for item in stat if item[1] is not None for t in item[2:4]]  # (name, size, ...)
+    settled = max(times) < started - SETTLED_NS
+    _CHECKED.pop(key, None)
+    if unlisted and checked == stat and settled:
+        _CHECKED[key] = state
+        while len(_CHECKED) > CHECKED_MODELS:
+            _CHECKED.pop(next(iter(_CHECKED)))
+    return checked
 
 
 def check_files(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 from miketalk import defaults
@@ -47,6 +48,32 @@ def default_model_dir() -> Path:
     return next((path for path in candidates if path.exists()), candidates[0])
 
 
+def is_model(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a model's folder (it holds its manifest; whether the model is
+    whole is checked when it is opened, :class:`miketalk.model.face.Model`)."""
+    return (Path(path) / "manifest.json").is_file()
+
+
+def picture(model_dir: str | os.PathLike[str]) -> Path | None:
+    """A picture of the model's face: its person's first background frame, else its rest
+    viseme's image; only a regular PNG file inside the model's folder once its links are
+    resolved (:func:`miketalk.model.manifest.inside`), never what a link there points to;
+    else None."""
+    from miketalk.model.manifest import inside
+
+    try:
+        frame = inside(model_dir, "background/0000.png", "its picture")
+        if frame.is_file():
+            return frame
+        manifest = json.loads(
+            inside(model_dir, "manifest.json", "its manifest").read_text(encoding="utf-8")
+        )
+        path = inside(model_dir, manifest["images"]["#"], "its picture")
+    except (OSError, ValueError, KeyError, TypeError, MiketalkError):
+        return None
+    return path if path.suffix.lower() == ".png" and path.is_file() else None
+
+
 def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
     """The trajectory models of the trained face in ``model_dir`` (none: no trained face).
 
@@ -61,6 +88,24 @@ def trained_trajectories(model_dir: str | os.PathLike[str]) -> tuple[str, ...]:
     try:
         return tuple(json.loads(path.read_text(encoding="utf-8")).get("trajectories", {}))
     except (OSError, ValueError, AttributeError) as err:
+        raise MiketalkError(f"cannot read the trained face in {path.parent}: {err!r}") from None
+
+
+def trained_default(model_dir: str | os.PathLike[str]) -> str:
+    """The trajectory model the trained face in ``model_dir`` uses unless another is asked
+    for (:attr:`miketalk.draw.trained.TrainedFace.default`).
+
+    Raises
+    ------
+    MiketalkError
+        In one line, for a model without a trained face, or one that cannot be read.
+    """
+    path = Path(model_dir) / TRAINED_DIRECTORY / TRAINED_MANIFEST
+    if not path.is_file():
+        raise missing_part(model_dir, "trained")
+    try:
+        return str(json.loads(path.read_text(encoding="utf-8"))["default"])
+    except (OSError, ValueError, KeyError, TypeError) as err:
         raise MiketalkError(f"cannot read the trained face in {path.parent}: {err!r}") from None
 
 
@@ -107,6 +152,76 @@ def own_recording_model(model_dir: str | os.PathLike[str]) -> str | None:
     return None if trained_predicts(model_dir)[0] else "paper"
 
 
+def _learned(directory: Path, trajectory: str | None) -> None:
+    from miketalk.draw.coarticulation import read_params
+
+    read_params(directory / COARTICULATION)  # the one-line error of a malformed one
+
+
+def _trained(directory: Path, trajectory: str | None) -> None:
+    if trajectory is not None and trajectory not in trained_trajectories(directory):
+        raise MiketalkError(
+            f"the trained face in {directory} has no {trajectory} trajectory (fitted "
+            "before it existed: rebuild the model)"
+        )
+
+
+#: What each lip-sync model beyond the paper's needs of a model: what a model without it
+#: lacks, and how its small files are checked before the model is opened.
+_PARTS: dict[str, tuple[str, Callable[[Path, str | None], None]]] = {
+    "learned": (f"no learned coarticulation ({COARTICULATION})", _learned),
+    "trained": (f"no trained face ({TRAINED_DIRECTORY}/{TRAINED_MANIFEST})", _trained),
+}
+
+
+def missing_part(model_dir: str | os.PathLike[str], lipsync_model: str) -> MiketalkError:
+    """The one-line error of a model in ``model_dir`` without what ``lipsync_model`` needs."""
+    return MiketalkError(
+        f"the model at {model_dir} has {_PARTS[lipsync_model][0]}: the workflow fits one into "
+        "a model built from recorded clips (e.g. results/model/s1); or use lipsync model 'paper'"
+    )
+
+
+def choose_lipsync_model(
+    model_dir: str | os.PathLike[str],
+    requested: str | None,
+    *,
+    trajectory: str | None = None,
+    recorded: bool,
+):
+    """The lip-sync model of an utterance with the model in ``model_dir``: ``requested``, else
+    the model's own (for a recording :func:`own_recording_model`, else
+    :func:`~miketalk.lipsync.settings.resolve_lipsync_model`), checked
+    against the directory by its small files alone (before Festival or numpy start; a
+    coarticulation is read whole, as :attr:`miketalk.model.face.Model.coarticulation` does).
+
+    Returns
+    -------
+    miketalk.lipsync.settings.LipsyncModel
+
+    Raises
+    ------
+    MiketalkError
+        In one line: a setting that does not fit (see ``resolve_lipsync_model``), a model
+        without the learned coarticulation or the trained face asked for, a trained face
+        without the trajectory asked for.
+    """
+    from miketalk.lipsync.settings import resolve_lipsync_model
+
+    directory = Path(model_dir)
+    if requested is None and trajectory is None and recorded:
+        requested = own_recording_model(directory)
+    present = lipsync_models_in(directory)
+    chosen = resolve_lipsync_model(
+        requested, available=present, trajectory=trajectory, recorded=recorded
+    )
+    if chosen.value not in present:
+        raise missing_part(directory, chosen.value)
+    if chosen.value in _PARTS:
+        _PARTS[chosen.value][1](directory, trajectory)
+    return chosen
+
+
 def default_lipsync_model(model_dir: str | os.PathLike[str], *, recorded: bool) -> str:
     """The lip-sync model for an utterance when none is asked for: for a recording the
     model's own choice (:func:`own_recording_model`), else the first of
@@ -125,10 +240,15 @@ __all__ = [
     "MIN_TRAINED_R2",
     "TRAINED_DIRECTORY",
     "TRAINED_MANIFEST",
+    "choose_lipsync_model",
     "default_lipsync_model",
     "default_model_dir",
+    "is_model",
     "lipsync_models_in",
+    "missing_part",
     "own_recording_model",
+    "picture",
+    "trained_default",
     "trained_predicts",
     "trained_trajectories",
     "workflow_results",

@@ -1,4 +1,7 @@
-"""Writing a model directory from a corpus's visemes and flows."""
+"""Writing a model directory: its visemes and flows (:func:`build_model`), where its other
+parts go (:func:`write_coarticulation`, :func:`trained_folder`,
+:func:`miketalk.model.background.save_background`), and the list of them all
+(:func:`list_model_files`)."""
 
 from __future__ import annotations
 
@@ -16,6 +19,7 @@ from miketalk.flow import FlowDatabase
 from miketalk.media.atomic import write_text_atomic
 from miketalk.media.images import read_image
 from miketalk.model.manifest import FORMAT, READ_IN_PARTS, check_complete, file_entry
+from miketalk.model.parts import COARTICULATION, TRAINED_DIRECTORY
 from miketalk.visemes import viseme_slug
 
 
@@ -91,6 +95,21 @@ def build_model(
     manifest["files"] = {rel: file_entry(out / rel) for rel in sorted(listed)}
     write_text_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True))
     return out
+
+
+def write_coarticulation(out_dir: str | os.PathLike[str], params) -> Path:
+    """Write a fitted coarticulation
+    (:class:`~miketalk.draw.coarticulation.CoarticulationParams`) into the model in
+    ``out_dir``; return its file."""
+    from miketalk.draw.coarticulation import write_params
+
+    return write_params(params, Path(out_dir) / COARTICULATION)
+
+
+def trained_folder(out_dir: str | os.PathLike[str]) -> Path:
+    """The folder of the model in ``out_dir`` its trained face is fitted into
+    (:func:`miketalk.draw.trained.fit_trained`)."""
+    return Path(out_dir) / TRAINED_DIRECTORY
 
 
 def list_model_files(out_dir: str | os.PathLike[str]) -> int:

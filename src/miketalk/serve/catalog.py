@@ -16,9 +16,15 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from miketalk.composite.background_files import has_background
 from miketalk.errors import MiketalkError
-from miketalk.model.parts import default_lipsync_model, lipsync_models_in, workflow_results
+from miketalk.model.background import has_background
+from miketalk.model.parts import (
+    default_lipsync_model,
+    is_model,
+    lipsync_models_in,
+    picture,
+    workflow_results,
+)
 from miketalk.serve.build import LABEL_FILE
 
 log = logging.getLogger(__name__)
@@ -69,22 +75,9 @@ class Entry:
         }
 
     def image(self) -> Path | None:
-        """A picture of the face: its person's first frame, else its rest viseme; only a
-        regular file inside the model's folder once its links are resolved
-        (:func:`miketalk.model.manifest.inside`), never what a link there points to."""
-        from miketalk.model.manifest import inside
-
-        try:
-            frame = inside(self.path, "background/0000.png", "its picture")
-            if frame.is_file():
-                return frame
-            manifest = json.loads(
-                inside(self.path, "manifest.json", "its manifest").read_text(encoding="utf-8")
-            )
-            path = inside(self.path, manifest["images"]["#"], "its picture")
-        except (OSError, ValueError, KeyError, TypeError, MiketalkError):
-            return None
-        return path if path.suffix.lower() == ".png" and path.is_file() else None
+        """A picture of the face: its person's first frame, else its rest viseme
+        (:func:`miketalk.model.parts.picture`)."""
+        return picture(self.path)
 
 
 def workflow_models() -> list[Path]:
@@ -103,7 +96,7 @@ def _models_under(root: Path) -> list[Path]:
         children = sorted(root.iterdir())
     except OSError:
         return []
-    return [p for p in children if p.is_dir() and (p / "manifest.json").is_file()]
+    return [p for p in children if p.is_dir() and is_model(p)]
 
 
 def built_label(model_dir: Path) -> str:
@@ -147,7 +140,7 @@ class Catalog:
         entries, seen = [], set()
         for path, source, label in found:
             key = Path(os.path.realpath(path))
-            if key in seen or not (path / "manifest.json").is_file():
+            if key in seen or not is_model(path):
                 continue
             seen.add(key)
             entries.append(Entry(self._id_of(key, path.name), label, path, source))

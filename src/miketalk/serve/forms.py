@@ -48,7 +48,7 @@ def _choice(body: Mapping[str, Any], key: str, choices: tuple[str, ...], default
 
 def _speech_settings(body: Mapping[str, Any], entry: Entry, recorded: bool) -> dict[str, Any]:
     """The text, lip-sync model and voice of a say or dub, checked against the model."""
-    from miketalk.draw.registry import choose_lipsync_model
+    from miketalk.model.parts import choose_lipsync_model
 
     text = _text(body)
     if not recorded and not text:

@@ -68,7 +68,7 @@ class Warm:
             No model there, or one that cannot be opened.
         """
         from miketalk.composite.background_files import resolve_background
-        from miketalk.talk.say import open_model
+        from miketalk.model.face import open_model
 
         try:
             key = (os.path.realpath(model_dir), (model_dir / "manifest.json").stat().st_mtime)
@@ -119,8 +119,8 @@ def speak(
     MiketalkError
         What the library says of the input, in one line.
     """
-    from miketalk.draw.registry import choose_lipsync_model
     from miketalk.lipsync.settings import LipsyncSettings
+    from miketalk.model.parts import choose_lipsync_model
 
     recorded = audio is not None
     if not recorded and not (text or "").strip():
@@ -151,9 +151,10 @@ def speak(
 
 def _dub(output, model_dir, text, audio, video, chosen, voice, warm):
     """``miketalk dub``'s library calls (:func:`miketalk.cli.dub.cmd_dub`)."""
-    from miketalk.composite.background_files import has_background, video_background
+    from miketalk.composite.background_files import video_background
     from miketalk.lipsync.settings import LipsyncSettings, check_fps
     from miketalk.media.decode import video_info
+    from miketalk.model.background import has_background
     from miketalk.speech import get_backend
     from miketalk.talk.say import Recorded, say
 
@@ -177,7 +178,7 @@ def _dub(output, model_dir, text, audio, video, chosen, voice, warm):
         if warm is None:
             warm = stack.enter_context(contextlib.closing(Warm(keep=1)))
         model = warm.get(model_dir)[0]
-        background = video_background(model_dir, video)
+        background = video_background(model, video)
         spoken = say(speech, output, model=model, settings=settings, background=background)
     loops = "looped" if spoken.motion.frames > len(background) else "cut to the speech"
     return spoken, {"fps": fps, "source_frames": len(background), "loops": loops}

@@ -22,13 +22,12 @@ from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from miketalk.draw.registry import Drawing, open_drawing
+from miketalk.draw.registry import Drawing
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.sampling import speak_in_sync
 from miketalk.lipsync.settings import LipsyncSettings, Sampling
 from miketalk.lipsync.timeline import keyframes
-from miketalk.model.face import Model
-from miketalk.model.parts import default_model_dir
+from miketalk.model.face import Model, open_model
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone
 from miketalk.talk.output import check_output
@@ -41,19 +40,6 @@ if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
 
 
 log = logging.getLogger(__name__)
-
-
-def open_model(directory: str | os.PathLike[str] | None, **options: object) -> Model:
-    """Open a model, with a hint on how to build the default one when it is missing."""
-    path = Path(directory) if directory is not None else default_model_dir()
-    if not (path / "manifest.json").exists():
-        hint = (
-            "build the default model with `make run` (or `snakemake --cores all model`)"
-            if directory is None
-            else "pass --model with a directory built by the workflow"
-        )
-        raise MiketalkError(f"no model at {path}: {hint}")
-    return Model(path, **options)
 
 
 def say(
@@ -133,9 +119,7 @@ def say(
                 "sampling 'paper' lengthens the speech, and a recording cannot be lengthened: "
                 "use blur (the default) or none"
             )
-        drawing = open_drawing(
-            model.directory, settings.model, trajectory=settings.trajectory, recorded=recorded
-        )
+        drawing = model.drawing(settings.model, trajectory=settings.trajectory, recorded=recorded)
         inputs = (*inputs, *((speech.audio, speech.timings) if recorded else ()))
         output = check_output(output, overwrite=overwrite, inputs=inputs)
         if recorded:

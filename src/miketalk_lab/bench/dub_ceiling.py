@@ -77,7 +77,7 @@ def clip_rows(clip, *, model, lipsync, decode, stabilizer, landmarks, work: Path
     frames = {"roundtrip": roundtrip_frames(dub, steady, crop_compositor(
         model.directory, model.size, "on"))}  # fmt: skip
     for way in ("on", "face", "off"):
-        frames[way] = pasted(dub, model, crop_compositor(model.directory, model.size, way))
+        frames[way] = pasted(dub, model, crop_compositor(model, model.size, way))
     product = [w for w in ("on", "face", "off") if np.array_equal(frames[w], dub.frames)]
     if not product:
         raise RuntimeError(f"{clip.id}: no way of pasting gave the product's frames")

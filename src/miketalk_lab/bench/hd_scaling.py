@@ -252,8 +252,7 @@ def warm_say(model_dir: str, out_dir: str, sentences: Sequence[str] = SENTENCES)
     """Open the model once, then time ``say`` of each sentence (Festival speaking included),
     as ``miketalk say`` calls the library (:func:`miketalk.cli.say.cmd_say`)."""
     from miketalk import defaults
-    from miketalk.composite.background_files import model_crop, resolve_background
-    from miketalk.draw.registry import choose_lipsync_model
+    from miketalk.composite.background_files import resolve_background
     from miketalk.lipsync.settings import LipsyncSettings
     from miketalk.speech import get_backend
     from miketalk.talk.say import open_model, say
@@ -263,10 +262,10 @@ def warm_say(model_dir: str, out_dir: str, sentences: Sequence[str] = SENTENCES)
     opened = time.perf_counter()
     background = resolve_background("auto", model)
     resolved = time.perf_counter()
-    in_crop = background is not None and model_crop(model.directory) is not None
+    in_crop = background is not None and model.crop is not None
     settings = LipsyncSettings(
         fps=background.fps if in_crop else defaults.FPS,
-        model=choose_lipsync_model(model_dir, None, recorded=False).value,
+        model=model.choose_lipsync_model(None, recorded=False).value,
     )
     seconds, frames = [], []
     for i, text in enumerate(sentences):

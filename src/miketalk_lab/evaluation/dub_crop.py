@@ -93,9 +93,9 @@ def lipsync_of(renderer: str, model_dir: str | Path) -> tuple[str, str | None]:
         raise MiketalkError(f"cannot dub with {renderer!r} (known: {', '.join(LIPSYNC_OF)})")
     model, trajectory = LIPSYNC_OF[renderer]
     if renderer == "trained":
-        from miketalk.draw.trained.build import read_trained
+        from miketalk.model.parts import trained_default
 
-        trajectory = read_trained(model_dir).default
+        trajectory = trained_default(model_dir)
     return model, trajectory
 
 
@@ -180,13 +180,10 @@ def dub_through_product(clip, *, model, lipsync: tuple[str, str | None], work: P
     from miketalk.composite.background_files import (
         composite_renders,
         model_compositor,
-        model_crop,
-        model_stabilizer,
         video_background,
     )
     from miketalk.composite.tracked import tracked_background
     from miketalk.corpus.clip_sources import RATE
-    from miketalk.draw.registry import open_drawing
     from miketalk.lipsync.settings import LipsyncSettings
     from miketalk.media.decode import read_media_audio, video_info
     from miketalk.speech.acoustic import Recording
@@ -198,23 +195,21 @@ def dub_through_product(clip, *, model, lipsync: tuple[str, str | None], work: P
     video = work / f"{clip.id}.mp4"
     started = time.perf_counter()
     if part:
-        crop = model_crop(model.directory)
         background = tracked_background(
-            clip.media, model_stabilizer(model.directory), crop, source=f"clip {clip.id}", **part
+            clip.media, model.stabilizer(), model.crop, source=f"clip {clip.id}", **part
         )
     else:
-        background = video_background(model.directory, clip.media)
+        background = video_background(model, clip.media)
     spoken = say(Recorded(audio, text=text, timings=timings), video, model=model,
                  settings=settings, background=background, overwrite=True)  # fmt: skip
     seconds = time.perf_counter() - started
-    drawing = open_drawing(model.directory, settings.model, trajectory=settings.trajectory,
-                           recorded=True)  # fmt: skip
+    drawing = model.drawing(settings.model, trajectory=settings.trajectory, recorded=True)
     recording = Recording(read_media_audio(audio, rate=RATE), RATE)
     drawn, _, _ = drawing.frames(model, spoken.timeline, recording=recording,
                                  max_px_per_frame=settings.max_px_per_frame)  # fmt: skip
     renders = np.stack(list(drawn))
     frames = np.stack(list(composite_renders(renders, background, model, fps=fps)))
-    compositor = model_compositor(model.directory, model.size)
+    compositor = model_compositor(model, model.size)
     shape = background.size
     source, boxes, alphas = [], [], []
     for k in range(len(frames)):

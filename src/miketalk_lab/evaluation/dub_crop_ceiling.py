@@ -22,7 +22,6 @@ weight reaches, as before), ``face`` (held inside the crop's keep: its jaw ellip
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -43,35 +42,31 @@ __all__ = [
 FOLLOWS = ("on", "face", "off")
 
 
-def crop_keep(model_dir: str | Path) -> np.ndarray:
+def crop_keep(model) -> np.ndarray:
     """The crop model's keep: its reference's skin times the crop's jaw ellipse, (H, W) float32
     (what :func:`~miketalk.composite.background_files.model_compositor` multiplies into the
-    blend mask)."""
-    from miketalk.composite.background_files import DIRECTORY, FACE_MASK, REFERENCE, model_crop
+    blend mask) of the :class:`~miketalk.model.face.Model` ``model``."""
     from miketalk.composite.follow import skin_weight
-    from miketalk.media.images import read_image
     from miketalk.track.crop import jaw_mask
 
-    crop = model_crop(model_dir)
+    crop = model.crop
     if crop is None:
-        raise MiketalkError(f"{model_dir} is not a face-crop model")
-    where = Path(model_dir) / DIRECTORY
-    face = read_image(where / FACE_MASK)[..., 0] > 127
-    return skin_weight(read_image(where / REFERENCE), face) * jaw_mask(crop)
+        raise MiketalkError(f"{model.directory} is not a face-crop model")
+    return skin_weight(model.reference, model.face_mask) * jaw_mask(crop)
 
 
-def crop_compositor(model_dir: str | Path, size: tuple[int, int], follow: str):
-    """The product's compositor of a crop model with the jaw's warp ``follow``
-    (:data:`FOLLOWS`)."""
+def crop_compositor(model, size: tuple[int, int], follow: str):
+    """The product's compositor of a crop model (a :class:`~miketalk.model.face.Model`) with
+    the jaw's warp ``follow`` (:data:`FOLLOWS`)."""
     from miketalk.composite.background_files import model_compositor
 
     if follow not in FOLLOWS:
         raise MiketalkError(f"follow must be one of {', '.join(FOLLOWS)}, not {follow!r}")
     if follow == "off":
-        return model_compositor(model_dir, size, follow=False)
+        return model_compositor(model, size, follow=False)
     if follow == "on":
-        return model_compositor(model_dir, size, follow=True, follow_within=None)
-    return model_compositor(model_dir, size, follow=True, follow_within=crop_keep(model_dir))
+        return model_compositor(model, size, follow=True, follow_within=None)
+    return model_compositor(model, size, follow=True, follow_within=crop_keep(model))
 
 
 def real_in_reference(dub, size: tuple[int, int]) -> np.ndarray:

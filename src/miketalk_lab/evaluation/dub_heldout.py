@@ -125,11 +125,7 @@ def dub_heldout(
         For a face-crop model: filled with each clip's dub time (s, wall), which the tables
         leave out.
     """
-    from miketalk.composite.background_files import (
-        model_compositor,
-        model_crop,
-        model_stabilizer,
-    )
+    from miketalk.composite.background_files import model_compositor
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
     from miketalk.lipsync.timeline import plan
@@ -148,7 +144,9 @@ def dub_heldout(
         corpus_eigenlips = fit_corpus_eigenlips(corpus_dir)
     eigenlips = corpus_eigenlips.eigenlips
     out = Path(out_dir)
-    if model_crop(model_dir) is not None:
+    model = Model(model_dir, morph_options=morph)
+    if model.crop is not None:
+        model.close()
         _check_product_settings(colour=colour, blend=blend, method=method, smooth=smooth,
                                 follow=follow, skin=skin, interpolation=interpolation)  # fmt: skip
         rows = dub_crop_clips(
@@ -159,10 +157,9 @@ def dub_heldout(
         return _write_tables(rows, renderer, clips_csv or out / "clips.csv",
                              summary_csv or out / "summary.csv")  # fmt: skip
     box = mouth_region(corpus_dir)
-    stabilizer = model_stabilizer(model_dir)
-    model = Model(model_dir, morph_options=morph)
+    stabilizer = model.stabilizer()
     compositor = model_compositor(
-        model_dir, model.size, blend=method, follow=follow, skin=skin,
+        model, model.size, blend=method, follow=follow, skin=skin,
         interpolation=interpolation, **(blend or {}),
     )  # fmt: skip
     landmarks = face_landmarks()

@@ -37,11 +37,12 @@ def _closed(openness: np.ndarray) -> np.ndarray:
 
 def head_motion(model_dir: str, video: str) -> dict:
     """The nose's spread and largest step, and the blinks, of the background and ``video``."""
-    from miketalk.composite.background_files import read_background
     from miketalk.media.decode import read_video
+    from miketalk.model.face import open_model
     from miketalk_lab.evaluation.landmarks import NOSE, eye_openness
 
-    background = read_background(model_dir)
+    with open_model(model_dir) as model:
+        background = model.background()
     frames, fps = read_video(video)
     out = {}
     eyes = {}

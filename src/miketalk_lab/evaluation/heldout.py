@@ -51,7 +51,6 @@ import pandas as pd
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.timeline import Timeline
 from miketalk.model.face import Model
-from miketalk.model.parts import COARTICULATION, trained_trajectories
 from miketalk.mouth import Eigenlips, grey_mouths, mouth_opening
 from miketalk.mouth.region import Box
 from miketalk.speech.acoustic import Recording
@@ -247,9 +246,9 @@ def evaluate_clip(
     jobs = [("morph", name) for name in models]
     if baselines_of is not None:
         jobs += [(r, baselines_of) for r in ("still", "flipbook", "dissolve")]
-        if (models[baselines_of].directory / COARTICULATION).exists():
+        if "learned" in models[baselines_of].lipsync_models:
             jobs.append(("learned", baselines_of))
-        kinds = trained_trajectories(models[baselines_of].directory)
+        kinds = models[baselines_of].trajectories
         if kinds:
             jobs += [(r, baselines_of) for r in ("trained", "trained_regularized")]
             jobs.append(("trained_previous", baselines_of))

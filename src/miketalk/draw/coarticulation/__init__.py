@@ -44,8 +44,8 @@ The training loss of the paper's own timeline (the same frames through
 :func:`miketalk.lipsync.timeline.plan`) is stored beside the fitted one.
 
 :func:`fit_coarticulation` runs it for a face built from clips and writes the
-parameters as data (``coarticulation.json`` in the model directory);
-:func:`read_params` reads them back.
+parameters as data (:func:`write_params`; a model keeps them as its
+``coarticulation.json``); :func:`read_params` reads them back.
 
 Rendering
 ---------
@@ -62,7 +62,6 @@ from miketalk.draw.coarticulation.fit import (
     training_clips,
 )
 from miketalk.draw.coarticulation.params import (
-    FILENAME,
     FORMAT,
     LEAD_GRID,
     PRIOR_RATE,
@@ -78,7 +77,6 @@ from miketalk.draw.coarticulation.weights import (
 )
 
 __all__ = [
-    "FILENAME",
     "FORMAT",
     "LEAD_GRID",
     "PRIOR_RATE",

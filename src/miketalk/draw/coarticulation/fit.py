@@ -17,7 +17,6 @@ from miketalk.draw.coarticulation.params import (
     LEAD_GRID,
     PRIOR_RATE,
     CoarticulationParams,
-    write_params,
 )
 from miketalk.draw.coarticulation.weights import _Pairs, _pairs, _weights_of_pairs, paper_trajectory
 from miketalk.errors import MiketalkError
@@ -320,15 +319,14 @@ def training_clips(
 
 def fit_coarticulation(
     corpus_dir: str | os.PathLike[str],
-    model_dir: str | os.PathLike[str],
+    images: Mapping[str, np.ndarray],
     *,
     grouping: Mapping[str, str] | None = None,
     coefficients: int = 3,
-    write: bool = True,
     corpus_eigenlips: CorpusEigenlips | None = None,
     **settings: Any,
 ) -> CoarticulationParams:
-    """Fit the dominance model of a face built from clips and write it into its model.
+    """Fit the dominance model of a face built from clips to its viseme ``images``.
 
     The eigenlips are fitted on the corpus's (training) mouth boxes, as the
     held-out evaluation fits them (:class:`miketalk.mouth.Eigenlips`);
@@ -338,14 +336,13 @@ def fit_coarticulation(
     ----------
     corpus_dir : path
         The face's corpus folder (training clips only).
-    model_dir : path
-        The face's model directory; ``coarticulation.json`` is written there.
+    images : mapping
+        ``viseme -> (H, W, 3) uint8``: the model's viseme images, in the model's order
+        (:meth:`miketalk.model.face.Model.image`).
     grouping : dict, optional
         Viseme grouping overrides (the configuration's ``visemes.grouping``).
     coefficients : int
         Eigenlip coefficients the trajectories are compared on.
-    write : bool
-        Write :data:`FILENAME` into ``model_dir``.
     corpus_eigenlips : CorpusEigenlips, optional
         The corpus's eigenlips fitted before
         (:func:`miketalk.corpus.eigenlips.read_eigenlips`); None fits them here.
@@ -358,7 +355,6 @@ def fit_coarticulation(
         The fitted parameters; ``fit`` also holds the paper timeline's training loss.
     """
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
-    from miketalk.model.face import Model
     from miketalk.mouth import grey_mouths, mouth_region
 
     table = VisemeTable(grouping=grouping)
@@ -371,16 +367,12 @@ def fit_coarticulation(
             f"not {coefficients}"
         )
     eigenlips = corpus_eigenlips.eigenlips
-    model = Model(model_dir)
-    try:
-        images = np.stack([model.image(v) for v in model.visemes])
-    finally:
-        model.close()
-    coords = eigenlips.project(grey_mouths(images, box))
-    targets = dict(zip(model.visemes, coords, strict=True))
+    visemes = tuple(images)
+    coords = eigenlips.project(grey_mouths(np.stack([images[v] for v in visemes]), box))
+    targets = dict(zip(visemes, coords, strict=True))
     clips = training_clips(corpus_dir, corpus_eigenlips.coordinates, table=table)
     with one_blas_thread():  # its Jacobian's products: threads only spin (workers.py)
-        params = fit(clips, targets, visemes=model.visemes, **settings)
+        params = fit(clips, targets, visemes=visemes, **settings)
     detrend = float(params.fit["detrend"])
     paper = [
         detrender(len(clip.real), clip.fps, detrend)
@@ -398,6 +390,4 @@ def fit_coarticulation(
         info["loss_prior"],
         params.lead,
     )
-    if write:
-        write_params(params, model_dir)
     return params

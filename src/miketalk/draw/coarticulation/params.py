@@ -1,4 +1,5 @@
-"""The fitted coarticulation parameters and their file in the model directory."""
+"""The fitted coarticulation parameters and their file (a model keeps it as its
+``coarticulation.json``: :attr:`miketalk.model.face.Model.coarticulation`)."""
 
 from __future__ import annotations
 
@@ -11,13 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from miketalk.errors import MiketalkError
-from miketalk.model.parts import COARTICULATION
 
-#: The file the fitted parameters are written to, in the model directory.
-FILENAME = COARTICULATION
-
-
-#: Format tag of :data:`FILENAME`.
+#: Format tag of the parameters' file.
 FORMAT = "miketalk-coarticulation/1"
 
 
@@ -85,7 +81,7 @@ class CoarticulationParams:
         return cls({v: 1.0 for v in visemes}, {v: float(rate) for v in visemes}, **settings)
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON form written to :data:`FILENAME`."""
+        """The JSON form :func:`write_params` writes."""
         return {
             "format": FORMAT,
             "magnitude": dict(sorted(self.magnitude.items())),
@@ -122,30 +118,24 @@ class CoarticulationParams:
             raise MiketalkError(f"malformed coarticulation parameters: {err!r}") from None
 
 
-def write_params(params: CoarticulationParams, directory: str | os.PathLike[str]) -> Path:
-    """Write ``params`` to ``directory / coarticulation.json`` (atomically); return the path."""
+def write_params(params: CoarticulationParams, path: str | os.PathLike[str]) -> Path:
+    """Write ``params`` to the file ``path`` (atomically); return the path."""
     from miketalk.media.atomic import write_text_atomic
 
-    path = Path(directory) / FILENAME
+    path = Path(path)
     write_text_atomic(path, json.dumps(params.to_dict(), indent=1, allow_nan=False))
     return path
 
 
-def read_params(directory: str | os.PathLike[str]) -> CoarticulationParams:
-    """The parameters :func:`write_params` wrote in a model directory.
+def read_params(path: str | os.PathLike[str]) -> CoarticulationParams:
+    """The parameters :func:`write_params` wrote to the file ``path``.
 
     Raises
     ------
     MiketalkError
-        If the model has none (it was built without fitting them) or they are malformed.
+        If the file cannot be read or the parameters are malformed.
     """
-    path = Path(directory) / FILENAME
-    if not path.is_file():
-        raise MiketalkError(
-            f"the model at {directory} has no learned coarticulation ({FILENAME}): the "
-            "workflow fits one into a model built from recorded clips (e.g. results/model/s1); "
-            "or use lipsync model 'paper'"
-        )
+    path = Path(path)
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:

@@ -1,6 +1,7 @@
-"""The trained face in a model directory: fitted by the workflow, read by ``say``.
+"""The trained face's folder: fitted by the workflow, read by ``say``.
 
-``<model>/trained/`` holds
+The folder (a model keeps it as its ``trained/``:
+:attr:`miketalk.model.face.Model.trained_face`) holds
 
 ``patches.npy``, ``description.npz``, ``frames.json``
     every training frame's description and patch (:mod:`~miketalk.draw.trained.mouths`);
@@ -51,15 +52,17 @@ from miketalk.draw.trained.trajectory import (
 )
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.timeline import Timeline
-from miketalk.model.parts import TRAINED_DIRECTORY, TRAINED_MANIFEST
 from miketalk.speech.acoustic import Recording
 from miketalk.visemes import VisemeTable
 
 log = logging.getLogger(__name__)
 
-#: Format tag of the trained face's manifest
-#: (:data:`~miketalk.model.parts.TRAINED_MANIFEST`).
+#: Format tag of the trained face's manifest.
 FORMAT = "miketalk-trained/1"
+
+#: The trained face's manifest in its folder, written last (as
+#: :data:`miketalk.model.parts.TRAINED_MANIFEST` names it).
+MANIFEST = "trained.json"
 
 
 @dataclass(frozen=True)
@@ -184,7 +187,7 @@ class TrainedFace:
 
 def fit_trained(
     corpus_dir: str | os.PathLike[str],
-    model_dir: str | os.PathLike[str],
+    folder: str | os.PathLike[str],
     *,
     grouping: Mapping[str, str] | None = None,
     default: str = TRAJECTORIES[0],
@@ -192,14 +195,14 @@ def fit_trained(
     selection: SelectionSettings | None = None,
     fitting: FitSettings | None = None,
 ) -> dict:
-    """Measure every training frame, fit both trajectory models, write ``<model>/trained/``.
+    """Measure every training frame, fit the trajectory models, write them to ``folder``.
 
     Parameters
     ----------
     corpus_dir : path
         The face's corpus folder (training clips only).
-    model_dir : path
-        The face's model directory.
+    folder : path
+        Where the trained face goes (:func:`miketalk.model.write.trained_folder`).
     grouping : dict, optional
         Viseme grouping overrides (the configuration's ``visemes.grouping``).
     default : str
@@ -231,7 +234,7 @@ def fit_trained(
         face.report["fit"]["window"],
         face.report["fit"]["regularized"],
     )
-    out = Path(model_dir) / TRAINED_DIRECTORY
+    out = Path(folder)
     frames.save(out)
     arrays: dict[str, np.ndarray] = {}
     settings: dict[str, Any] = {}
@@ -257,7 +260,7 @@ def fit_trained(
         }
         | face.report["fit"],
     }
-    write_text_atomic(out / TRAINED_MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
+    write_text_atomic(out / MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
     log.info(
         "trained face: %d frames (measured in %.1f s), window ridge %g (cv %.3f), "
         "regularized %g (cv %.3f), %.1f s",
@@ -342,24 +345,18 @@ def _spread_ratio(predicted: list[np.ndarray], data: TrainingSet) -> list[float]
     return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
 
 
-def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
-    """The trained face :func:`fit_trained` wrote into a model directory.
+def read_trained(folder: str | os.PathLike[str]) -> TrainedFace:
+    """The trained face :func:`fit_trained` wrote into ``folder``.
 
     Raises
     ------
     MiketalkError
-        In one line, when the model has none (a synthetic face, or a model
-        built before it was fitted), or it is malformed.
+        In one line, when the folder holds none, or it is malformed.
     """
-    d = Path(model_dir) / TRAINED_DIRECTORY
-    manifest = d / TRAINED_MANIFEST
+    d = Path(folder)
+    manifest = d / MANIFEST
     if not manifest.is_file():
-        raise MiketalkError(
-            f"the model at {model_dir} has no trained face "
-            f"({TRAINED_DIRECTORY}/{TRAINED_MANIFEST}): the "
-            "workflow fits one into a model built from recorded clips (e.g. results/model/s1); "
-            "or use lipsync model 'paper'"
-        )
+        raise MiketalkError(f"no trained face in {d} (no {MANIFEST})")
     try:
         doc = json.loads(manifest.read_text(encoding="utf-8"))
         if doc.get("format") != FORMAT:
@@ -397,4 +394,4 @@ def read_trained(model_dir: str | os.PathLike[str]) -> TrainedFace:
     )
 
 
-__all__ = ["FORMAT", "FitSettings", "TrainedFace", "fit_trained", "read_trained"]
+__all__ = ["FORMAT", "MANIFEST", "FitSettings", "TrainedFace", "fit_trained", "read_trained"]

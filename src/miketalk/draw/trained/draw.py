@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from miketalk.draw.trained.build import TrainedFace, read_trained
+from miketalk.draw.trained.build import TrainedFace
 from miketalk.draw.trained.selection import PatchCompositor
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.timeline import Timeline
@@ -36,7 +36,7 @@ def render_trained(
     the sound that drives the timeline, lets a face with the ``heard`` trajectory hear
     it (unless ``kind`` names another).
     """
-    trained = trained or read_trained(model.directory)
+    trained = trained or model.trained_face
     if selection:
         known, fitted = trained.selection.to_dict(), trained.fitting.to_dict()
         if refit := sorted(k for k in set(selection) & set(fitted) if selection[k] != fitted[k]):
@@ -59,26 +59,23 @@ def render_trained(
 
 
 def check_patches_read(model: Any, trained: TrainedFace, rows: list) -> int:
-    """Check the blocks of the trained face's ``patches.npy`` that ``rows`` read against
-    their SHA-256 in the model's manifest (:func:`miketalk.model.manifest.check_parts`):
-    the file is too large to hash whole at every open, and only these frames are read.
+    """Ask the model to check the bytes of its trained face's ``patches.npy`` that ``rows``
+    read against their blocks' SHA-256 in its manifest
+    (:meth:`miketalk.model.face.Model.check_trained_patches`): the file is too large to hash
+    whole at every open, and only these frames are read.
 
     Returns
     -------
     int
         The blocks checked (0 for a model without block checksums, or patches in memory).
     """
-    from miketalk.draw.trained.mouths import PATCHES
-    from miketalk.model.manifest import check_parts
-    from miketalk.model.parts import TRAINED_DIRECTORY
-
-    patches, manifest = trained.frames.patches, getattr(model, "manifest", None)
-    if not isinstance(patches, np.memmap) or manifest is None or not len(patches):
+    patches = trained.frames.patches
+    check = getattr(model, "check_trained_patches", None)
+    if not isinstance(patches, np.memmap) or check is None or not len(patches):
         return 0
     used = sorted({int(s) for row in rows for s, _ in row})
     step = patches.strides[0]
-    spans = [(patches.offset + s * step, patches.offset + (s + 1) * step) for s in used]
-    return check_parts(model.directory, manifest, f"{TRAINED_DIRECTORY}/{PATCHES}", spans)
+    return check([(patches.offset + s * step, patches.offset + (s + 1) * step) for s in used])
 
 
 __all__ = ["check_patches_read", "render_trained"]
