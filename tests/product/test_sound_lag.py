@@ -111,7 +111,7 @@ def _trained_face(model: Path, r2: float | None) -> Path:
     (model / "trained").mkdir(parents=True)
     fit = {"frames": 415, "clips": 8}
     if r2 is not None:
-        fit |= {"window": {"cv_r2": [0.5, 0.1]}, "heard": {"cv_r2": [r2, 0.0]}}
+        fit |= {"window": {"cv_r2": [0.5, 0.1]}, "heard": {"cv_r2": [0.0, r2, 0.02]}}
     doc = {"format": "miketalk-trained/1", "default": "window", "fit": fit,
            "trajectories": {"window": {}, "heard": {}}}  # fmt: skip
     (model / "trained" / "trained.json").write_text(json.dumps(doc), "utf-8")
@@ -127,7 +127,7 @@ def test_a_trained_face_that_predicts_nothing_leaves_recordings_to_the_morph(
     weak = _trained_face(tmp_path / "weak", 0.0)
     strong = _trained_face(tmp_path / "strong", 0.42)
     old = _trained_face(tmp_path / "old", None)
-    assert trained_predicts(weak) == (False, 0.0)
+    assert trained_predicts(weak) == (False, 0.02)  # its best component
     assert trained_predicts(strong) == (True, 0.42)
     assert trained_predicts(old) == (True, None)
     assert default_lipsync_model(weak, recorded=True) == "paper"

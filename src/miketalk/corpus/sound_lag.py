@@ -38,6 +38,7 @@ import numpy as np
 from miketalk.errors import MiketalkError
 
 __all__ = [
+    "APPLY",
     "DETECT_EVERY",
     "MAX_LAG_FRAMES",
     "MAX_SECONDS",
@@ -66,6 +67,9 @@ MAX_SECONDS = 60.0
 DETECT_EVERY = 5
 #: The sound's band (Hz) whose energy follows the mouth's opening.
 BAND = (300.0, 3000.0)
+#: Whether a lag measured is kept (applied to the build and to a recording's mouth); off,
+#: it is measured and recorded (``sound_lag``) but the model is built as before.
+APPLY = True
 #: Where a built model keeps the lag (``build/segments.json``'s key).
 KEY = "sound_lag_s"
 
@@ -145,6 +149,7 @@ def lag_of_curves(
         bend = a - 2 * b + c
         peak = best + (0.5 * (a - c) / bend if bend < 0 else 0.0)
     kept = curve[best] >= MIN_PEAK_R and abs(best) < MAX_LAG_FRAMES and abs(peak) >= MIN_FRAMES
+    kept = kept and APPLY
     frames = int(sum(np.isfinite(o).sum() for o in openings))
     return SoundLag(peak / fps if kept else 0.0, peak, curve[best], curve, frames)
 
