@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from miketalk.corpus import sound_lag as sound_lag_module
 from miketalk.corpus.clip_sources import _lagged
 from miketalk.corpus.sound_lag import (
     KEY,
@@ -28,7 +29,10 @@ def _smooth(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 @pytest.mark.parametrize("late", [0, 2, -2])
-def test_the_lag_is_found_where_the_sound_follows_the_mouth(late: int) -> None:
+def test_the_lag_is_found_where_the_sound_follows_the_mouth(
+    late: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(sound_lag_module, "APPLY", True)
     rng = np.random.default_rng(1)
     openings, envelopes = [], []
     for n in (60, 80, 70):
@@ -39,9 +43,15 @@ def test_the_lag_is_found_where_the_sound_follows_the_mouth(late: int) -> None:
     assert round(got.peak_frames) == late
     assert got.seconds == (pytest.approx(got.peak_frames / 25.0) if late else 0.0)
     assert got.peak_r > 0.8
+    monkeypatch.setattr(sound_lag_module, "APPLY", False)  # the default: measured, not kept
+    off = lag_of_curves(openings, envelopes, fps=25.0)
+    assert off.seconds == 0.0 and off.peak_frames == got.peak_frames
 
 
-def test_no_lag_is_kept_from_noise_or_at_the_edge_of_the_search() -> None:
+def test_no_lag_is_kept_from_noise_or_at_the_edge_of_the_search(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(sound_lag_module, "APPLY", True)
     rng = np.random.default_rng(2)
     noise = lag_of_curves([rng.normal(size=90)], [rng.normal(size=90)], fps=25.0)
     assert noise.seconds == 0.0 and noise.peak_r < 0.2
@@ -81,12 +91,15 @@ def test_a_model_keeps_its_lag_in_its_segments(tmp_path: Path) -> None:
     assert model_sound_lag(tmp_path) == 0.067
 
 
-def test_a_video_whose_sound_was_delayed_is_measured_so(tmp_path: Path) -> None:
+def test_a_video_whose_sound_was_delayed_is_measured_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Two s1 clips (GRID: sound and mouth together) keep no lag; the same clips with their
     sound delayed by 3 frames measure 3 frames more (within half a frame) and keep it."""
     from miketalk.media.decode import read_media_audio, read_video
     from miketalk.media.video import write_mp4
 
+    monkeypatch.setattr(sound_lag_module, "APPLY", True)
     clips = [DATA / "bbas3a.mpg", DATA / "bbaf2n.mpg"]
     frames = [read_video(c)[0] for c in clips]
     sound = [read_media_audio(c, rate=16000) for c in clips]

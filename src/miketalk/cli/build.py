@@ -71,6 +71,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         "words": segments["words"],
         "unaligned_words": len(segments["unaligned"]),
         "sound_lag_s": segments.get("sound_lag_s", 0.0),
+        "sound_lag_frames": segments.get("sound_lag", {}).get("peak_frames"),
         "recording_lipsync": default_lipsync_model(args.output, recorded=True),
         "trained_cv_r2": trained_predicts(args.output)[1],
         "seconds": round(total, 1),
@@ -90,8 +91,9 @@ def cmd_build(args: argparse.Namespace) -> int:
                 else ""
             )
             + (
-                f"; its sound runs {1000 * summary['sound_lag_s']:.0f} ms behind the mouth"
-                if summary["sound_lag_s"]
+                f"; its sound peaks {summary['sound_lag_frames']:+.1f} frames after the mouth"
+                + ("" if summary["sound_lag_s"] else " (measured, not applied)")
+                if summary["sound_lag_frames"] is not None
                 else ""
             ),
             file=args.out,

@@ -20,10 +20,11 @@ one: a peak of r at least :data:`MIN_PEAK_R`, inside the shifts searched, at lea
 :data:`MIN_FRAMES` from 0; otherwise the lag is 0 (a model built from GRID's clips is
 unchanged).
 
-The build reads each utterance's sound that much later (:mod:`miketalk.corpus.clip_sources`),
-so frames and phones are paired as the person spoke them; a recording's mouth is drawn
-that much earlier than its phones (:mod:`miketalk.talk.recorded`), as his own video
-shows it.
+With :data:`APPLY` (off: see there), the build reads each utterance's sound that much
+later (:mod:`miketalk.corpus.clip_sources`), so frames and phones are paired as the person
+spoke them, and a recording's mouth is drawn that much earlier than its phones
+(:mod:`miketalk.talk.recorded`), as his own video shows it. Off, the build measures and
+records it (``build/segments.json``: ``sound_lag``) and says so.
 """
 
 from __future__ import annotations
@@ -68,8 +69,12 @@ DETECT_EVERY = 5
 #: The sound's band (Hz) whose energy follows the mouth's opening.
 BAND = (300.0, 3000.0)
 #: Whether a lag measured is kept (applied to the build and to a recording's mouth); off,
-#: it is measured and recorded (``sound_lag``) but the model is built as before.
-APPLY = True
+#: it is measured and recorded (``sound_lag``) but the model is built and draws as before.
+#: Off: on the weekly addresses held out (docs/anyone.md) the morph's and the learned
+#: lip-sync's mouths already met his real opening best at 0 and -1 frames, and drawing them
+#: the measured 52 ms ahead lowered their opening r on all four dubs tried (wa06 morph 0.46
+#: to 0.16, learned 0.24 to -0.01; wa08 0.08 to 0.03, 0.20 to 0.06).
+APPLY = False
 #: Where a built model keeps the lag (``build/segments.json``'s key).
 KEY = "sound_lag_s"
 
