@@ -99,7 +99,7 @@ def test_the_table_lists_the_renderers_and_the_calibration() -> None:
 
 
 def test_the_lips_colour_is_read_inside_the_lip_line() -> None:
-    from miketalk_lab.bench.anyone import lip_colours
+    from miketalk_lab.evaluation.mouth_follow import lip_colours
 
     points, _ = real_landmarks(CLIP)
     lab = lip_colours(CLIP, points[:10])
