@@ -50,7 +50,7 @@ lint: setup
 	$(BIN)/snakemake --lint --cores 1
 
 test: setup lint
-	MIKETALK_NO_SKIP=1 $(BIN)/pytest -q -n 2 --dist loadfile
+	MIKETALK_NO_SKIP=1 $(BIN)/pytest -q -n 2 --dist loadfile --durations=15
 
 bench: run
 	$(BIN)/python -m miketalk_lab.bench --out results/bench --results-doc docs/results.md

@@ -7,7 +7,8 @@ machine does not fail a test and a regression still shows:
 
 - **stops** (the promise: 2 s): SIGINT and SIGTERM sent to a worker pool waiting on its
   jobs, to ``miketalk say`` while it renders and encodes a long text, to ``say --audio``
-  while it aligns 2.4 minutes of recording, and SIGTERM to ``miketalk serve`` while a say of
+  while it aligns 2.4 minutes of recording, to ``miketalk build`` while it decodes its
+  video (six GRID clips joined), and SIGTERM to ``miketalk serve`` while a say of
   the page runs. Each is the wall time from the signal to the process's end, and the part
   of it the process waited for a core (its main thread's run-queue wait,
   ``/proc/PID/schedstat``): on a loaded machine that part is the machine's, not the program's.
@@ -175,6 +176,30 @@ def _stop_align(tmp: pathlib.Path, signum: int) -> tuple[float, float]:
     return _finish(proc, signum)
 
 
+def _stop_build(tmp: pathlib.Path, signum: int) -> tuple[float, float]:
+    """A build of six joined GRID clips (18 s) stopped while its corpus stage decodes."""
+    from miketalk_lab.bench.joined import join_clips
+
+    joined = tmp / "joined"
+    if not (joined / "transcript.txt").is_file():
+        grid = str(GRID)
+        clips = ["bbaf2n", "lgwg2n", "pric4p", "swih9a", "bbas3a", "srau3s"]
+        media, timings = f"{grid}/video/{{id}}.mpg", f"{grid}/align/{{id}}.align"
+        join_clips(
+            clips, joined, media=media, transcripts=GRID / "transcripts.txt", timings=timings
+        )
+    video = joined / "joined.mp4"
+    out = tmp / f"build{signum}"
+    proc = subprocess.Popen(
+        _miketalk("build", video, "--transcript", joined / "transcript.txt",
+                  "-o", out, "--heldout-seconds", "0", "--quiet"),
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    _wait_for(lambda: _encoding(proc), proc, "its decoding")
+    time.sleep(0.5)
+    return _finish(proc, signum)
+
+
 def _stop_serve(tmp: pathlib.Path, signum: int) -> tuple[float, float]:
     import http.client
 
@@ -264,7 +289,10 @@ def run(out_dir: pathlib.Path) -> dict[str, float]:
             raise MiketalkError(f"no {model}: run `make run` first (make bench does)")
     out_dir.mkdir(parents=True, exist_ok=True)
     figures: dict[str, float] = {}
-    stops = {"pool": _stop_pool, "say_render": _stop_say, "say_align": _stop_align}
+    stops = {
+        "pool": _stop_pool, "say_render": _stop_say, "say_align": _stop_align,
+        "build": _stop_build,
+    }  # fmt: skip
     with tempfile.TemporaryDirectory() as scratch:
         tmp = pathlib.Path(scratch)
         for name, stop in [*stops.items(), ("serve_say", _stop_serve)]:
