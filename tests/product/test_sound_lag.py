@@ -115,6 +115,8 @@ def test_a_video_whose_sound_was_delayed_is_measured_so(
         write_mp4(video, iter(both), fps=25, audio=audio, rate=16000, n_frames=len(both))
         got[delay] = sound_lag(video, spans)
     assert got[0].seconds == 0.0 and abs(got[0].peak_frames) < 1
+    none = sound_lag(tmp_path / "late0.mp4", [])  # no utterance long enough: no lag, no error
+    assert none.seconds == 0.0 and none.frames == 0
     assert abs(got[3].peak_frames - got[0].peak_frames - 3) < 0.5
     assert got[3].seconds == pytest.approx(got[3].peak_frames / 25)
 
