@@ -22,8 +22,11 @@ def _reference(where: Path, at: float) -> np.ndarray:
     from miketalk.media.decode import read_video
     from miketalk.media.images import read_image
 
-    if where.is_dir():
-        return read_image(where / "background" / "reference.png")
+    if where.is_dir():  # a model: its tracker reference
+        from miketalk.model.face import open_model
+
+        with open_model(where) as model:
+            return model.reference
     if where.suffix.lower() in (".png", ".jpg", ".jpeg"):
         return read_image(where)
     return read_video(where, start=at or None, frames=1)[0][0]
