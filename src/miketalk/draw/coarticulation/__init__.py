@@ -37,7 +37,8 @@ moves slower than that follows lighting and the head pose the stabilization
 left rather than the mouth, and is not the model's to predict (fitted
 without it, broad dominances of seconds fitted those drifts). ``ell`` is
 chosen on a grid; for each grid value ``log a`` and ``log theta`` are found by
-Levenberg-Marquardt with a finite-difference Jacobian (numpy only), kept in
+:func:`scipy.optimize.least_squares` (trust-region reflective, a finite-difference
+Jacobian), kept in
 plausible bounds, with a weak pull towards the prior ``a = 1``,
 ``theta = prior_rate`` so that a viseme seen rarely keeps the prior.
 The training loss of the paper's own timeline (the same frames through

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
@@ -100,7 +100,7 @@ def fit(
     window: float = 0.35,
     max_visemes: int = 3,
     min_weight: float = 0.05,
-    iterations: int = 60,
+    evaluations: int = 200,
 ) -> CoarticulationParams:
     """Fit magnitudes, rates and the lead to real trajectories (see the module docstring).
 
@@ -129,8 +129,9 @@ def fit(
         lasts for seconds is a drift, not coarticulation.
     window, max_visemes, min_weight
         Stored in the parameters (see :class:`CoarticulationParams`).
-    iterations : int
-        Levenberg-Marquardt iterations per lead.
+    evaluations : int
+        The most evaluations of the residual per lead, besides the Jacobian's
+        (:func:`scipy.optimize.least_squares`'s ``max_nfev``).
 
     Returns
     -------
@@ -195,15 +196,18 @@ def fit(
     def loss(x: np.ndarray, lead: float) -> float:
         return float(np.mean((predicted(x, lead) - target) ** 2))
 
+    import scipy.optimize  # noqa: F401  (its BLAS loaded before one_blas_thread limits it)
+
     best: tuple[float, np.ndarray, float] | None = None
-    for lead in leads:
-        x = _levenberg_marquardt(
-            lambda x, lead=lead: residual(x, lead), x0, free, iterations, low=low, high=high
-        )
-        value = loss(x, lead)
-        log.info("coarticulation fit: lead %.3f s, loss %.4f", lead, value)
-        if best is None or value < best[0]:
-            best = (value, x, float(lead))
+    with one_blas_thread():  # its Jacobian's products: threads only spin (workers.py)
+        for lead in leads:
+            x = _least_squares(
+                lambda x, lead=lead: residual(x, lead), x0, free, evaluations, low=low, high=high
+            )
+            value = loss(x, lead)
+            log.info("coarticulation fit: lead %.3f s, loss %.4f", lead, value)
+            if best is None or value < best[0]:
+                best = (value, x, float(lead))
     assert best is not None
     value, x, lead = best
     n = len(visemes)
@@ -229,50 +233,38 @@ def fit(
     )
 
 
-def _levenberg_marquardt(
-    residual: Any,
+def _least_squares(
+    residual: Callable[[np.ndarray], np.ndarray],
     x0: np.ndarray,
     free: np.ndarray,
-    iterations: int,
+    evaluations: int,
     *,
     low: np.ndarray,
     high: np.ndarray,
-    step: float = 1e-5,
 ) -> np.ndarray:
-    """Minimize ``|residual(x)|^2`` over ``x[free]`` within ``[low, high]``.
+    """Minimize ``|residual(x)|^2`` over ``x[free]`` within ``[low, high]``, from ``x0``.
 
-    Forward-difference Jacobian; each step is projected into the bounds.
+    :func:`scipy.optimize.least_squares`: the trust-region reflective method (bounds), a
+    forward-difference Jacobian, each parameter scaled by its column's norm
+    (``x_scale="jac"``), its default tolerances. On s1's 40 training clips it ends at a
+    lower cost than the Levenberg-Marquardt loop written here before, in less time
+    (docs/lipsync.md).
     """
-    x = x0.copy()
-    r = residual(x)
-    cost = float(r @ r)
-    damping = 1e-2
+    from scipy.optimize import least_squares
+
     idx = np.flatnonzero(free)
-    for _ in range(iterations):
-        jac = np.empty((r.size, idx.size))
-        for j, i in enumerate(idx):
-            xi = x.copy()
-            xi[i] += step if x[i] + step <= high[i] else -step
-            jac[:, j] = (residual(xi) - r) / (xi[i] - x[i])
-        g = jac.T @ r
-        h = jac.T @ jac
-        improved = False
-        for _ in range(10):
-            delta = np.linalg.solve(h + damping * np.diag(np.diag(h) + 1e-12), -g)
-            trial = x.copy()
-            trial[idx] += np.clip(delta, -2.0, 2.0)
-            trial = np.clip(trial, low, high)
-            r_trial = residual(trial)
-            c_trial = float(r_trial @ r_trial)
-            if c_trial < cost:
-                x, r, improved = trial, r_trial, True
-                relative = (cost - c_trial) / max(cost, 1e-300)
-                cost = c_trial
-                damping = max(damping / 3.0, 1e-9)
-                break
-            damping *= 4.0
-        if not improved or relative < 1e-9:
-            break
+
+    def of_free(z: np.ndarray) -> np.ndarray:
+        x = x0.copy()
+        x[idx] = z
+        return residual(x)
+
+    found = least_squares(
+        of_free, x0[idx], bounds=(low[idx], high[idx]), method="trf", jac="2-point",
+        x_scale="jac", max_nfev=evaluations,
+    )  # fmt: skip
+    x = x0.copy()
+    x[idx] = found.x
     return x
 
 
@@ -371,8 +363,7 @@ def fit_coarticulation(
     coords = eigenlips.project(grey_mouths(np.stack([images[v] for v in visemes]), box))
     targets = dict(zip(visemes, coords, strict=True))
     clips = training_clips(corpus_dir, corpus_eigenlips.coordinates, table=table)
-    with one_blas_thread():  # its Jacobian's products: threads only spin (workers.py)
-        params = fit(clips, targets, visemes=visemes, **settings)
+    params = fit(clips, targets, visemes=visemes, **settings)
     detrend = float(params.fit["detrend"])
     paper = [
         detrender(len(clip.real), clip.fps, detrend)
