@@ -221,7 +221,7 @@ def background_from_video(
         and the transforms scaled back.
     fps : float
     stabilizer : miketalk.stabilize.Stabilizer
-        The model's (:func:`model_stabilizer`).
+        The model's (:meth:`miketalk.model.face.Model.stabilizer`).
     source : str
         Named in errors.
     progress : bool
