@@ -353,7 +353,7 @@ def _work(args) -> str:
     renderers = args.renderer or list(RENDERERS)
     work = args.out / "work"
     work.mkdir(parents=True, exist_ok=True)
-    rows, frames, builds = [], [], []
+    rows, frames, builds, refused = [], [], [], []
     for held in folds:
         unknown = [a for a in held if a not in captions]
         if unknown:
@@ -362,7 +362,11 @@ def _work(args) -> str:
         builds.append({"held": ",".join(held), "build_seconds": fold["build_seconds"]})
         for address in held:
             clip = args.obama / "video" / f"{address}.mp4"
-            dubs = _dubs(clip, captions[address], fold["model"], work, renderers)
+            try:
+                dubs = _dubs(clip, captions[address], fold["model"], work, renderers)
+            except MiketalkError as err:  # a caption the recording does not say: refused
+                refused.append(f"{address}: {err}")
+                continue
             got, per_frame = measure_clip(clip, dubs, args.out)
             rows += [{**r, "held": ",".join(held)} for r in got]
             frames.append(per_frame)
@@ -377,6 +381,7 @@ def _work(args) -> str:
     summary = (
         f"{len(clips['clip'].unique())} held-out addresses, {len(folds)} folds; "
         f"builds {json.dumps(builds)}\n\n{text}"
+        + "".join(f"\nNot dubbed, {line}\n" for line in refused)
     )
     write_text_atomic(args.out / "summary.md", summary)
     return summary
