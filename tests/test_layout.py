@@ -21,8 +21,9 @@ lower layer's, never a higher one's. The product's layers, bottom to top:
 9. model: the model a face speaks with, opened from disk and asked for its parts (its
    morphs, its coarticulation and trained face, which draw's registry draws with, its
    background video, crop and tracker reference, which composite plays into);
-10. building (a face's model from clips or a video) and talk (saying things: the entry point);
-11. serve; 12. cli.
+10. building (a face's model from clips or a video) and talk (saying things);
+11. api: one call per use case (say, dub, build, cues), their settings and results;
+12. serve (the page) and 13. cli (the command line): front ends over the api alone.
 
 Above the product: the synthetic face, then the laboratory (evaluation, figures,
 bench), then the workflow's scripts. So the product never imports the laboratory.
@@ -68,8 +69,9 @@ LAYERS: dict[str, int] = {
     "miketalk.model": 9,
     "miketalk.building": 10,
     "miketalk.talk": 10,
-    "miketalk.serve": 11,
-    "miketalk.cli": 12,
+    "miketalk.api": 11,
+    "miketalk.serve": 12,
+    "miketalk.cli": 13,
     "synth_face": 20,
     "miketalk_lab": 30,
     "miketalk_lab.evaluation": 30,
@@ -268,3 +270,64 @@ def test_no_module_is_too_long() -> None:
         if (n := len(path.read_text().splitlines())) > MAX_LINES
     }
     assert long == {}
+
+
+#: The front ends: the command line and the page. They parse their input, make one call of
+#: the public API per use case (:mod:`miketalk.api`) and name its errors their own way.
+FRONT_ENDS = ("miketalk.cli", "miketalk.serve")
+
+#: What a front end may import of the product besides the front ends: the public API (its
+#: calls, settings, results and vocabularies) and the foundation's plumbing (the version,
+#: the defaults, the console's signals and streams, the BLAS threads, the viseme table).
+FRONT_END_MAY_IMPORT = frozenset(
+    {
+        "miketalk.api",
+        "miketalk.api.vocabulary",
+        "miketalk",
+        "miketalk.defaults",
+        "miketalk.console",
+        "miketalk.workers",
+        "miketalk.visemes",
+    }
+)
+
+
+def front_end_imports(graph: Mapping[str, set[str]]) -> list[str]:
+    """Each import of a front end's module that is neither of a front end nor allowed
+    (:data:`FRONT_END_MAY_IMPORT`)."""
+
+    def front(module: str) -> bool:
+        return any(module == f or module.startswith(f + ".") for f in FRONT_ENDS)
+
+    return [
+        f"{module} imports {target}"
+        for module, targets in sorted(graph.items())
+        if front(module)
+        for target in sorted(targets)
+        if not front(target) and target not in FRONT_END_MAY_IMPORT
+    ]
+
+
+def test_the_front_ends_call_the_public_api_alone() -> None:
+    """No front end opens a model, starts Festival, registers a video or chooses a lip-sync
+    model itself: it imports nothing of the engine."""
+    assert front_end_imports(import_graph()) == []
+
+
+def test_the_front_end_rule_finds_a_planted_engine_import(tmp_path: Path) -> None:
+    packages = _plant(
+        tmp_path,
+        {
+            "miketalk/__init__.py": "",
+            "miketalk/api/__init__.py": "",
+            "miketalk/talk/__init__.py": "",
+            "miketalk/talk/say.py": "",
+            "miketalk/cli/__init__.py": "",
+            "miketalk/cli/say.py": "from miketalk.api import say\n",
+            "miketalk/serve/__init__.py": "",
+            "miketalk/serve/work.py": "def f():\n    from miketalk.talk.say import open_model\n",
+        },
+    )
+    assert front_end_imports(import_graph(packages)) == [
+        "miketalk.serve.work imports miketalk.talk.say"
+    ]

@@ -111,10 +111,10 @@ def test_command_line_choices_and_defaults_are_the_library_s(
     assert list(_choices(parser, "dub", "--sampling").choices) == ["blur", "none"]
     # --fps is settled when the background is known: a face-crop model's video's own, else
     # the library's default
-    from miketalk.cli.say import output_fps
+    from miketalk.api.say import own_fps
 
     assert _choices(parser, "say", "--fps").default is None
-    assert output_fps(argparse.Namespace(fps=None), None, None) == LipsyncSettings().fps
+    assert own_fps(None, None) == LipsyncSettings().fps
 
 
 def _spelled(names: tuple[str, ...]) -> list[str]:
@@ -183,3 +183,26 @@ def test_the_background_s_names_and_default_are_the_library_s() -> None:
     assert BACKGROUND_CHOICES == ("auto", "still") == tuple(BackgroundChoice)
     face = _schema("faces")["additionalProperties"]["properties"]["background"]
     assert face["default"] == defaults.BACKGROUND in BACKGROUND_CHOICES
+
+
+def test_the_use_cases_settings_defaults_are_the_schema_s() -> None:
+    """The workflow's face and lipsync settings and the public API's settings objects
+    (:mod:`miketalk.api.settings`) agree on each default they share; the frame differs on
+    purpose (``miketalk build``: any video of one person, tracked; the workflow: GRID's still
+    heads, in their own pixels), and its rules are one class's (``FrameSettings``)."""
+    from miketalk.api import BuildSettings, DubSettings, SaySettings
+
+    face = _schema("faces")["additionalProperties"]["properties"]
+    build = BuildSettings()
+    assert face["crop_size"]["default"] == build.crop_size
+    assert set(face["frame"]["enum"]) == {"crop", "full"} and build.frame == "crop"
+    assert face["frame"]["default"] == "full"
+    corpus = face["corpus"]["properties"]
+    assert corpus["heldout_seconds"]["default"] == build.heldout_seconds
+    for settings in (SaySettings(), DubSettings()):
+        assert _schema("lipsync", "max_px_per_frame")["default"] == settings.step_limit
+        assert _schema("lipsync", "sampling")["default"] == settings.sampling
+        assert _schema("lipsync", "model")["default"] == settings.lipsync_model
+        assert _schema("lipsync", "trajectory")["default"] == settings.trajectory
+    assert _schema("lipsync", "max_slowdown")["default"] == SaySettings().max_slowdown
+    assert face["background"]["default"] == defaults.BACKGROUND  # SaySettings' None: auto

@@ -47,10 +47,10 @@ def test_the_frame_a_face_is_built_in() -> None:
     assert FrameSettings("crop", None, "accurate").crop == FaceCropSettings(conversion="accurate")
     assert FaceCropSettings().conversion == "auto"
     for frame, size, conversion, message in [
-        ("full", 128, None, "a crop size goes with the crop frame"),
+        ("full", 128, None, "crop_size goes with frame crop"),
         ("crop", 8, None, "the crop's size must be a whole number >= 16"),
         ("face", None, None, "the frame must be one of ['crop', 'full']"),
-        ("full", None, "fast", "a crop conversion goes with the crop frame"),
+        ("full", None, "fast", "crop_conversion goes with frame crop"),
         ("crop", None, "exact", "conversion must be one of ['accurate', 'auto', 'fast']"),
     ]:
         with pytest.raises(MiketalkError, match=re.escape(message)):

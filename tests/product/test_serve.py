@@ -452,9 +452,9 @@ def test_a_model_kept_open_is_checked_again_when_one_of_its_files_changes(
 ) -> None:
     import shutil
 
+    from miketalk.api import OpenModels as Warm
     from miketalk.errors import MiketalkError
     from miketalk.flow import pair_path
-    from miketalk.serve.work import Warm
 
     model_dir = tmp_path / "model"
     shutil.copytree(synthetic, model_dir)

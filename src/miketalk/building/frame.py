@@ -4,8 +4,8 @@ video's own pixels.
 ``miketalk build --frame crop|full --crop-size PX`` and the workflow's ``faces.NAME.frame``
 and ``faces.NAME.crop_size`` are both read into :class:`FrameSettings`, whose
 :attr:`~FrameSettings.crop` is what :func:`miketalk.building.stages.corpus_stage` takes.
-Each of them keeps its own default frame (the command's ``crop``, the workflow's
-``full``: the schema's); the crop's geometry is :class:`~miketalk.track.crop.FaceCropSettings`'s.
+The rules (a crop size or conversion goes with the crop frame) are checked here alone; the
+crop's geometry is :class:`~miketalk.track.crop.FaceCropSettings`'s.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from miketalk.errors import MiketalkError
+from miketalk.errors import SettingError
 
 if TYPE_CHECKING:  # the command line's parser reads FRAMES without the tracker's imports
     from miketalk.track.crop import FaceCropSettings
@@ -54,11 +54,11 @@ class FrameSettings:
 
     def __post_init__(self) -> None:
         if self.frame not in FRAMES:
-            raise MiketalkError(f"the frame must be one of {list(FRAMES)}, got {self.frame!r}")
+            raise SettingError(f"the {{frame}} must be one of {list(FRAMES)}, got {self.frame!r}")
         if self.crop_size is not None and self.frame != CROP:
-            raise MiketalkError("a crop size goes with the crop frame (the face crop's size)")
+            raise SettingError("{crop_size} goes with {frame} crop (the face crop's size)")
         if self.crop_conversion is not None and self.frame != CROP:
-            raise MiketalkError("a crop conversion goes with the crop frame (its pixels)")
+            raise SettingError("{crop_conversion} goes with {frame} crop (the face crop's pixels)")
         self.crop  # noqa: B018 (a bad size is refused here, not in the corpus stage)
 
     @property

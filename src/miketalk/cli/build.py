@@ -20,18 +20,21 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 
-from miketalk import defaults
-from miketalk.errors import MiketalkError
+from miketalk import api
+from miketalk.api import BuildSettings
+from miketalk.api.vocabulary import CONVERSIONS, FRAMES
 
 __all__ = ["add_build_parser", "cmd_build"]
 
 
 def cmd_build(args: argparse.Namespace) -> int:
     """Build a model from one video (see the module docstring)."""
-    if (args.transcript is None) == (args.subtitles is None):
-        raise MiketalkError("give the video's --transcript or its --subtitles (one of them)")
+    settings = BuildSettings(
+        frame=args.frame, crop_size=args.crop_size, crop_conversion=args.crop_conversion,
+        heldout_seconds=args.heldout_seconds, workers=args.workers,
+        keep_corpus=args.keep_corpus, overwrite=args.force,
+    )  # fmt: skip
     started = time.perf_counter()
     peaks: dict[str, float] = {}
 
@@ -40,42 +43,23 @@ def cmd_build(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"miketalk build: {stage}: {seconds:.1f} s, peak {peak:.0f} MB", file=sys.stderr)
 
-    from miketalk.building.frame import CROP, FrameSettings
-    from miketalk.building.from_video import build_model_from_video
-    from miketalk.model.parts import default_lipsync_model, trained_predicts
-
-    if args.crop_size is not None and args.frame != CROP:
-        raise MiketalkError("--crop-size goes with --frame crop (the face crop's size)")
-    if args.crop_conversion is not None and args.frame != CROP:
-        raise MiketalkError("--crop-conversion goes with --frame crop (the face crop's pixels)")
-    crop = FrameSettings(args.frame, args.crop_size, args.crop_conversion).crop
-    seconds = build_model_from_video(
-        args.video,
-        args.output,
-        transcript=args.transcript,
-        subtitles=args.subtitles,
-        heldout_seconds=args.heldout_seconds,
-        workers=args.workers,
-        force=args.force,
-        progress=not args.quiet,
-        report=report,
-        keep_corpus=args.keep_corpus,
-        crop=crop,
-    )
+    built = api.build(
+        args.video, args.output, settings, transcript=args.transcript, subtitles=args.subtitles,
+        progress=not args.quiet, report=report,
+    )  # fmt: skip
     total = time.perf_counter() - started
-    segments = json.loads((Path(args.output) / "build" / "segments.json").read_text("utf-8"))
     summary = {
         "model": str(args.output),
-        "utterances": sum(u["split"] == "train" for u in segments["utterances"]),
-        "held_out": sum(u["split"] == "test" for u in segments["utterances"]),
-        "words": segments["words"],
-        "unaligned_words": len(segments["unaligned"]),
-        "sound_lag_s": segments.get("sound_lag_s", 0.0),
-        "sound_lag_frames": segments.get("sound_lag", {}).get("peak_frames"),
-        "recording_lipsync": default_lipsync_model(args.output, recorded=True),
-        "trained_cv_r2": trained_predicts(args.output)[1],
+        "utterances": built.utterances,
+        "held_out": built.held_out,
+        "words": built.words,
+        "unaligned_words": built.unaligned_words,
+        "sound_lag_s": built.sound_lag_s,
+        "sound_lag_frames": built.sound_lag_frames,
+        "recording_lipsync": built.recording_lipsync,
+        "trained_cv_r2": built.trained_cv_r2,
         "seconds": round(total, 1),
-        "stage_seconds": {k: round(v, 1) for k, v in seconds.items()},
+        "stage_seconds": {k: round(v, 1) for k, v in built.stage_seconds.items()},
         "stage_peak_mb": {k: round(v) for k, v in peaks.items()},
     }
     if args.json:
@@ -103,7 +87,6 @@ def cmd_build(args: argparse.Namespace) -> int:
 
 def add_build_parser(sub) -> None:
     """The ``build`` subcommand."""
-    from miketalk.building.frame import CONVERSIONS, CROP, FRAMES
     from miketalk.cli.options import verbose_option
 
     build = sub.add_parser(
@@ -120,7 +103,7 @@ def add_build_parser(sub) -> None:
     build.add_argument(
         "--heldout-seconds",
         type=float,
-        default=defaults.HELDOUT_SECONDS,
+        default=BuildSettings.heldout_seconds,
         help="leave the video's last seconds out of the model (default: none)",
     )
     build.add_argument(
@@ -132,7 +115,7 @@ def add_build_parser(sub) -> None:
     build.add_argument(
         "--frame",
         choices=FRAMES,
-        default=CROP,
+        default=BuildSettings.frame,
         help="crop: track the face and work in a face crop of fixed size, the output at the "
         "video's own resolution (default; any video of one person); full: work in the "
         "video's own pixels (a still head before a plain backdrop, as GRID's)",

@@ -1,17 +1,12 @@
-"""What the subcommands share: the text to speak, the Festival backend, timing."""
+"""What the subcommands share: the text to speak, timing."""
 
 from __future__ import annotations
 
 import argparse
 import logging
 import time
-from typing import TYPE_CHECKING
 
-from miketalk.errors import MiketalkError
-
-if TYPE_CHECKING:
-    from miketalk.speech.festival import FestivalBackend
-
+from miketalk.api import MiketalkError, read_text_file
 
 log = logging.getLogger("miketalk")
 
@@ -25,8 +20,6 @@ def read_text(args: argparse.Namespace) -> str:
     if args.file is not None and args.text is not None:
         raise MiketalkError("give the text or --file, not both")
     if args.file is not None:
-        from miketalk.speech.text import read_text_file
-
         return read_text_file(args.file)
     if args.text is None:
         raise MiketalkError("no text: give it as an argument or with --file")
@@ -39,12 +32,6 @@ def has_text(args: argparse.Namespace) -> bool:
         None,
         None,
     )
-
-
-def festival_backend(args: argparse.Namespace) -> FestivalBackend:
-    from miketalk.speech import get_backend
-
-    return get_backend("festival", voice=args.voice)
 
 
 def seconds_since(started: float) -> float:

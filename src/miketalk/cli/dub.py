@@ -24,104 +24,55 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 
-from miketalk import defaults
-from miketalk.errors import MiketalkError
+from miketalk import api
+from miketalk.api import DubSettings, MiketalkError
 
 __all__ = ["add_dub_parser", "cmd_dub"]
 
 
 def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
-    from miketalk.cli.common import festival_backend, has_text, read_text, seconds_since
-    from miketalk.cli.say import check_lipsync_model, cli_inputs, lipsync_settings
-    from miketalk.composite.background_files import video_background
-    from miketalk.lipsync.settings import check_fps
-    from miketalk.media.decode import video_info
-    from miketalk.media.timing import check_constant_rate
-    from miketalk.model.background import has_background
-    from miketalk.model.parts import default_model_dir
-    from miketalk.talk.output import check_output
-    from miketalk.talk.say import Recorded, open_model, say
+    from miketalk.cli.common import seconds_since
+    from miketalk.cli.say import cli_inputs, speech_of
 
     started = time.perf_counter()
-    text = read_text(args) if has_text(args) else None
-    if args.audio is None and text is None:
+    speech = speech_of(args, text_needed=False)
+    if speech is None:
         raise MiketalkError("say what the video should say: --text T, or --audio A [--text T]")
-    if args.audio is None and args.timings is not None:
-        raise MiketalkError("--timings goes with --audio (the word timings of that recording)")
-    if args.audio is not None and args.voice_given:
-        raise MiketalkError("--voice picks Festival's voice; with --audio the recording speaks")
-    max_px = None if args.sampling == "none" else args.max_px_per_frame
-    inputs = cli_inputs(args)
-    output = check_output(args.output, overwrite=args.force, inputs=inputs)
-    check_lipsync_model(args)
-    model_dir = Path(args.model) if args.model is not None else default_model_dir()
-    if (model_dir / "manifest.json").exists() and not has_background(model_dir):
-        raise MiketalkError(
-            f"the model {model_dir} was not built from video of a person: dub needs a model "
-            "built from clips of the person in the video (e.g. --model results/model/s1)"
-        )
-    if not Path(args.video).is_file():
-        raise MiketalkError(f"video file not found: {args.video}")
-    _, _, fps = video_info(args.video)
-    try:
-        check_fps(fps)
-    except MiketalkError as err:
-        raise MiketalkError(f"{args.video}: its frame rate: {err}") from None
-    settings = lipsync_settings(args, args.sampling, max_px, fps=fps)
-    progress = args.progress or sys.stderr.isatty()
-
-    def register(model):  # the video's frames registered to the model's reference
-        background = video_background(
-            model, args.video, progress=progress, check_person=not args.force
-        )
-        check_constant_rate(args.video, fps, len(background))  # shown when they were taken
-        return background
-
-    if args.audio is not None:
-        with open_model(model_dir) as model:
-            background = register(model)
-            said = say(
-                Recorded(args.audio, text=text, timings=args.timings), output, model=model,
-                settings=settings, progress=progress, overwrite=args.force,
-                background=background, inputs=inputs,
-            )  # fmt: skip
-        motion, seconds, trajectory = said.motion, said.duration, said.trajectory
-        seconds = min(seconds, motion.frames / fps)  # what the mp4 plays of the recording
-    else:
-        # Festival works while the video registers
-        with festival_backend(args).start(text) as speech, open_model(model_dir) as model:
-            background = register(model)
-            spoken = say(
-                speech, output, model=model, settings=settings, progress=progress,
-                overwrite=args.force, background=background, inputs=inputs,
-            )  # fmt: skip
-        motion, seconds, trajectory = spoken.motion, spoken.motion.duration, None
-    timeline = output.with_suffix(".json")
+    settings = DubSettings(
+        model=args.model, lipsync_model=args.lipsync_model, trajectory=args.trajectory,
+        sampling=args.sampling, max_px_per_frame=args.max_px_per_frame,
+        voice=args.voice if args.voice_given else None, overwrite=args.force,
+        check_person=not args.force,
+    )  # fmt: skip
+    dubbed = api.dub(
+        args.video, speech, args.output, settings,
+        progress=args.progress or sys.stderr.isatty(), inputs=cli_inputs(args),
+    )  # fmt: skip
+    motion, seconds, trajectory = dubbed.motion, dubbed.seconds, dubbed.trajectory
     if args.json:
         doc = {
-            "video": str(output),
-            "timeline": str(timeline),
+            "video": str(dubbed.video),
+            "timeline": str(dubbed.timeline_json),
             "source": str(args.video),
-            "fps": fps,
-            "size": list(background.size),
-            "source_frames": len(background),
-            "blinks": list(background.blinks),
+            "fps": dubbed.fps,
+            "size": list(dubbed.size),
+            "source_frames": dubbed.source_frames,
+            "blinks": list(dubbed.blinks),
             "frames": motion.frames,
             "audio_seconds": seconds,  # as played: whole frames
-            "lipsync_model": args.lipsync_model,
+            "lipsync_model": dubbed.lipsync_model,
         } | ({"trajectory": trajectory} if trajectory else {})
         print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
     else:
-        loops = "looped" if motion.frames > len(background) else "cut to the speech"
+        loops = "looped" if dubbed.looped else "cut to the speech"
         drawn = f", {trajectory} trajectory" if trajectory else ""
         print(
-            f"{output}: {motion.frames} frames at {fps:g} fps, {background.size[1]}x"
-            f"{background.size[0]}, {seconds:.2f} s of speech over {len(background)} frames of "
-            f"{args.video} ({loops}, {args.lipsync_model} lip-sync{drawn}); timeline in "
-            f"{timeline}",
+            f"{dubbed.video}: {motion.frames} frames at {dubbed.fps:g} fps, {dubbed.size[1]}x"
+            f"{dubbed.size[0]}, {seconds:.2f} s of speech over {dubbed.source_frames} frames "
+            f"of {args.video} ({loops}, {dubbed.lipsync_model} lip-sync{drawn}); timeline in "
+            f"{dubbed.timeline_json}",
             file=args.out,
         )
     import logging
@@ -132,9 +83,8 @@ def cmd_dub(args: argparse.Namespace) -> int:
 
 def add_dub_parser(sub) -> None:
     """Add ``dub`` to the CLI's sub-commands."""
+    from miketalk.api.vocabulary import LIPSYNC_MODELS, MAX_PX_PER_FRAME, SAMPLINGS
     from miketalk.cli.options import (
-        LIPSYNC_MODELS,
-        SAMPLINGS,
         checked,
         max_px_value,
         text_options,
@@ -142,7 +92,6 @@ def add_dub_parser(sub) -> None:
         verbose_option,
         voice_option,
     )
-    from miketalk.lipsync.settings import Sampling
 
     dub = sub.add_parser(
         "dub",
@@ -158,14 +107,15 @@ def add_dub_parser(sub) -> None:
     dub.add_argument("--model", help="a model built from clips of the person in the video")
     dub.add_argument(
         "--sampling",
-        choices=[s for s in SAMPLINGS if s != Sampling.PAPER],  # a video cannot be lengthened
-        default=Sampling.BLUR.value,
+        choices=[s for s in SAMPLINGS if s != "paper"],  # a video cannot be lengthened
+        default="blur",
     )
     dub.add_argument(
         "--max-px-per-frame",
         type=checked(max_px_value),
-        default=defaults.MAX_PX_PER_FRAME,
-        help=f"largest step between morphs, pixels (default {defaults.MAX_PX_PER_FRAME:g})",
+        default=None,
+        help=f"largest step between morphs, pixels (default {MAX_PX_PER_FRAME:g}; none with "
+        "--sampling none)",
     )
     dub.add_argument(
         "--lipsync-model",

@@ -22,9 +22,9 @@ import sys
 from collections.abc import Sequence
 from concurrent.futures.process import BrokenProcessPool
 
+from miketalk.api import MachineFailure, MiketalkError, SettingError
 from miketalk.cli.parser import build_parser
 from miketalk.console import handle_termination, native_output_logged
-from miketalk.errors import MachineFailure, MiketalkError
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -84,6 +84,9 @@ def _main(argv: Sequence[str] | None) -> int:
         except MemoryError:
             print("miketalk: error: memory ran out; the output was not written", file=sys.stderr)
             return 1
+        except SettingError as err:
+            print(f"miketalk: error: {err.render(flag)}", file=sys.stderr)
+            return 2
         except MiketalkError as err:
             print(f"miketalk: error: {err}", file=sys.stderr)
             return 2
@@ -127,3 +130,13 @@ def _main(argv: Sequence[str] | None) -> int:
                 file=sys.stderr,
             )
             return 1
+
+
+#: The settings whose flag is not their name (:func:`flag`).
+FLAGS = {"overwrite": "--force"}
+
+
+def flag(setting: str) -> str:
+    """The option that sets ``setting`` (:class:`~miketalk.errors.SettingError`'s names):
+    its name with dashes, ``--max-px-per-frame``, but for :data:`FLAGS`."""
+    return FLAGS.get(setting, "--" + setting.replace("_", "-"))

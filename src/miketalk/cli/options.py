@@ -5,11 +5,14 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 
-from miketalk.errors import MiketalkError
-from miketalk.lipsync.settings import LIPSYNC_MODELS, SAMPLINGS, TRAJECTORIES
-from miketalk.speech.festival.voices import VOICES
-
-__all__ = ["LIPSYNC_MODELS", "SAMPLINGS", "TRAJECTORIES", "VOICES"]
+from miketalk.api.vocabulary import (
+    TRAJECTORIES,
+    VOICES,
+    MiketalkError,
+    check_fps,
+    check_max_px,
+    check_max_slowdown,
+)
 
 
 def checked(check: Callable[[object], object]) -> Callable[[str], float]:
@@ -29,22 +32,7 @@ def checked(check: Callable[[object], object]) -> Callable[[str], float]:
     return parse
 
 
-def fps_value(value: object) -> object:
-    from miketalk.lipsync.settings import check_fps
-
-    return check_fps(value)
-
-
-def max_px_value(value: object) -> object:
-    from miketalk.lipsync.settings import check_max_px
-
-    return check_max_px(value)
-
-
-def max_slowdown_value(value: object) -> object:
-    from miketalk.lipsync.settings import check_max_slowdown
-
-    return check_max_slowdown(value)
+fps_value, max_px_value, max_slowdown_value = check_fps, check_max_px, check_max_slowdown
 
 
 def voice_option(parser: argparse.ArgumentParser) -> None:

@@ -6,12 +6,11 @@ import argparse
 from typing import NoReturn
 
 from miketalk import __version__, defaults
+from miketalk.api.vocabulary import FPS_RANGE, LIPSYNC_MODELS, MAX_PX_RANGE, SAMPLINGS
 from miketalk.cli.build import add_build_parser
 from miketalk.cli.cues import cmd_cues
 from miketalk.cli.dub import add_dub_parser
 from miketalk.cli.options import (
-    LIPSYNC_MODELS,
-    SAMPLINGS,
     checked,
     fps_value,
     max_px_value,
@@ -51,8 +50,6 @@ renders one morph per frame."""
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
-    from miketalk.lipsync.settings import FPS_RANGE, MAX_PX_RANGE
-
     parser = _Parser(prog="miketalk", description="Text-to-audiovisual speech by morphing visemes.")
     parser.add_argument("--version", action="version", version=f"miketalk {__version__}")
     parser.add_argument(

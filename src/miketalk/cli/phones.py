@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from miketalk.cli.common import festival_backend, read_text
+from miketalk import api
+from miketalk.cli.common import read_text
 
 
 def cmd_phones(args: argparse.Namespace) -> int:
@@ -13,7 +14,7 @@ def cmd_phones(args: argparse.Namespace) -> int:
     from miketalk.visemes import default_table
 
     text = read_text(args)
-    utterance = festival_backend(args).synthesize(text)
+    utterance = api.phones(text, voice=args.voice)
     table = default_table()
     rows = [
         {

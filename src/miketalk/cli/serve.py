@@ -19,7 +19,7 @@ import logging
 import sys
 from pathlib import Path
 
-from miketalk.errors import MiketalkError
+from miketalk.api import MiketalkError
 
 __all__ = ["add_serve_parser", "cmd_serve"]
 

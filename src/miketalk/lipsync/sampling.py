@@ -33,6 +33,7 @@ from miketalk.lipsync.settings import (
     Sampling,
     check_max_slowdown,
     check_sampling,
+    check_sampling_rules,
 )
 from miketalk.lipsync.timeline import FrameSample, Timeline, keyframes, plan
 from miketalk.speech.backend import PendingSpeech, SpeechBackend
@@ -375,13 +376,8 @@ def _retimer(
     max_slowdown: float | None,
 ) -> Callable[[Sequence[Phone]], np.ndarray | None]:
     """phones -> oversampled durations, or None where nothing is lengthened."""
-    check_sampling(sampling)
     max_slowdown = check_max_slowdown(max_slowdown)
-    if max_slowdown is not None and sampling != "paper":
-        raise MiketalkError(
-            "max_slowdown caps the lengthening of sampling='paper'; "
-            f"sampling={sampling!r} keeps the speech's own duration"
-        )
+    check_sampling_rules(check_sampling(sampling), max_slowdown)
 
     def retime(phones: Sequence[Phone]) -> np.ndarray | None:
         if max_px_per_frame is None or sampling != "paper":

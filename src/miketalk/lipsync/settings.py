@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from miketalk import defaults
-from miketalk.errors import MiketalkError
+from miketalk.errors import MiketalkError, SettingError
 
 
 class Sampling(StrEnum):
@@ -90,7 +90,7 @@ def check_max_px(max_px_per_frame: object) -> float:
 def check_sampling(sampling: object) -> Sampling:
     """``sampling`` checked to be one of :data:`SAMPLINGS`."""
     if sampling not in SAMPLINGS:
-        raise MiketalkError(f"sampling must be one of {', '.join(SAMPLINGS)}, not {sampling!r}")
+        raise SettingError(f"{{sampling}} must be one of {', '.join(SAMPLINGS)}, not {sampling!r}")
     return Sampling(sampling)
 
 
@@ -119,11 +119,11 @@ def check_max_slowdown(max_slowdown: object) -> float | None:
     if max_slowdown is None:
         return None
     if isinstance(max_slowdown, bool) or not isinstance(max_slowdown, numbers.Real):
-        raise MiketalkError(f"max_slowdown must be a number of at least 1, not {max_slowdown!r}")
+        raise SettingError(f"{{max_slowdown}} must be a number of at least 1, not {max_slowdown!r}")
     value = float(max_slowdown)
     if not 1.0 <= value < float("inf"):  # also NaN
-        raise MiketalkError(
-            f"max_slowdown must be a finite number of at least 1 (1: the speech's own "
+        raise SettingError(
+            f"{{max_slowdown}} must be a finite number of at least 1 (1: the speech's own "
             f"duration), not {value:g}"
         )
     return value
@@ -131,12 +131,12 @@ def check_max_slowdown(max_slowdown: object) -> float | None:
 
 def _in_range(value: object, name: str, bounds: tuple[float, float], unit: str) -> float:
     lo, hi = bounds
-    message = f"{name} must be a number from {lo:g} to {hi:g} {unit}"
+    message = f"{{{name}}} must be a number from {lo:g} to {hi:g} {unit}"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise MiketalkError(f"{message}, not {value!r}")
+        raise SettingError(f"{message}, not {value!r}")
     number = float(value)
     if not lo <= number <= hi:  # also NaN
-        raise MiketalkError(f"{message}, not {number:g}")
+        raise SettingError(f"{message}, not {number:g}")
     return number
 
 
@@ -147,17 +147,37 @@ def check_trajectory(trajectory: str | None, *, lipsync_model: str, recorded: bo
 
     Raises
     ------
-    MiketalkError
-        In one line, naming the command-line options.
+    SettingError
+        In one line, naming the settings.
     """
     if trajectory is None:
         return
     if lipsync_model != "trained":
-        raise MiketalkError("--trajectory goes with --lipsync-model trained")
+        raise _not_trained()
     if trajectory == "heard" and not recorded:
-        raise MiketalkError(
-            "the heard trajectory (--trajectory heard) listens to a recording: give one "
-            "(--audio), or use window or regularized with typed text"
+        raise SettingError(
+            "the heard trajectory ({trajectory} heard) listens to a recording: give one "
+            "({audio}), or use window or regularized with typed text"
+        )
+
+
+def _not_trained() -> SettingError:
+    """A trajectory asked for with another lip-sync model than ``trained``."""
+    return SettingError("{trajectory} goes with {lipsync_model} trained")
+
+
+def check_sampling_rules(sampling: Sampling, max_slowdown: float | None) -> None:
+    """``max_slowdown`` goes with the paper's sampling, the only one that lengthens speech.
+
+    Raises
+    ------
+    SettingError
+        Naming both settings.
+    """
+    if max_slowdown is not None and sampling != Sampling.PAPER:
+        raise SettingError(
+            "{max_slowdown} caps how much {sampling} paper lengthens the speech; "
+            f"{{sampling}} {Sampling(sampling).value} keeps the speech's own duration"
         )
 
 
@@ -231,13 +251,9 @@ class LipsyncSettings:
             check_max_px(self.max_px_per_frame)
         object.__setattr__(self, "sampling", check_sampling(self.sampling))
         check_max_slowdown(self.max_slowdown)
-        if self.max_slowdown is not None and self.sampling != Sampling.PAPER:
-            raise MiketalkError(
-                "max_slowdown caps the paper mode's lengthening of the speech: it goes with "
-                f"sampling 'paper', not '{self.sampling}'"
-            )
+        check_sampling_rules(self.sampling, self.max_slowdown)
         if self.model is not None:
             object.__setattr__(self, "model", check_lipsync_model(self.model))
         object.__setattr__(self, "trajectory", check_trajectory_name(self.trajectory))
         if self.trajectory is not None and self.model not in (None, LipsyncModel.TRAINED):
-            raise MiketalkError("--trajectory goes with --lipsync-model trained")
+            raise _not_trained()

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from miketalk.errors import MiketalkError
+from miketalk.errors import MiketalkError, SettingError
 from miketalk.flow import FlowDatabase
 from miketalk.media.images import read_image
 from miketalk.model.background import KeptBackground
@@ -253,15 +253,27 @@ class Model(Morphs):
 def open_model(directory: str | os.PathLike[str] | None, **options: object) -> Model:
     """Open a model (None: :func:`~miketalk.model.parts.default_model_dir`), with a hint on
     how to build the default one when it is missing; ``options`` go to :class:`Model`."""
+    return Model(model_path(directory), **options)
+
+
+def model_path(directory: str | os.PathLike[str] | None) -> Path:
+    """The model directory ``directory`` names (None: the default one), checked to hold a
+    model before anything is read, with a hint on how to build the default one.
+
+    Raises
+    ------
+    SettingError
+        No model there (naming the ``model`` setting).
+    """
     path = Path(directory) if directory is not None else default_model_dir()
     if not (path / "manifest.json").exists():
         hint = (
             "build the default model with `make run` (or `snakemake --cores all model`)"
             if directory is None
-            else "pass --model with a directory built by the workflow"
+            else "name a {model} directory built by the workflow or `miketalk build`"
         )
-        raise MiketalkError(f"no model at {path}: {hint}")
-    return Model(path, **options)
+        raise SettingError(f"no model at {path}: {hint}")
+    return path
 
 
-__all__ = ["RENDER_WORKERS", "Model", "open_model"]
+__all__ = ["RENDER_WORKERS", "Model", "model_path", "open_model"]

@@ -39,15 +39,14 @@ from typing import Any
 from urllib.parse import parse_qs, unquote, urlsplit
 
 from miketalk import __version__
-from miketalk.errors import MiketalkError
-from miketalk.lipsync.settings import LIPSYNC_MODELS
+from miketalk.api import MiketalkError
+from miketalk.api.vocabulary import DEFAULT_VOICE, LIPSYNC_MODELS, VOICES
 from miketalk.serve.build import BUILD_STAGES
 from miketalk.serve.catalog import Catalog
 from miketalk.serve.config import MAX_JSON_BYTES, ServeConfig
 from miketalk.serve.forms import make_job
 from miketalk.serve.jobs import Board
 from miketalk.serve.uploads import UploadRefused, Uploads
-from miketalk.speech.festival.voices import DEFAULT_VOICE, VOICES
 
 log = logging.getLogger(__name__)
 

@@ -9,7 +9,7 @@ the group: the child takes it as Ctrl-C (:func:`miketalk.console.handle_terminat
 build's clean-up runs (its work folder beside the model is removed; the model folder only
 ever appears complete, by rename, at the end); a child that has not ended after
 :data:`CANCEL_GRACE` seconds is killed, and what it left beside the model swept
-(:func:`miketalk.media.scratch.sweep_scratch`).
+(:func:`miketalk.api.sweep_build`).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from miketalk import defaults
-from miketalk.errors import MiketalkError
+from miketalk import api, defaults
+from miketalk.api import BuildSettings, MiketalkError, list_model_files, sweep_build
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +63,7 @@ class BuildRun:
     label : str
         The model's name on the page (kept in its ``build/serve.json``).
     options : mapping
-        More arguments of ``build_model_from_video`` (JSON values).
+        More of :class:`~miketalk.api.BuildSettings` (JSON values).
     workers : int
         Cores the build uses.
     """
@@ -137,9 +137,7 @@ class BuildRun:
             log.warning("the build did not stop in %.0f s: killed", CANCEL_GRACE)
         self._signal(signal.SIGKILL)  # the child, and anything of its group still there
         self.process.wait()
-        from miketalk.media.scratch import sweep_scratch
-
-        sweep_scratch(self.model_dir.parent)
+        sweep_build(self.model_dir)
 
     def _signal(self, signum: int) -> None:
         with contextlib.suppress(ProcessLookupError, PermissionError):
@@ -173,21 +171,18 @@ def main(argv: list[str]) -> int:
     with handle_termination():
         try:
             job = json.loads(sys.stdin.read())
-            from miketalk.building.from_video import build_model_from_video
-
-            seconds = build_model_from_video(
-                job["video"], job["model_dir"], **job["script"], workers=job["workers"],
-                progress=False, report=lambda stage, took, peak: send("stage", stage, took, peak),
-                **job["options"],
+            settings = BuildSettings(workers=job["workers"], **job["options"])
+            built = api.build(
+                job["video"], job["model_dir"], settings, **job["script"],
+                report=lambda stage, took, peak: send("stage", stage, took, peak),
             )  # fmt: skip
             doc = {"label": job["label"], "built": time.strftime("%Y-%m-%d %H:%M:%S")}
             with contextlib.suppress(OSError):
-                from miketalk.model.write import list_model_files
                 from miketalk.serve.work import write_text
 
                 write_text(Path(job["model_dir"]) / "build" / LABEL_FILE, json.dumps(doc))
                 list_model_files(job["model_dir"])  # named: one of the model's own files
-            send("done", seconds)
+            send("done", built.stage_seconds)
         except KeyboardInterrupt:
             send("cancelled")
             return 130

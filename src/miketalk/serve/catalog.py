@@ -16,13 +16,11 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from miketalk.errors import MiketalkError
-from miketalk.model.background import has_background
-from miketalk.model.parts import (
-    default_lipsync_model,
+from miketalk.api import (
+    MiketalkError,
+    describe_model,
     is_model,
-    lipsync_models_in,
-    picture,
+    model_picture,
     workflow_results,
 )
 from miketalk.serve.build import LABEL_FILE
@@ -62,22 +60,22 @@ class Entry:
         MiketalkError
             A model whose small files cannot be read.
         """
-        person = has_background(self.path)
+        info = describe_model(self.path)
         return {
             "id": self.id,
             "label": self.label,
             "source": self.source,
-            "person": person,
-            "lipsync_models": list(lipsync_models_in(self.path)),
-            "own_text": default_lipsync_model(self.path, recorded=False),
-            "own_recording": default_lipsync_model(self.path, recorded=True),
+            "person": info.person,
+            "lipsync_models": list(info.lipsync_models),
+            "own_text": info.own_text,
+            "own_recording": info.own_recording,
             "image": f"/api/models/{self.id}/image",
         }
 
     def image(self) -> Path | None:
         """A picture of the face: its person's first frame, else its rest viseme
-        (:func:`miketalk.model.parts.picture`)."""
-        return picture(self.path)
+        (:func:`miketalk.api.model_picture`)."""
+        return model_picture(self.path)
 
 
 def workflow_models() -> list[Path]:

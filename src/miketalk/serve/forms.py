@@ -3,8 +3,9 @@
 The page sends a job as JSON: the model by its id in the server's list, the uploads by the
 ids :class:`~miketalk.serve.uploads.Uploads` gave them, the text as text, and choices from
 closed lists (lip-sync model, voice). Anything else is refused in one line before a folder
-is made; the quick checks the command line makes before its work (the lip-sync model against
-the model, a dub's model being a person's) are made here too, so their line comes at once.
+is made; the library's checks before the work (:func:`miketalk.api.check`: the lip-sync model
+against the model, a dub's model being a person's), the same as the command line's, are made
+here too, so their line comes at once.
 """
 
 from __future__ import annotations
@@ -14,18 +15,20 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from miketalk.errors import MiketalkError
-from miketalk.lipsync.settings import LIPSYNC_MODELS
+from miketalk import api
+from miketalk.api import DubSettings, MiketalkError, SaySettings, SettingError
+from miketalk.api.vocabulary import DEFAULT_VOICE, LIPSYNC_MODELS, VOICES
 from miketalk.serve.catalog import Catalog, Entry
 from miketalk.serve.config import MAX_TEXT_CHARS
-from miketalk.serve.jobs import Board, Job
+from miketalk.serve.jobs import Board, Job, plainly
 from miketalk.serve.uploads import Upload, Uploads
-from miketalk.speech.festival.voices import DEFAULT_VOICE, VOICES
 
 #: The kinds of job the page can ask for.
 KINDS = ("say", "dub", "build")
 #: The longest name of a model built on the page, characters.
 MAX_LABEL_CHARS = 80
+#: The page's name of each setting a job sets (:class:`~miketalk.errors.SettingError`'s names).
+FIELDS = {"lipsync_model": "lipsync", "audio": "recording"}
 
 
 def _text(body: Mapping[str, Any], key: str = "text", limit: int = MAX_TEXT_CHARS) -> str:
@@ -46,19 +49,24 @@ def _choice(body: Mapping[str, Any], key: str, choices: tuple[str, ...], default
     return value
 
 
-def _speech_settings(body: Mapping[str, Any], entry: Entry, recorded: bool) -> dict[str, Any]:
-    """The text, lip-sync model and voice of a say or dub, checked against the model."""
-    from miketalk.model.parts import choose_lipsync_model
-
+def _speech_settings(
+    body: Mapping[str, Any], entry: Entry, *, recorded: bool, dub: bool
+) -> dict[str, Any]:
+    """The text, lip-sync model and voice of a say or dub, checked against the model by the
+    library's own check (:func:`miketalk.api.check`), its settings named as the page names
+    them (:data:`FIELDS`) and its paths as the page knows them."""
     text = _text(body)
     if not recorded and not text:
         raise MiketalkError("no text: type what the face should say, or give a recording")
     lipsync = _choice(body, "lipsync", ("", *LIPSYNC_MODELS), "")
-    voice = _choice(body, "voice", tuple(VOICES), DEFAULT_VOICE)
+    voice = None if recorded else _choice(body, "voice", tuple(VOICES), DEFAULT_VOICE)
+    options = {"model": entry.path, "lipsync_model": lipsync or None, "voice": voice}
     try:
-        chosen = choose_lipsync_model(entry.path, lipsync or None, recorded=recorded)
-    except MiketalkError as err:  # the model named as the page knows it
-        raise MiketalkError(str(err).replace(str(entry.path), entry.label)) from None
+        settings = (DubSettings if dub else SaySettings)(**options)
+        chosen = api.check(settings, recorded=recorded, dub=dub)[1]
+    except MiketalkError as err:  # named as the page knows them
+        line = err.render(FIELDS) if isinstance(err, SettingError) else str(err)
+        raise MiketalkError(plainly(line, [(str(entry.path), entry.label)])) from None
     return {"text": text or None, "lipsync": lipsync or None, "voice": voice, "chosen": chosen}
 
 
@@ -80,15 +88,9 @@ def make_job(body: object, *, board: Board, catalog: Catalog, uploads: Uploads) 
         return _build(body, board=board, uploads=uploads)
     entry = catalog.get(body.get("model"))
     recorded = bool(body.get("audio"))
-    if kind == "dub":
-        if not entry.describe()["person"]:
-            raise MiketalkError(
-                f"the model {entry.label} was not built from video of a person: dub needs a "
-                "model built from clips of the person in the video"
-            )
-        if not body.get("video"):
-            raise MiketalkError("choose the video to dub")
-    settings = _speech_settings(body, entry, recorded)
+    settings = _speech_settings(body, entry, recorded=recorded, dub=kind == "dub")
+    if kind == "dub" and not body.get("video"):
+        raise MiketalkError("choose the video to dub")
     job = board.new_job(kind)
     try:
         audio = video = None

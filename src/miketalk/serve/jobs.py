@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from miketalk.errors import MiketalkError
+from miketalk.api import MiketalkError, OpenModels, load_engine
 from miketalk.serve.build import BUILD_STAGES, BuildRun
 from miketalk.serve.catalog import Catalog
 from miketalk.serve.config import ServeConfig
-from miketalk.serve.work import Outcome, Warm, one_line, speak, write_text
+from miketalk.serve.work import Outcome, one_line, speak, write_text
 
 log = logging.getLogger(__name__)
 
@@ -127,9 +127,14 @@ class Job:
 
     def plainly(self, line: str) -> str:
         """``line`` with the server's paths named as the page knows them."""
-        for path, name in sorted(self.aliases, key=lambda a: -len(a[0])):
-            line = line.replace(path, name)
-        return line
+        return plainly(line, self.aliases)
+
+
+def plainly(line: str, aliases: list[tuple[str, str]]) -> str:
+    """``line`` with each path of ``aliases`` (path, name) named as the page knows it."""
+    for path, name in sorted(aliases, key=lambda a: -len(a[0])):
+        line = line.replace(path, name)
+    return line
 
 
 class Board:
@@ -277,9 +282,9 @@ class Board:
         self._end(job, "failed", job.plainly(one_line(err)))
 
     def _speech_loop(self) -> None:
-        import miketalk.talk.say  # noqa: F401 - the first job starts warm
+        load_engine()  # the first job starts warm
 
-        warm = Warm()
+        warm = OpenModels()
         job: Job | None = None
         try:
             while (job := self._speech.get()) is not None:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
 
-from miketalk.errors import MiketalkError
+from miketalk.api import MiketalkError
 
 #: The suffixes each kind of upload keeps (any other is dropped).
 SUFFIXES: dict[str, frozenset[str]] = {

@@ -30,6 +30,7 @@ from miketalk.lipsync.settings import LipsyncSettings, Sampling
 from miketalk.lipsync.timeline import plan
 from miketalk.model.face import Model
 from miketalk.speech.types import Phone
+from miketalk.talk.speech import Recorded
 from miketalk.talk.utterance import Spoken, own_frames_doc
 from miketalk.visemes import VisemeTable
 
@@ -51,26 +52,6 @@ RATE = 16000
 LONG_SECONDS = 30.0
 
 _TOKEN = re.compile(r"[a-z0-9']+(?:[.\-][a-z0-9']+)*")
-
-
-@dataclass(frozen=True)
-class Recorded:
-    """A recording for :func:`miketalk.talk.say.say` to speak, and what it says.
-
-    Attributes
-    ----------
-    audio : path-like
-        The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
-    text : str or None
-        What is said. Needed unless ``timings`` is given.
-    timings : path-like or None
-        Word timings of the recording (``.align`` or ``.TextGrid``); see
-        :func:`align_recording`.
-    """
-
-    audio: str | os.PathLike[str]
-    text: str | None = None
-    timings: str | os.PathLike[str] | None = None
 
 
 @dataclass(frozen=True)

@@ -123,10 +123,8 @@ def check_frame(face: str, settings: Mapping, *, from_clips: bool) -> None:
             f"faces.{face}: frame crop needs a face from clips or from one video of any speech "
             f"(corpus source clips, or video with media), not source {settings['corpus']['source']}"
         )
-    if size is not None and frame != CROP:
-        raise ConfigError(f"faces.{face}: crop_size goes with frame crop (the face crop's size)")
     try:
-        FrameSettings(frame, size)
+        FrameSettings(frame, size)  # its rules, the command line's: named as the config's keys
     except MiketalkError as err:
         raise ConfigError(f"faces.{face}: {err}") from None
 

@@ -1,0 +1,68 @@
+"""miketalk's public API: one call per use case, each with one typed settings object and a
+typed result (docs/api.md).
+
+- :func:`say`: a text or a recording (:class:`Recorded`) to an mp4 of the model's face
+  speaking it (:class:`SaySettings`, :class:`SayResult`);
+- :func:`dub`: a video of the model's person made to say new speech (:class:`DubSettings`,
+  :class:`DubResult`);
+- :func:`build`: a model from one video of a person and what it says
+  (:class:`BuildSettings`, :class:`BuildResult`);
+- :func:`cues`: the mouth cues of a text or a recording (:class:`CuesSettings`,
+  :class:`CuesResult`).
+
+Each checks everything once, before its work where it can, and raises one
+:class:`~miketalk.errors.MiketalkError` line; a :class:`~miketalk.errors.SettingError` names
+the settings as spelled here, for the command line and the page to name as their users know
+them. :class:`OpenModels` keeps models open between calls. The command line (:mod:`miketalk.cli`)
+and the page (:mod:`miketalk.serve`) call nothing else of the library
+(``tests/test_layout.py``).
+"""
+
+from miketalk.api.build import build, list_model_files, sweep_build
+from miketalk.api.cues import cues, phones
+from miketalk.api.dub import dub
+from miketalk.api.models import (
+    ModelInfo,
+    OpenModels,
+    describe_model,
+    is_model,
+    load_engine,
+    model_picture,
+)
+from miketalk.api.results import BuildResult, CuesResult, DubResult, SayResult
+from miketalk.api.say import Recorded, check, say
+from miketalk.api.settings import BuildSettings, CuesSettings, DubSettings, SaySettings
+from miketalk.errors import MachineFailure, MiketalkError, SettingError
+from miketalk.model.parts import workflow_results
+from miketalk.speech.text import read_text_file
+
+__all__ = [
+    "BuildResult",
+    "BuildSettings",
+    "CuesResult",
+    "CuesSettings",
+    "DubResult",
+    "DubSettings",
+    "MachineFailure",
+    "MiketalkError",
+    "ModelInfo",
+    "OpenModels",
+    "Recorded",
+    "SayResult",
+    "SaySettings",
+    "SettingError",
+    "build",
+    "check",
+    "cues",
+    "describe_model",
+    "dub",
+    "is_model",
+    "list_model_files",
+    "load_engine",
+    "model_picture",
+    "phones",
+    "read_text_file",
+    "say",
+    "sweep_build",
+    "workflow_results",
+]

@@ -1,0 +1,95 @@
+"""``dub``: a video of the model's person made to say new speech, at the video's own size and
+frame rate, his head moving as it does in the video.
+
+Every frame of the video is registered to the model's reference
+(:func:`miketalk.composite.background_files.video_background`: through its face crops for a
+model built in one), the mouth is drawn for the speech at the video's own frame rate and
+composited into every frame. Speech longer than the video plays it forwards, backwards,
+forwards (no jump); shorter speech ends the video with it.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+from miketalk.api.models import OpenModels, opened
+from miketalk.api.results import DubResult
+from miketalk.api.say import Speech, checked, draw, started, voice_of
+from miketalk.api.settings import DubSettings
+from miketalk.errors import MiketalkError
+
+__all__ = ["dub"]
+
+
+def dub(
+    video: str | os.PathLike[str],
+    speech: Speech,
+    output: str | os.PathLike[str],
+    settings: DubSettings | None = None,
+    *,
+    models: OpenModels | None = None,
+    progress: bool = False,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
+) -> DubResult:
+    """Make ``video`` of the model's person say ``speech``: an mp4 at ``output`` and its
+    timeline JSON beside it.
+
+    Parameters
+    ----------
+    video : path-like
+        A frontal video of the model's person, steady light, at least a second long, at a
+        constant frame rate.
+    speech : str or Recorded
+        Typed text (Festival speaks it), or a recording and what it says.
+    output : path-like
+        The ``.mp4`` to write (``NAME.json`` beside it).
+    settings : DubSettings, optional
+        The model (built from clips of the person), how the mouth moves, the voice.
+    models : OpenModels, optional
+        Models kept open between calls (the page's).
+    progress : bool
+        Draw progress bars on stderr.
+    inputs : sequence of path-like
+        Other files the caller read for this (a text file): never written over.
+
+    Returns
+    -------
+    DubResult
+
+    Raises
+    ------
+    MiketalkError
+        In one line, before the work where it can be: a model not built from a person, a
+        video that cannot be read, lasts less than a second or has a frame rate out of range;
+        then a video whose frames do not show the model's person, or whose frames were not
+        taken at a constant rate.
+    """
+    from miketalk.composite.background_files import video_background
+    from miketalk.lipsync.settings import check_fps
+    from miketalk.media.decode import video_info
+    from miketalk.media.timing import check_constant_rate
+
+    settings = settings if settings is not None else DubSettings()
+    if not Path(video).is_file():
+        raise MiketalkError(f"video file not found: {video}")
+    plan = checked(speech, output, settings, inputs=(*inputs, video), dub=True)
+    _, _, fps = video_info(video)
+    try:
+        check_fps(fps)
+    except MiketalkError as err:
+        raise MiketalkError(f"{video}: its frame rate: {err}") from None
+    lipsync = settings.lipsync(fps, plan.lipsync_model)
+    with started(speech, settings) as said:  # Festival works while the video registers
+        with opened(plan.model_dir, models, background="still") as (model, _):
+            background = video_background(
+                model, video, progress=progress, check_person=settings.check_person
+            )
+            check_constant_rate(video, fps, len(background))  # shown when they were taken
+            spoken = draw(said, plan, lipsync, model, background, progress=progress)
+    return DubResult(
+        spoken, fps, settings.sampling, settings.step_limit, **voice_of(speech, settings),
+        source=Path(video), size=tuple(background.size), source_frames=len(background),
+        blinks=tuple(background.blinks),
+    )  # fmt: skip

@@ -1,0 +1,204 @@
+"""``say``: a text or a recording in, an mp4 of the model's face speaking it out.
+
+:func:`check` makes every check of a ``say`` or ``dub`` that needs no file written (the
+settings against the speech and the model's small files) and settles the lip-sync model;
+:func:`say` makes it, then starts Festival (it analyses the text while the model opens),
+opens the model and its background, settles the frame rate and draws the utterance
+(:func:`miketalk.talk.say.say`). The live-speech issue makes the drawing a stream of timed
+chunks (audio and frames); :func:`say` writes that stream to the mp4.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from miketalk import defaults
+from miketalk.api.models import OpenModels, opened
+from miketalk.api.results import SayResult
+from miketalk.api.settings import DubSettings, SaySettings, SpeechSettings, check_recorded_speech
+from miketalk.errors import SettingError
+from miketalk.lipsync.settings import LipsyncModel, Sampling
+from miketalk.speech.festival.voices import DEFAULT_VOICE
+from miketalk.talk.speech import Recorded, Speech
+
+if TYPE_CHECKING:
+    from miketalk.speech.backend import PendingSpeech
+
+__all__ = ["Recorded", "Speech", "check", "say"]
+
+log = logging.getLogger("miketalk")
+
+
+def check(
+    settings: SpeechSettings, *, recorded: bool, dub: bool = False
+) -> tuple[Path, LipsyncModel]:
+    """Every check of a ``say`` (or with ``dub`` a ``dub``) of a recording (``recorded``) or of
+    typed text that needs no file written: the settings against the speech, the model asked
+    for, and what it holds; before Festival or numpy start.
+
+    Returns
+    -------
+    (Path, LipsyncModel)
+        The model's directory, and the lip-sync model the utterance is drawn with.
+
+    Raises
+    ------
+    MiketalkError
+        In one line (a :class:`~miketalk.errors.SettingError` names the settings): a setting
+        for typed text given with a recording, the paper's sampling with a voice that sets its
+        own durations, no model there, a model without the lip-sync model asked for, a dub
+        with a model not built from video of a person.
+    """
+    from miketalk.model.face import model_path
+    from miketalk.model.parts import choose_lipsync_model
+
+    if recorded:
+        check_recorded_speech(settings)
+    else:
+        from miketalk.speech.festival.voices import get_voice
+
+        voice = get_voice(settings.voice or DEFAULT_VOICE)
+        if settings.sampling == Sampling.PAPER and not voice.follows_durations:
+            raise SettingError(
+                f"the {voice.name} voice sets its own phone durations, so {{sampling}} paper "
+                "cannot lengthen them: use {sampling} blur (the default) or {voice} kal or ked"
+            )
+    directory = model_path(settings.model)
+    if dub:
+        from miketalk.model.background import has_background
+
+        if not has_background(directory):
+            raise SettingError(
+                f"the model {directory} was not built from video of a person: dub needs a "
+                "{model} built from clips of the person in the video"
+            )
+    chosen = choose_lipsync_model(
+        directory, settings.lipsync_model, trajectory=settings.trajectory, recorded=recorded
+    )
+    return directory, chosen
+
+
+@dataclass(frozen=True)
+class Checked:
+    """An utterance checked, before its work: what :func:`checked` settled."""
+
+    output: Path
+    model_dir: Path
+    lipsync_model: LipsyncModel
+    inputs: tuple[str | os.PathLike[str] | None, ...]
+    overwrite: bool
+
+
+def checked(
+    speech: Speech,
+    output: str | os.PathLike[str],
+    settings: SpeechSettings,
+    *,
+    inputs: Sequence[str | os.PathLike[str] | None],
+    dub: bool = False,
+) -> Checked:
+    """:func:`check`, then the output (:func:`miketalk.talk.output.check_output`)."""
+    from miketalk.talk.output import check_output
+
+    recorded = isinstance(speech, Recorded)
+    model_dir, chosen = check(settings, recorded=recorded, dub=dub)
+    inputs = (*inputs, *((speech.audio, speech.timings) if recorded else ()))
+    output = check_output(output, overwrite=settings.overwrite, inputs=inputs)
+    return Checked(output, model_dir, chosen, inputs, settings.overwrite)
+
+
+@contextlib.contextmanager
+def started(speech: Speech, settings: SpeechSettings) -> Iterator[Recorded | PendingSpeech]:
+    """A recording as it is; typed text with Festival started on it (closed on the way out,
+    if :func:`miketalk.talk.say.say` did not finish it)."""
+    if isinstance(speech, Recorded):
+        yield speech
+        return
+    from miketalk.speech import get_backend
+
+    with get_backend("festival", voice=settings.voice or DEFAULT_VOICE).start(speech) as pending:
+        log.info("Festival started (%s voice)", settings.voice or DEFAULT_VOICE)
+        yield pending
+
+
+def say(
+    speech: Speech,
+    output: str | os.PathLike[str],
+    settings: SaySettings | None = None,
+    *,
+    models: OpenModels | None = None,
+    progress: bool = False,
+    inputs: Sequence[str | os.PathLike[str] | None] = (),
+) -> SayResult:
+    """Make the model's face say ``speech``: an mp4 at ``output``, its timeline JSON beside it.
+
+    Parameters
+    ----------
+    speech : str or Recorded
+        Typed text (Festival speaks it), or a recording and what it says.
+    output : path-like
+        The ``.mp4`` to write (``NAME.json`` beside it); the two replace an older pair
+        together or not at all.
+    settings : SaySettings, optional
+        The model, how its mouth moves, the frame rate, the voice, the background.
+    models : OpenModels, optional
+        Models kept open between calls (the page's); None: the model is opened and closed.
+    progress : bool
+        Draw progress bars on stderr.
+    inputs : sequence of path-like
+        Files the caller read for this (a text file): never written over.
+
+    Returns
+    -------
+    SayResult
+
+    Raises
+    ------
+    MiketalkError
+        In one line, before the work where it can be (:func:`check`, the output).
+    """
+    settings = settings if settings is not None else SaySettings()
+    plan = checked(speech, output, settings, inputs=inputs)
+    with started(speech, settings) as said:
+        with opened(
+            plan.model_dir, models, background=settings.background, progress=progress,
+            check_person=settings.check_person,
+        ) as (model, background):  # fmt: skip
+            fps = settings.fps if settings.fps is not None else own_fps(model, background)
+            spoken = draw(said, plan, settings.lipsync(fps, plan.lipsync_model), model,
+                          background, progress=progress)  # fmt: skip
+    return SayResult(
+        spoken, fps, settings.sampling, settings.step_limit,
+        max_slowdown=settings.max_slowdown, **voice_of(speech, settings),
+    )  # fmt: skip
+
+
+def own_fps(model: Any, background: Any) -> float:
+    """The frame rate a ``say`` draws at unless told: the background video's for a model that
+    plays its mouth into a face crop of it (its head motion frame for frame; 29.97 stays
+    29.97), else :data:`miketalk.defaults.FPS`."""
+    in_crop = background is not None and model.crop is not None
+    return background.fps if in_crop else defaults.FPS
+
+
+def draw(speech, plan: Checked, lipsync, model, background, *, progress: bool):
+    """The utterance drawn and written (:func:`miketalk.talk.say.say`)."""
+    from miketalk.talk.say import say as say_utterance
+
+    return say_utterance(
+        speech, plan.output, model=model, settings=lipsync, progress=progress,
+        overwrite=plan.overwrite, background=background, inputs=plan.inputs,
+    )  # fmt: skip
+
+
+def voice_of(speech: Speech, settings: SpeechSettings | DubSettings) -> dict:
+    """Who spoke: Festival's ``voice``, or the recording (``audio``)."""
+    if isinstance(speech, Recorded):
+        return {"audio": str(speech.audio)}
+    return {"voice": settings.voice or DEFAULT_VOICE}
