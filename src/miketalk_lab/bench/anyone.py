@@ -370,6 +370,8 @@ def _work(args) -> str:
             got, per_frame = measure_clip(clip, dubs, args.out)
             rows += [{**r, "held": ",".join(held)} for r in got]
             frames.append(per_frame)
+    if not rows:
+        raise MiketalkError("no held-out address was dubbed: " + "; ".join(refused))
     clips = pd.DataFrame(rows)
     clips.to_csv(args.out / "clips.csv", index=False, float_format="%.4f")
     frames = pd.concat(frames)
