@@ -272,7 +272,7 @@ def native_output_logged() -> Iterator[TextIO]:
         _flush_c_stdio()  # what native code left in the C library's buffers goes to the pipe
         os.dup2(keep_out, 1)
         os.dup2(keep_err, 2)
-        reader.join(timeout=2.0)
+        reader.join(timeout=5.0)  # its last lines logged before the command's own last line
         for h in retarget:
             h.setStream(old_err)
         sys.stderr = old_err

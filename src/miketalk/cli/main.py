@@ -74,62 +74,59 @@ def _main(argv: Sequence[str] | None) -> int:
         logging.getLogger("miketalk").setLevel(logging.INFO)
     from miketalk.workers import one_blas_thread
 
-    with handle_termination(), native_output_logged() as out, one_blas_thread():
-        args.out = out
-        try:
-            return args.func(args)
-        except MachineFailure as err:
-            print(f"miketalk: error: {err}", file=sys.stderr)
-            return 1
-        except MemoryError:
-            print("miketalk: error: memory ran out; the output was not written", file=sys.stderr)
-            return 1
-        except SettingError as err:
-            print(f"miketalk: error: {err.render(flag)}", file=sys.stderr)
-            return 2
-        except MiketalkError as err:
-            print(f"miketalk: error: {err}", file=sys.stderr)
-            return 2
-        except KeyboardInterrupt as err:
-            signum = getattr(err, "signum", 2)
-            print(
-                f"miketalk: {'interrupted' if signum == 2 else 'terminated'}",
-                file=sys.stderr,
-            )
-            return 128 + signum
-        except BrokenProcessPool:
-            print(
-                "miketalk: error: a worker process died (killed when memory or disk "
-                "ran out?); the output was not written",
-                file=sys.stderr,
-            )
-            return 1
-        except BrokenPipeError:
-            # the reader went away (e.g. `| head`): stop quietly
-            import contextlib
-            import io
-            import os
+    with handle_termination():
+        with native_output_logged() as out, one_blas_thread():
+            args.out = out
+            code, line = _outcome(args)
+        # after the relay of native output has ended: the libraries' lines come first
+        if line:
+            print(line, file=sys.stderr)
+        return code
 
-            with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation):
-                os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
-            return 0
-        except OSError as err:
-            where = f": {err.filename}" if err.filename else ""
-            if err.errno in (errno.ENOSPC, errno.EDQUOT):
-                print(f"miketalk: error: no space left on the disk{where}", file=sys.stderr)
-                return 1
-            # the machine's doing or another program's (a file removed under a running
-            # build): one line, the details with -v
-            if args.verbose:
-                import traceback
 
-                traceback.print_exception(err, file=sys.stderr)
-            print(
-                f"miketalk: error: {err.strerror or err}{where} (removed or changed while "
-                "miketalk ran?); the output was not written",
-                file=sys.stderr,
-            )
-            return 1
+def _outcome(args) -> tuple[int, str | None]:
+    """Run the command of ``args``: its exit status, and the one line that ends it."""
+    try:
+        return args.func(args), None
+    except MachineFailure as err:
+        return 1, f"miketalk: error: {err}"
+    except MemoryError:
+        return 1, "miketalk: error: memory ran out; the output was not written"
+    except SettingError as err:
+        return 2, f"miketalk: error: {err.render(flag)}"
+    except MiketalkError as err:
+        return 2, f"miketalk: error: {err}"
+    except KeyboardInterrupt as err:
+        signum = getattr(err, "signum", 2)
+        return 128 + signum, f"miketalk: {'interrupted' if signum == 2 else 'terminated'}"
+    except BrokenProcessPool:
+        return 1, (
+            "miketalk: error: a worker process died (killed when memory or disk "
+            "ran out?); the output was not written"
+        )
+    except BrokenPipeError:
+        # the reader went away (e.g. `| head`): stop quietly
+        import contextlib
+        import io
+        import os
+
+        with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), args.out.fileno())
+        return 0, None
+    except OSError as err:
+        where = f": {err.filename}" if err.filename else ""
+        if err.errno in (errno.ENOSPC, errno.EDQUOT):
+            return 1, f"miketalk: error: no space left on the disk{where}"
+        # the machine's doing or another program's (a file removed under a running
+        # build): one line, the details with -v
+        if args.verbose:
+            import traceback
+
+            traceback.print_exception(err, file=sys.stderr)
+        return 1, (
+            f"miketalk: error: {err.strerror or err}{where} (removed or changed while "
+            "miketalk ran?); the output was not written"
+        )
 
 
 #: The settings whose flag is not their name (:func:`flag`).
