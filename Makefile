@@ -7,7 +7,7 @@ SHELL := /bin/bash
 PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
-APT_PACKAGES := festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts libegl1 libgl1-mesa-dri chromium gcc python3-dev
+APT_PACKAGES := festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts libegl1 libgl1-mesa-dri chromium gcc python3-dev espeak-ng
 STAMP := $(VENV)/.installed
 CORES ?= all
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
@@ -30,10 +30,11 @@ apt:
 	  fi; \
 	fi
 
-$(STAMP): pyproject.toml setup.py src/miketalk/render/_morph_kernels.c
+$(STAMP): pyproject.toml setup.py src/miketalk/render/_morph_kernels.c requirements/recognize.txt
 	@command -v $(PYTHON) >/dev/null || { echo "$(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q --no-deps --require-hashes -r requirements/recognize.txt
 	$(BIN)/pip install -q -e '.[dev]'
 	touch $@
 

@@ -30,7 +30,8 @@ def build(
     report: Callable[[str, float, float], object] | None = None,
 ) -> BuildResult:
     """Build a model at ``output`` from ``video`` and what it says (its ``transcript``, a
-    plain text file, or its ``subtitles``, .srt or .vtt: one of them).
+    plain text file, or its ``subtitles``, .srt or .vtt: one of them, or neither: its words
+    are recognized, :mod:`miketalk.corpus.heard_script`).
 
     Parameters
     ----------
@@ -61,8 +62,8 @@ def build(
     from miketalk.building.from_video import build_model_from_video
 
     settings = settings if settings is not None else BuildSettings()
-    if (transcript is None) == (subtitles is None):
-        raise SettingError("give the video's {transcript} or its {subtitles} (one of them)")
+    if transcript is not None and subtitles is not None:  # neither: its words are recognized
+        raise SettingError("give the video's {transcript} or its {subtitles}, not both")
     seconds = build_model_from_video(
         video, output, transcript=transcript, subtitles=subtitles,
         heldout_seconds=settings.heldout_seconds, workers=settings.workers,

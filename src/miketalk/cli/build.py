@@ -1,17 +1,20 @@
 """``miketalk build``: a talking-face model from one video of a person and what it says.
 
-``miketalk build VIDEO (--transcript T | --subtitles S) -o MODEL_DIR`` runs
+``miketalk build VIDEO [--transcript T | --subtitles S] -o MODEL_DIR`` runs
 :func:`miketalk.building.from_video.build_model_from_video`: the workflow's stages for a
 face from one video, one after the other, with a progress bar naming the running stage and
 each stage's time on stderr. The work is done in a folder beside MODEL_DIR that is removed
 at the end; MODEL_DIR appears only when the model is complete (and replaces an older model
 only with --force). The model is what ``say``, ``say --audio`` and
 ``dub`` take with ``--model``; ``MODEL_DIR/build/`` keeps the utterances found
-(``segments.json``) and the corpus's tables of what was left out.
+(``segments.json``) and the corpus's tables of what was left out. Without a transcript or
+subtitles the video's words are recognized; those heard without confidence are left out and
+named, and ``segments.json`` says which recognizer heard them (``words_from``).
 
 Bad input is one line and exit status 2, before the long work where it can be:
 no video or no sound, no face or several, no speech, a transcript in another
-language or of another video, too little speech for the viseme classes.
+language or of another video (without one: speech that is not English, or noise), too
+little speech for the viseme classes.
 """
 
 from __future__ import annotations
@@ -97,7 +100,9 @@ def add_build_parser(sub) -> None:
     )
     build.add_argument("video", help="a video of one person talking, face to the camera")
     what = build.add_mutually_exclusive_group()
-    what.add_argument("--transcript", help="what the video says: a plain text file")
+    what.add_argument(
+        "--transcript", help="what the video says: a plain text file (neither: recognized)"
+    )
     what.add_argument("--subtitles", help="its subtitles: .srt or .vtt")
     build.add_argument("-o", "--output", required=True, help="the model directory to write")
     build.add_argument(

@@ -1,6 +1,7 @@
 """``miketalk dub``: a video of the model's person made to say new speech; ``--background``.
 
-``miketalk dub VIDEO (--text T | --audio A [--text T]) -o OUT.mp4``: every frame
+``miketalk dub VIDEO (--text T | --audio A [--text T]) -o OUT.mp4`` (a recording without its
+text: its words recognized): every frame
 of VIDEO is registered to the model's reference
 (:func:`miketalk.composite.background_files.video_background`: through its face crops
 for a model built in one), the mouth is
@@ -101,7 +102,11 @@ def add_dub_parser(sub) -> None:
     )
     dub.add_argument("video", help="a frontal video of the model's person, steady light, >= 1 s")
     text_options(dub)
-    dub.add_argument("--audio", help="a recording to speak instead of Festival's voice")
+    dub.add_argument(
+        "--audio",
+        help="a recording to speak instead of Festival's voice (without --text: its words "
+        "are recognized)",
+    )
     dub.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
     dub.add_argument("-o", "--output", required=True, help="the .mp4 to write (and its .json)")
     dub.add_argument("--model", help="a model built from clips of the person in the video")

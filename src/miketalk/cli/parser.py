@@ -138,7 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
     say.add_argument(
         "--audio",
         help="speak this recording (wav, mp4, ...) instead of Festival's voice; give what it "
-        "says as the text (or --file) or as --timings",
+        "says as the text (or --file) or as --timings, or neither: its words are recognized",
     )
     say.add_argument(
         "--timings",

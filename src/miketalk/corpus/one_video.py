@@ -31,6 +31,7 @@ import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,6 +41,9 @@ from miketalk.corpus.script import read_script
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.speech.word_timings import WordTiming
+
+if TYPE_CHECKING:
+    from miketalk.corpus.heard_script import HeardScript
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +80,8 @@ def segment_video(
     out : path
         The JSON file to write (atomically).
     transcript, subtitles : path
-        Its plain transcript, or its ``.srt`` / ``.vtt`` subtitles (one of them).
+        Its plain transcript, or its ``.srt`` / ``.vtt`` subtitles (one of them, or neither:
+        its words are then recognized, :mod:`miketalk.corpus.heard_script`).
     heldout_seconds : float
         The last seconds held out for the test (0: none).
     checked : VideoInputs, optional
@@ -96,7 +101,14 @@ def segment_video(
     """
     from functools import partial
 
-    from miketalk.corpus.script_fit import judge, line_of, measure_fit, trusted, where
+    from miketalk.corpus.script_fit import (
+        MIN_STRETCH,
+        judge,
+        line_of,
+        measure_fit,
+        trusted,
+        where,
+    )
     from miketalk.speech.align.phones import FIT_LIMIT
     from miketalk.speech.long_align import align_long
     from miketalk.workers import run_in_child
@@ -108,13 +120,20 @@ def segment_video(
     duration, voiced = video.duration, video.voiced_seconds
     # in a child process: the aligner and its recogniser hold the interpreter for seconds
     # at a time, and Ctrl-C or SIGTERM must stop the build at once (run_in_child)
-    found = trusted(run_in_child(partial(align_long, fit_limit=FIT_LIMIT), samples, RATE, cues))
+    found = run_in_child(partial(align_long, fit_limit=FIT_LIMIT), samples, RATE, cues)
+    # recognized words are timed by the recognizer: a short stretch of them is where it heard it
+    found = trusted(found, MIN_STRETCH if video.heard is None else 1)
     total = sum(len(c.words) for c in cues)
     lines = video.lines or tuple(len(c.words) for c in cues)
     fit = measure_fit(found, lines, samples, RATE)
     refusal = judge(fit, media.name)
-    if refusal:
+    if refusal and (video.heard is None or fit.kept == 0):
         raise MiketalkError(refusal)
+    if refusal:  # the words came from the sound itself: those that do not fit are left out
+        log.warning(
+            "%s: only %d of its %d recognized words fit its sound in stretches; the model is "
+            "built from them", media.name, fit.kept, fit.words,
+        )  # fmt: skip
     if found.unaligned:
         log.warning(
             "%d of the %d words left out, and their audio: they do not fit the sound (%s; "
@@ -170,7 +189,7 @@ def segment_video(
             {"index": u.index, "line": int(line[u.index]) + 1, "word": u.word, "why": u.why}
             for u in found.unaligned
         ],
-    }
+    } | (video.heard.record() if video.heard is not None else {"words_from": "given"})
     write_text_atomic(Path(out), json.dumps(doc, indent=1) + "\n")
     return doc
 
@@ -188,6 +207,8 @@ class VideoInputs:
     voiced_seconds: float
     #: How many words each line of the script has: a plain transcript's lines, or the cues.
     lines: tuple[int, ...] = ()
+    #: With no transcript and no subtitles: the words recognized (the cues are theirs).
+    heard: HeardScript | None = None
 
 
 def check_video_inputs(
@@ -214,8 +235,10 @@ def check_video_inputs(
         raise MiketalkError(f"video not found: {media}")
     if heldout_seconds < 0:
         raise MiketalkError(f"heldout_seconds must be >= 0, got {heldout_seconds}")
-    cues = read_script(transcript=transcript, subtitles=subtitles)
-    _check_english(cues)
+    recognize = transcript is None and subtitles is None
+    cues = [] if recognize else read_script(transcript=transcript, subtitles=subtitles)
+    if not recognize:
+        _check_english(cues)
     first, fps = read_video(media, frames=1)
     samples = read_media_audio(media, rate=RATE)
     duration = len(samples) / RATE
@@ -230,7 +253,13 @@ def check_video_inputs(
         raise MiketalkError(f"{media} has no speech ({voiced:.1f} s of voiced sound)")
     size = (int(first.shape[1]), int(first.shape[2]))
     lines = _lines(transcript, cues) if transcript is not None else ()
-    return VideoInputs(media, cues, samples, fps, size, duration, voiced, lines)
+    heard = None
+    if recognize:  # here, not in a forked child (miketalk.talk.recorded.align_recording)
+        from miketalk.corpus.heard_script import heard_script
+
+        heard = heard_script(samples, RATE, media.name)
+        cues = heard.cues
+    return VideoInputs(media, cues, samples, fps, size, duration, voiced, lines, heard)
 
 
 def _lines(transcript: str | Path, cues) -> tuple[int, ...]:

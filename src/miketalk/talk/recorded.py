@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from miketalk.composite.background import Background
     from miketalk.draw.registry import Drawing
     from miketalk.speech.coverage import SpeechCoverage
+    from miketalk.speech.recognize import Heard
 
 log = logging.getLogger(__name__)
 
@@ -68,12 +69,15 @@ class Aligned:
         The recording, mono int16 at :data:`RATE`.
     rate : int
         :data:`RATE`.
+    heard : Heard or None
+        When no text was given: what the recognizer heard (the words then come from it).
     """
 
     words: tuple[str, ...]
     phones: tuple[Phone, ...]
     samples: np.ndarray
     rate: int
+    heard: Heard | None = None
 
     @property
     def duration(self) -> float:
@@ -108,7 +112,9 @@ def align_recording(
     audio : path-like
         The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
     text : str, optional
-        What is said. Needed unless ``timings`` is given.
+        What is said. Without it and without ``timings`` the words are recognized
+        (:func:`miketalk.speech.recognize.recognize_words`), then aligned as a given text
+        is; words the aligner cannot place in the sound are left out, named in a warning.
     timings : path-like, optional
         Word timings of the recording (``.align`` or ``.TextGrid``); the phones
         then stay inside their words. With ``text`` as well, both must name the
@@ -117,8 +123,8 @@ def align_recording(
     Raises
     ------
     MiketalkError
-        No text and no timings, words that do not match the timings, a
-        recording without sound, a word the aligner cannot place.
+        Words that do not match the timings, a recording without sound, a word the
+        aligner cannot place; without text, speech that is not English or noise.
 
     Warns (:func:`warn_unexplained`) when the words leave more than a quarter
     of the recording's voiced audio outside their phones, and (:func:`warn_misfit`) when
@@ -129,36 +135,58 @@ def align_recording(
     from miketalk.speech.word_timings import read_word_timings
     from miketalk.workers import run_in_child
 
-    if text is None and timings is None:
-        raise MiketalkError("say what the recording says: give its text or its word timings")
     given = read_word_timings(timings) if timings is not None else None
-    words = transcript_words(text) if text is not None else [w.word.lower() for w in given]
+    words = (
+        transcript_words(text) if text is not None
+        else [w.word.lower() for w in given] if given is not None else None
+    )  # fmt: skip
     if given is not None and [w.word.lower() for w in given] != words:
         raise MiketalkError(
             f"the word timings ({' '.join(w.word for w in given)}) do not match the text "
-            f"({' '.join(words)})"
+            f"({' '.join(words or ())})"
         )
     samples = read_media_audio(audio, rate=RATE)
     if len(samples) == 0 or not samples.any():
         raise MiketalkError(f"{audio} has no sound")
+    heard = None
+    if words is None:
+        from miketalk.speech.recognize import recognize_words
+
+        # here, not in a forked child: CTranslate2's threads do not survive a fork (a child
+        # of a process that has loaded it hangs); its calls return to Python at least every
+        # 30 s of sound, so Ctrl-C still stops it
+        recognized = recognize_words(samples, RATE, audio)
+        words, heard = list(recognized.words), recognized.heard
     log.info("aligning %d words to %.1f s of %s", len(words), len(samples) / RATE, audio)
     # in a child process: the aligner holds the interpreter for as long as its audio, and
     # Ctrl-C or SIGTERM must stop it at once (miketalk.workers.run_in_child)
-    phones, score = run_in_child(_phones_of, audio, samples, words, given)
+    phones, score = run_in_child(place_phones, audio, samples, words, given, heard is not None)
     warn_misfit(audio, score, words)
     warn_unexplained(audio, speech_coverage(samples, RATE, phones), words)
-    return Aligned(tuple(words), tuple(phones), samples, RATE)
+    return Aligned(tuple(words), tuple(phones), samples, RATE, heard)
 
 
-def _phones_of(
-    audio: object, samples: np.ndarray, words: list[str], given: Sequence | None
+def place_phones(
+    audio: object,
+    samples: np.ndarray,
+    words: list[str],
+    given: Sequence | None,
+    recognized: bool = False,
 ) -> tuple[tuple[Phone, ...], float | None]:
-    """The phones of ``words`` in the recording and the words' fit (None: not measured)."""
+    """The phones of ``words`` in the recording and the words' fit (None: not measured).
+
+    ``recognized`` words the aligner cannot place (a recognizer's mistake) are left out
+    by the long recordings' aligner, which names them, rather than refused."""
     from miketalk.speech.align.phones import align
 
     if given is None and len(samples) > LONG_SECONDS * RATE:
         return _align_long(audio, samples, words), None
-    alignment = align(samples, RATE, words, word_timings=given)
+    try:
+        alignment = align(samples, RATE, words, word_timings=given)
+    except MiketalkError:
+        if not recognized:
+            raise
+        return _align_long(audio, samples, words), None
     return alignment.phones, alignment.score_per_frame
 
 
@@ -274,6 +302,7 @@ def say_recording(
         natural_duration=aligned.duration,
         extra={
             "text": " ".join(aligned.words),
+            "words_from": "given" if aligned.heard is None else aligned.heard.recognizer,
             "audio": str(recorded.audio),
             "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
             "max_px_per_frame": max_px_per_frame,

@@ -18,7 +18,8 @@ class Recorded:
     audio : path-like
         The recording (wav, mp4, mpg: anything ffmpeg reads with an audio stream).
     text : str or None
-        What is said. Needed unless ``timings`` is given.
+        What is said. Without it and without ``timings``, the words are recognized
+        (:mod:`miketalk.speech.recognize`), then aligned as a given text is.
     timings : path-like or None
         Word timings of the recording (``.align`` or ``.TextGrid``); see
         :func:`miketalk.talk.recorded.align_recording`.

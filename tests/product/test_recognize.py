@@ -1,0 +1,142 @@
+"""The speech recognizer (miketalk.speech.recognize): its weights checked, its words made
+alignable, its rule refusing speech that is not English and noise, and recordings spoken
+without their text."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.media.decode import read_media_audio
+from miketalk.speech.recognize import Heard, HeardWord, get_recognizer, spoken_words
+from miketalk.speech.recognize.judge import (
+    CONFIDENCE_LIMIT,
+    ENGLISH_LIMIT,
+    MIN_SPEECH_SECONDS,
+    judge,
+)
+from miketalk.speech.recognize.whisper import INSTALL_HINT, WHISPER_BASE, Weights
+
+ROOT = Path(__file__).resolve().parents[2]
+CLIPS = ROOT / "data" / "grid_s1" / "video"
+HERE = Path(__file__).resolve().parent / "data"
+RATE = 16000
+
+
+def test_a_recognizers_writing_becomes_words_to_align() -> None:
+    assert spoken_words("Lay blue at K2, please.") == ["lay", "blue", "at", "k", "two", "please"]
+    assert spoken_words("Place red by X-ray soon.") == ["place", "red", "by", "x", "ray", "soon"]
+    assert spoken_words("In 2009, 3.5% of $1,200") == [
+        "in", "two", "thousand", "nine", "three", "point", "five", "percent", "of", "one",
+        "thousand", "two", "hundred", "dollars",
+    ]  # fmt: skip
+    assert spoken_words("the 1990s, the 21st and 2nd, 1905") == [
+        "the", "nineteen", "nineties", "the", "twenty", "first", "and", "second", "nineteen",
+        "oh", "five",
+    ]  # fmt: skip
+    assert spoken_words("We're here.") == ["we're", "here"]
+
+
+def test_weights_with_another_checksum_are_refused_unloaded() -> None:
+    name, parts, sha256 = WHISPER_BASE.files[1]  # config.json: small to read
+    forged = Weights("whisper-base", ((name, parts, "0" * 64),))
+    with pytest.raises(MiketalkError, match=r"has sha256 [0-9a-f]{64}, not 0{64}: refusing"):
+        forged.read()
+    assert Weights("whisper-base", ((name, parts, sha256),)).read()[name]
+    missing = Weights("whisper-base", (("model.bin", (("no_such_package_x", "m"),), sha256),))
+    with pytest.raises(MiketalkError, match=re.escape(INSTALL_HINT)):
+        missing.read()
+
+
+def _heard(english: float, probabilities: list[float], speech: float = 2.0) -> Heard:
+    words = tuple(HeardWord(f"w{i}", i, i + 0.5, p) for i, p in enumerate(probabilities))
+    return Heard(words, "en" if english > 0.5 else "de", english, "test", speech)
+
+
+def test_the_rule_refuses_another_language_and_noise_in_one_line() -> None:
+    judge(_heard(ENGLISH_LIMIT + 0.01, [CONFIDENCE_LIMIT + 0.01] * 3), "a.wav")  # passes
+    with pytest.raises(MiketalkError, match=r"^a.wav: no speech heard \(0.2 s of it"):
+        judge(_heard(0.9, [0.99] * 3, speech=MIN_SPEECH_SECONDS - 0.1), "a.wav")
+    with pytest.raises(MiketalkError, match=r"^a.wav: the speech does not sound English"):
+        judge(_heard(ENGLISH_LIMIT - 0.01, [0.99] * 3), "a.wav")
+    for probabilities in ([CONFIDENCE_LIMIT - 0.01] * 3, []):
+        with pytest.raises(MiketalkError, match=r"^a.wav: no speech recognized with confidence"):
+            judge(_heard(0.9, probabilities), "a.wav")
+    with pytest.raises(MiketalkError, match=r"or not English \(it sounds most like 'de'"):
+        judge(_heard(0.3, [CONFIDENCE_LIMIT - 0.01] * 3), "a.wav")
+
+
+@pytest.fixture(scope="module")
+def whisper():
+    return get_recognizer("whisper-base")
+
+
+def test_whisper_hears_an_s1_clip_and_the_same_twice(whisper) -> None:
+    samples = read_media_audio(CLIPS / "lbaq6p.mpg", rate=RATE)  # "lay blue at q six please"
+    heard = whisper.hear(samples, RATE)
+    words = [w for word in heard.words for w in spoken_words(word.text)]
+    assert words == ["lay", "blue", "at", "q", "six", "please"]
+    assert heard.language == "en" and heard.recognizer.startswith("whisper-base@905e5bf8")
+    assert all(0 <= w.start < w.end <= len(samples) / RATE + 0.05 for w in heard.words)
+    assert whisper.hear(samples, RATE) == heard  # deterministic: temperature 0 only
+
+
+@pytest.mark.parametrize("language", ["de", "es"])
+def test_speech_in_another_language_is_one_line(whisper, language: str) -> None:
+    samples = read_media_audio(HERE / f"espeak_{language}.flac", rate=RATE)
+    heard = whisper.hear(samples, RATE)
+    assert heard.language == language
+    with pytest.raises(MiketalkError, match=f"does not sound English|not English.*{language!r}"):
+        judge(heard, "x")
+
+
+@pytest.mark.parametrize("kind", ["white", "hum"])
+def test_noise_is_one_line(whisper, kind: str) -> None:
+    """Whisper writes words over a hum ("I'm sorry, I'm sorry, ..." with confidence 0.96):
+    the voice detector finds no speech in it."""
+    rng = np.random.default_rng(0)
+    n = 3 * RATE
+    noise = (
+        rng.normal(0, 3000, n)
+        if kind == "white"
+        else 2000 * np.sin(2 * np.pi * 50 * np.arange(n) / RATE) + rng.normal(0, 200, n)
+    )
+    with pytest.raises(MiketalkError, match=r"^noise: no speech heard"):
+        judge(whisper.hear(noise.astype(np.int16), RATE), "noise")
+
+
+def test_a_recording_without_its_text_is_recognized_then_aligned() -> None:
+    from miketalk.talk.recorded import align_recording
+
+    aligned = align_recording(CLIPS / "lbaq6p.mpg")
+    assert aligned.words == ("lay", "blue", "at", "q", "six", "please")
+    assert aligned.heard is not None and aligned.heard.recognizer.startswith("whisper-base")
+    given = align_recording(CLIPS / "lbaq6p.mpg", text="lay blue at q six please")
+    assert given.heard is None
+    assert [p.name for p in aligned.phones] == [p.name for p in given.phones]
+
+
+def test_a_video_without_its_script_is_built_from_its_recognized_words(
+    s1_joined, tmp_path: Path
+) -> None:
+    """The joined s1 video with no transcript: its cues are the words heard with confidence,
+    the others left out and named in segments.json, which says who heard them."""
+    import json
+
+    from miketalk.corpus.heard_script import WORD_CONFIDENCE
+    from miketalk.corpus.one_video import segment_video
+
+    doc = segment_video(s1_joined.video, tmp_path / "segments.json", heldout_seconds=6)
+    assert doc["words_from"].startswith("whisper-base@905e5bf8")
+    assert json.loads((tmp_path / "segments.json").read_text())["words_from"] == doc["words_from"]
+    assert all(w["probability"] < WORD_CONFIDENCE for w in doc["not_confident"])
+    # GRID's sentences are hard for Whisper: 8 of the 22 words heard without confidence
+    assert doc["not_confident"]
+    said = " ".join(u["text"] for u in doc["utterances"]).split()
+    assert doc["words"] == len(said) + len(doc["unaligned"])  # each placed, or named
+    assert any(u["split"] == "train" for u in doc["utterances"])
+    assert any(u["split"] == "test" for u in doc["utterances"])
