@@ -82,15 +82,18 @@ def _queued_seconds(pid: int) -> float:
 
 
 def _descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (the children of each of its threads, and theirs)."""
     out, todo = [], [pid]
     while todo:
         parent = todo.pop()
-        try:
-            children = pathlib.Path(f"/proc/{parent}/task/{parent}/children").read_text().split()
-        except OSError:
-            continue
-        out += map(int, children)
-        todo += map(int, children)
+        children: list[int] = []
+        for task in pathlib.Path(f"/proc/{parent}/task").glob("*"):
+            try:
+                children += map(int, (task / "children").read_text().split())
+            except OSError:
+                continue
+        out += children
+        todo += children
     return out
 
 
