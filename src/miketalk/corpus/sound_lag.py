@@ -3,7 +3,7 @@
 A video cut and re-encoded on its way to the user (a downloaded address, a phone's
 recording) may carry its sound a few frames after the picture. GRID's studio clips show
 the lips' opening and the sound's loudness together (their pooled correlation peaks at 0
-frames); the weekly addresses of the shared data set (``data/obama``) peak 2 frames later, both their
+frames); the weekly addresses (the shared ``data/obama``) peak 2 frames later, both their
 AAC and their MP3 clips, though ffmpeg decodes each stream at its container's time (the
 AAC's edit list starts at 0, the MP3's skips its 1105 samples of priming): the lag is in
 the files. A model built from such a video learns its mouths from frames paired with
