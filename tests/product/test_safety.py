@@ -28,6 +28,7 @@ from miketalk.media.ownership import (
     file_record,
     written_by_miketalk,
 )
+from miketalk_lab.bench.responsiveness import POOL_SCRIPT  # also make bench's stop times
 
 OLD = {"v.mp4": b"old video", "v.json": b"old json"}
 NEW = {"v.mp4": b"new video", "v.json": b"new json"}
@@ -525,28 +526,6 @@ def test_every_part_written_after_the_manifest_is_listed_and_checked(
 # workers and signals
 # ---------------------------------------------------------------------------
 
-_POOL_SCRIPT = """
-import sys, time
-from miketalk.console import handle_termination
-from miketalk.workers import process_pool, results
-
-def job(i):
-    time.sleep(120)
-
-if __name__ == "__main__":
-    with handle_termination():
-        try:
-            with process_pool(2) as pool:
-                futures = [pool.submit(job, i) for i in range(20)]
-                while len(pool._processes) < 2:
-                    time.sleep(0.05)
-                print(" ".join(map(str, pool._processes)), flush=True)
-                for _ in results(futures):  # as the flows stage waits (map_in_pool)
-                    pass
-        except KeyboardInterrupt:
-            print("stopped", flush=True)
-"""
-
 
 def _alive(pid: int) -> bool:
     try:
@@ -582,7 +561,7 @@ def test_a_signal_ends_every_worker_at_once(signum: int) -> None:
     # only when the job ended (1 run in 60 to 150 here, more under load); the workers, still
     # starting with the parent's handlers, printed tracebacks when stopped (miketalk.workers)
     proc = subprocess.Popen(
-        [sys.executable, "-c", _POOL_SCRIPT],
+        [sys.executable, "-c", POOL_SCRIPT],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

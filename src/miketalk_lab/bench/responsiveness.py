@@ -50,8 +50,11 @@ LONG_TEXT = " ".join(
 )
 SENTENCE = "Bin blue at F two now, please say it again soon."
 
-_POOL = """
-import time
+#: Two workers asleep on 20 jobs of 120 s, the main thread waiting on them as the flows
+#: stage does; the workers' pids on stdout once both run, "stopped" when a signal ends it
+#: (``tests/product/test_safety.py`` runs the same script).
+POOL_SCRIPT = """
+import sys, time
 from miketalk.console import handle_termination
 from miketalk.workers import process_pool, results
 
@@ -65,11 +68,11 @@ if __name__ == "__main__":
                 futures = [pool.submit(job, i) for i in range(20)]
                 while len(pool._processes) < 2:
                     time.sleep(0.05)
-                print("ready", flush=True)
-                for _ in results(futures):
+                print(" ".join(map(str, pool._processes)), flush=True)
+                for _ in results(futures):  # as the flows stage waits (map_in_pool)
                     pass
         except KeyboardInterrupt:
-            pass
+            print("stopped", flush=True)
 """
 
 
@@ -136,7 +139,7 @@ def _miketalk(*args: object) -> list[str]:
 
 
 def _stop_pool(tmp: pathlib.Path, signum: int) -> tuple[float, float]:
-    proc = subprocess.Popen([sys.executable, "-c", _POOL], stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-c", POOL_SCRIPT], stdout=subprocess.PIPE, text=True)
     proc.stdout.readline()
     return _finish(proc, signum)
 
