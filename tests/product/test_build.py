@@ -257,7 +257,6 @@ def test_an_existing_model_needs_force(
     [
         (["nothere.mp4", "--transcript", "{transcript}"], "video not found"),
         (["{video}", "--transcript", "{french}"], "another language"),
-        (["{video}"], "--transcript or its --subtitles"),
         (["{video}", "--subtitles", "{transcript}"], "must be .srt or .vtt"),
         (["{video}", "--transcript", "{transcript}", "--heldout-seconds", "60"], "holds out all"),
         (["{video}", "--transcript", "{short}"], "too little speech for the viseme classes"),
@@ -267,7 +266,6 @@ def test_an_existing_model_needs_force(
     ids=[
         "no-video",
         "french",
-        "no-script",
         "not-subtitles",
         "all-held-out",
         "too-little",
