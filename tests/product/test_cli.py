@@ -477,6 +477,10 @@ def test_max_px_per_frame_out_of_range(
         (["--sampling", "fast"], "invalid choice"),
         (["--voice", "bob"], "invalid choice"),
         (["--timings", "x.align"], "--timings goes with --audio"),
+        (["--phones", "recognized"], "--phones goes with --audio"),
+        (["--phones", "guessed"], "invalid choice"),
+        (["--audio", "a.wav", "--timings", "x.align", "--phones", "recognized"],
+         "--phones recognized takes the recording's words from the recognizer; --timings"),
     ],
 )
 def test_contradictory_or_bad_options(

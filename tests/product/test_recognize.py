@@ -140,3 +140,47 @@ def test_a_video_without_its_script_is_built_from_its_recognized_words(
     assert doc["words"] == len(said) + len(doc["unaligned"])  # each placed, or named
     assert any(u["split"] == "train" for u in doc["utterances"])
     assert any(u["split"] == "test" for u in doc["utterances"])
+
+
+def test_the_edit_distance_is_levenshteins() -> None:
+    from miketalk.speech.recognize.agree import disagreement, edit_distance
+
+    assert edit_distance("kitten", "sitting") == 3
+    assert edit_distance("flaw", "lawn") == 2
+    assert edit_distance("", "abc") == 3 and edit_distance("abc", "") == 3
+    assert edit_distance(["bin", "blue"], ["bin", "blue"]) == 0
+    # letters, not words: "bimble" is 2 letters of "binblue" away, not 2 words of 2
+    assert disagreement(["bin", "blue"], ["bimble"]) == pytest.approx(2 / 7)
+    assert disagreement(["set", "red"], ["set", "red"]) == 0.0
+
+
+def test_a_text_the_recognizer_disagrees_with_is_warned_about(caplog) -> None:
+    from miketalk.speech.recognize.agree import DISAGREEMENT_LIMIT, warn_disagreement
+
+    heard = "bimble f two now".split()
+    with caplog.at_level("WARNING"):
+        share = warn_disagreement("a.wav", "bin blue at f two now".split(), heard)
+    assert share <= DISAGREEMENT_LIMIT and not caplog.records
+    with caplog.at_level("WARNING"):
+        share = warn_disagreement("a.wav", "place red by x eight soon".split(), heard)
+    assert share > DISAGREEMENT_LIMIT
+    assert len(caplog.records) == 1 and "disagree" in caplog.records[0].getMessage()
+
+
+def test_phones_recognized_take_the_heard_words_over_the_text(caplog) -> None:
+    """``--phones recognized`` with a text: the words are the recognizer's, and a text of
+    another clip is warned about; ``aligned`` (the default) keeps the text."""
+    from miketalk.errors import SettingError
+    from miketalk.talk.recorded import align_recording
+    from miketalk.talk.speech import Recorded
+
+    clip, other = CLIPS / "lbaq6p.mpg", "place red by x eight soon"
+    with caplog.at_level("WARNING"):
+        heard = align_recording(clip, text=other, phones="recognized")
+    assert heard.words == ("lay", "blue", "at", "q", "six", "please")
+    assert heard.heard is not None
+    assert any("disagree" in r.getMessage() for r in caplog.records)
+    with pytest.raises(SettingError, match=r"phones.*timings"):
+        Recorded(clip, timings="x.align", phones="recognized")
+    with pytest.raises(SettingError, match=r"phones"):
+        Recorded(clip, phones="guessed")

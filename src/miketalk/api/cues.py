@@ -85,7 +85,9 @@ def cues(
     if recorded:
         from miketalk.talk.recorded import align_recording
 
-        aligned = align_recording(speech.audio, text=speech.text, timings=speech.timings)
+        aligned = align_recording(
+            speech.audio, text=speech.text, timings=speech.timings, phones=speech.phones
+        )
         phones, duration = aligned.phones, aligned.duration
         sound_file = str(Path(speech.audio).resolve())
     else:

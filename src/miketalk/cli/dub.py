@@ -88,6 +88,7 @@ def add_dub_parser(sub) -> None:
     from miketalk.cli.options import (
         checked,
         max_px_value,
+        phones_option,
         text_options,
         trajectory_option,
         verbose_option,
@@ -108,6 +109,7 @@ def add_dub_parser(sub) -> None:
         "are recognized)",
     )
     dub.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
+    phones_option(dub)
     dub.add_argument("-o", "--output", required=True, help="the .mp4 to write (and its .json)")
     dub.add_argument("--model", help="a model built from clips of the person in the video")
     dub.add_argument(

@@ -72,3 +72,15 @@ def text_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("text", nargs="?", help="the text (or use --file)")
     parser.add_argument("-f", "--file", help="read the text from this UTF-8 file")
     parser.add_argument("--text", dest="text_option", help="the text (the same as the argument)")
+
+
+def phones_option(parser: argparse.ArgumentParser) -> None:
+    """``--phones``: where a recording's phones come from (:data:`miketalk.api.PHONES`)."""
+    parser.add_argument(
+        "--phones",
+        choices=("aligned", "recognized"),
+        default="aligned",
+        help="with --audio: aligned (default: the text given aligned to the recording, or its "
+        "recognized words without one) or recognized (its recognized words even with a text, "
+        "which is then compared with them: a warning when they disagree)",
+    )

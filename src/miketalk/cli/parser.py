@@ -15,6 +15,7 @@ from miketalk.cli.options import (
     fps_value,
     max_px_value,
     max_slowdown_value,
+    phones_option,
     text_options,
     trajectory_option,
     verbose_option,
@@ -144,6 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--timings",
         help="with --audio: its word timings (GRID .align or Praat .TextGrid)",
     )
+    phones_option(say)
     say.add_argument(
         "--background",
         default=None,
@@ -192,6 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="replace an output that miketalk did not write (never an input)",
     )
     cues.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
+    phones_option(cues)
     voice_option(cues)
     verbose_option(cues)
     cues.set_defaults(func=cmd_cues)

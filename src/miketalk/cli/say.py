@@ -45,12 +45,15 @@ def cli_inputs(args: argparse.Namespace) -> list[str]:
 def speech_of(args: argparse.Namespace, *, text_needed: bool = True) -> str | Recorded:
     """What the options say to speak: ``--audio`` (with its text or ``--timings``), else the
     text (needed with ``text_needed``; else None when none is given)."""
+    phones = getattr(args, "phones", "aligned")
     if args.audio is None:
         if args.timings is not None:
             raise MiketalkError("--timings goes with --audio (the word timings of that recording)")
+        if phones != "aligned":
+            raise MiketalkError("--phones goes with --audio (where its phones come from)")
         return read_text(args) if text_needed or has_text(args) else None
     text = read_text(args) if has_text(args) else None
-    return Recorded(args.audio, text=text, timings=args.timings)
+    return Recorded(args.audio, text=text, timings=args.timings, phones=phones)
 
 
 def cmd_say(args: argparse.Namespace) -> int:

@@ -104,6 +104,7 @@ def align_recording(
     *,
     text: str | None = None,
     timings: str | os.PathLike[str] | None = None,
+    phones: str = "aligned",
 ) -> Aligned:
     """The phones of a recording, placed by forced alignment of what it says.
 
@@ -119,6 +120,9 @@ def align_recording(
         Word timings of the recording (``.align`` or ``.TextGrid``); the phones
         then stay inside their words. With ``text`` as well, both must name the
         same words.
+    phones : {"aligned", "recognized"}
+        ``recognized``: the words are recognized even when ``text`` is given, and the text
+        is compared with them (:func:`miketalk.speech.recognize.agree.warn_disagreement`).
 
     Raises
     ------
@@ -149,14 +153,17 @@ def align_recording(
     if len(samples) == 0 or not samples.any():
         raise MiketalkError(f"{audio} has no sound")
     heard = None
-    if words is None:
+    if words is None or phones == "recognized":
         from miketalk.speech.recognize import recognize_words
+        from miketalk.speech.recognize.agree import warn_disagreement
 
         # here, not in a forked child: CTranslate2's threads do not survive a fork (a child
         # of a process that has loaded it hangs); its calls return to Python at least every
         # 30 s of sound, so Ctrl-C still stops it
         recognized = recognize_words(samples, RATE, audio)
-        words, heard = list(recognized.words), recognized.heard
+        if words is not None:
+            warn_disagreement(audio, words, recognized.words)
+        words, heard, given = list(recognized.words), recognized.heard, None
     log.info("aligning %d words to %.1f s of %s", len(words), len(samples) / RATE, audio)
     # in a child process: the aligner holds the interpreter for as long as its audio, and
     # Ctrl-C or SIGTERM must stop it at once (miketalk.workers.run_in_child)
@@ -285,7 +292,9 @@ def say_recording(
     from miketalk.talk.utterance import write_utterance
 
     max_px_per_frame = settings.max_px_per_frame
-    aligned = align_recording(recorded.audio, text=recorded.text, timings=recorded.timings)
+    aligned = align_recording(
+        recorded.audio, text=recorded.text, timings=recorded.timings, phones=recorded.phones
+    )
     lead = model_sound_lag(model.directory)  # his mouth leads his sound that much
     phones, heard = led(aligned.phones, aligned.samples, aligned.rate, lead, aligned.duration)
     timeline = plan(phones, table, fps=settings.fps, duration=aligned.duration)
@@ -303,6 +312,7 @@ def say_recording(
         extra={
             "text": " ".join(aligned.words),
             "words_from": "given" if aligned.heard is None else aligned.heard.recognizer,
+            "phones": recorded.phones,
             "audio": str(recorded.audio),
             "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
             "max_px_per_frame": max_px_per_frame,
