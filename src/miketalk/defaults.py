@@ -108,6 +108,11 @@ BLEND_FOLLOW_CROP = "off"
 #: (the clips' own frames dubbed back) keeps 0.77 of its sharpness through cubic, 0.63 linear.
 BLEND_INTERPOLATION = "cubic"
 
+#: How a dubbed mouth's colour is matched to the frame it is pasted into
+#: (:mod:`miketalk.composite.colour`): ``"gain"`` (a per-channel gain learned on the blend's
+#: edge) or ``"offset"`` (an additive offset learned there).
+BLEND_COLOUR = "offset"
+
 #: Keep the blend off the reference's backdrop and clothes
 #: (:func:`miketalk.composite.follow.skin_weight`): the render's collar beside the jaw.
 BLEND_SKIN = True

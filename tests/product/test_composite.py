@@ -95,7 +95,7 @@ def test_colour_match_follows_the_frames_light():
     stabilized = _stabilizer().apply(frame[None], transform[None])[0]
     darker = np.clip(stabilized.astype(np.int16) - 30, 0, 255).astype(np.uint8)
     plain = Compositor(MOUTH, SIZE, colour_match=False)(frame, darker, transform)
-    matched = Compositor(MOUTH, SIZE)(frame, darker, transform)
+    matched = Compositor(MOUTH, SIZE, colour="offset")(frame, darker, transform)
     inside = Compositor(MOUTH, SIZE).place(transform, SIZE).full_alpha(SIZE) > 0.01
     assert _psnr(matched, frame, inside) > _psnr(plain, frame, inside) + 10
     assert _psnr(matched, frame, inside) > 30.0
@@ -103,6 +103,29 @@ def test_colour_match_follows_the_frames_light():
     # frame's); matched, the frame's (within 0.01)
     level = frame[inside].mean()
     assert level - plain[inside].mean() > 10 and abs(matched[inside].mean() - level) < 1
+
+
+@pytest.mark.parametrize("whole_background", [False, True])
+def test_a_gain_carries_another_lights_colour_onto_the_lips(whole_background):
+    """A render under another light (each channel scaled: redder, dimmer) is brought back to
+    the frame's by the gain, the lips' contrast with the skin included; an offset learned on
+    the same skin leaves the darker and lighter parts off (the lips grey)."""
+    frame = _texture(seed=11)
+    transform = _affine()
+    stabilized = _stabilizer().apply(frame[None], transform[None])[0]
+    light = np.float32([0.6, 0.75, 0.9])  # another day's light
+    other = np.clip(stabilized * light + 0.5, 0, 255).astype(np.uint8)
+    inside = Compositor(MOUTH, SIZE).place(transform, SIZE).full_alpha(SIZE) > 0.5
+    scores = {}
+    for how in ("offset", "gain"):
+        compositor = Compositor(MOUTH, SIZE, colour=how)
+        match = compositor.colour_field(other, stabilized) if whole_background else None
+        out = compositor(frame, other, transform, offset=match)
+        scores[how] = _psnr(out, frame, inside)
+    assert scores["gain"] > 35.0
+    assert scores["gain"] > scores["offset"] + 5
+    with pytest.raises(MiketalkError, match="colour match must be offset or gain"):
+        Compositor(MOUTH, SIZE, colour="histogram")
 
 
 def test_colour_offset_is_the_band_difference_for_a_constant_shift():

@@ -16,10 +16,10 @@ below the nose to past the chin, wide enough for the jaw line beside the
 chin, with a Gaussian edge: inside it the render, outside the frame, so the
 lips, the chin and the jaw move together and the nose, the eyes and the rest
 of the head are the frame's own. Before blending, the render's colour is
-matched to the frame's (:func:`colour_offset`): the difference frame - render
-in the blend's edge band (skin in both) is spread over the region by
-normalized convolution, a smooth per-channel offset that follows a lighting
-gradient, as the guidance field of Poisson blending would.
+matched to the frame's (:mod:`miketalk.composite.colour`): frame and render
+in the blend's edge band (skin in both) are spread over the region by
+normalized convolution, a smooth per-channel gain (or offset) that follows a
+lighting gradient, as the guidance field of Poisson blending would.
 
 Where the real jaw opens more or less than the synthesized one, its line would
 show twice at the mask's edge (the frame's jaw outside, the render's inside: a dark
@@ -47,6 +47,7 @@ import cv2
 import numpy as np
 
 from miketalk import defaults
+from miketalk.composite.colour import COLOUR_MATCHES, ColourMatch, colour_offset, match_colour
 from miketalk.composite.follow import follow_render, skin_weight
 from miketalk.errors import MiketalkError
 
@@ -122,35 +123,6 @@ def blend_mask(
     alpha = cv2.GaussianBlur(mask.astype(np.float32) / 255, (0, 0), feather * w)
     alpha[alpha < _EMPTY] = 0
     return alpha
-
-
-def colour_offset(
-    render: np.ndarray, frame: np.ndarray, band: np.ndarray, *, sigma: float
-) -> np.ndarray:
-    """A smooth offset that brings ``render``'s colour to ``frame``'s, learned on ``band``.
-
-    Parameters
-    ----------
-    render, frame : numpy.ndarray
-        (h, w, 3) float32, the same pixels of the render (in the frame's
-        coordinates) and of the frame.
-    band : numpy.ndarray
-        (h, w) float32 weights: where the two should agree (the blend's edge).
-    sigma : float
-        Gaussian sigma (pixels) of the normalized convolution.
-
-    Returns
-    -------
-    numpy.ndarray
-        (h, w, 3) float32: ``G * (band (frame - render)) / G * band``; zero
-        where the band is empty.
-    """
-    weighted = cv2.GaussianBlur(band[..., None] * (frame - render), (0, 0), sigma)
-    norm = cv2.GaussianBlur(band, (0, 0), sigma)
-    out = np.zeros_like(weighted)
-    ok = norm > 1e-4 * max(float(norm.max()), 1e-12)
-    out[ok] = weighted[ok] / norm[ok, None]
-    return out
 
 
 @dataclass(frozen=True)
@@ -251,7 +223,10 @@ class Compositor:
     size : tuple of int
         ``(H, W)`` of the reference (and of the renders).
     colour_match : bool
-        Match the render's colour to each frame's (:func:`colour_offset`).
+        Match the render's colour to each frame's (:mod:`miketalk.composite.colour`).
+    colour : {"gain", "offset"}, optional
+        How (:func:`~miketalk.composite.colour.match_colour`; None:
+        :data:`miketalk.defaults.BLEND_COLOUR`, whose docstring holds its measure).
     blend : {"feather", "poisson"}
         ``"feather"``: alpha blending over the mask's Gaussian edge;
         ``"poisson"``: ``cv2.seamlessClone`` (Poisson image editing, Perez et
@@ -281,6 +256,7 @@ class Compositor:
         size: tuple[int, int],
         *,
         colour_match: bool = True,
+        colour: str | None = None,
         blend: str = "feather",
         follow: bool = defaults.BLEND_FOLLOW,
         keep: np.ndarray | None = None,
@@ -294,6 +270,12 @@ class Compositor:
             raise MiketalkError(
                 f"interpolation must be {' or '.join(INTERPOLATIONS)}, not {interpolation!r}"
             )
+        colour = colour or defaults.BLEND_COLOUR
+        if colour not in COLOUR_MATCHES:
+            raise MiketalkError(
+                f"the mouth's colour match must be {' or '.join(COLOUR_MATCHES)}, not {colour!r}"
+            )
+        self.colour = colour
         self.interpolation = interpolation
         self.blend = blend
         self.mouth_box = tuple(int(v) for v in mouth_box)
@@ -320,8 +302,8 @@ class Compositor:
         """:func:`place` of this compositor's blend mask."""
         return place(self.alpha, transform, frame_shape, field=field, support=self.support)
 
-    def colour_field(self, render: np.ndarray, steady: np.ndarray) -> np.ndarray:
-        """One colour offset for a whole background, in the reference's coordinates.
+    def colour_field(self, render: np.ndarray, steady: np.ndarray) -> ColourMatch:
+        """One colour match for a whole background, in the reference's coordinates.
 
         Parameters
         ----------
@@ -333,15 +315,15 @@ class Compositor:
 
         Returns
         -------
-        numpy.ndarray
-            (H, W, 3) float32 :func:`colour_offset` of the two on the blend's
+        ColourMatch
+            (H, W, 3) fields of this compositor's :attr:`colour` way
+            (:func:`~miketalk.composite.colour.match_colour`) of the two on the blend's
             edge band: constant over the background, so the colour of the
             mouth does not flicker with what the frames' own jaw does there.
         """
         band = 4.0 * self.alpha * (1.0 - self.alpha)
-        return colour_offset(
-            render.astype(np.float32), steady.astype(np.float32), band, sigma=self._sigma
-        )
+        return match_colour(render.astype(np.float32), steady.astype(np.float32), band,
+                            sigma=self._sigma, how=self.colour)  # fmt: skip
 
     def __call__(
         self,
@@ -350,7 +332,7 @@ class Compositor:
         transform: np.ndarray,
         *,
         field: np.ndarray | None = None,
-        offset: np.ndarray | None = None,
+        offset: ColourMatch | np.ndarray | None = None,
     ) -> np.ndarray:
         """``render`` blended into a copy of ``frame`` where the mouth is.
 
@@ -364,9 +346,9 @@ class Compositor:
             (2, 3) the frame's stabilization transform.
         field : numpy.ndarray, optional
             (H, W, 2) the conform field of the frame's clip.
-        offset : numpy.ndarray, optional
-            (H, W, 3) float32 colour offset in the reference's coordinates
-            (:meth:`colour_field`), used instead of matching this frame's colour.
+        offset : ColourMatch or numpy.ndarray, optional
+            The colour match in the reference's coordinates (:meth:`colour_field`; an
+            array: an additive offset), used instead of matching this frame's colour.
 
         Returns
         -------
@@ -390,13 +372,11 @@ class Compositor:
         here = out[y0:y1, x0:x1].astype(np.float32)
         a = placement.alpha[..., None]
         if offset is not None:
-            mouth += cv2.remap(
-                offset, placement.map_x, placement.map_y, cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_REPLICATE,
-            )  # fmt: skip
+            match = offset if isinstance(offset, ColourMatch) else ColourMatch(offset)
+            mouth = match.remapped(placement.map_x, placement.map_y).apply(mouth)
         elif self.colour_match:
             band = 4.0 * placement.alpha * (1.0 - placement.alpha)
-            mouth += colour_offset(mouth, here, band, sigma=self._sigma)
+            mouth = match_colour(mouth, here, band, sigma=self._sigma, how=self.colour).apply(mouth)
         if self.follow:
             within = None
             if self.follow_within is not None:

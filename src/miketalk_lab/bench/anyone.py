@@ -84,8 +84,12 @@ CROP_EYES = 72.0
 STRIP_EVERY = 10
 
 
-def _miketalk() -> str:
-    return str(Path(sys.executable).parent / "miketalk")
+def _miketalk(colour: str | None = None) -> list[str]:
+    """The ``miketalk`` command (with the mouth's colour matched by ``colour``:
+    :mod:`miketalk_lab.bench.colour_dub`)."""
+    if colour:
+        return [sys.executable, "-m", "miketalk_lab.bench.colour_dub", colour]
+    return [str(Path(sys.executable).parent / "miketalk")]
 
 
 def _run(command: list[str], log: Path) -> float:
@@ -192,7 +196,7 @@ def _fold_model(obama: Path, work: Path, held: Sequence[str], ids: Sequence[str]
     if not (model / "manifest.json").is_file():
         seconds = _run(
             [
-                _miketalk(),
+                *_miketalk(),
                 "build",
                 str(work / f"{stem}.mp4"),
                 "--transcript",
@@ -205,17 +209,20 @@ def _fold_model(obama: Path, work: Path, held: Sequence[str], ids: Sequence[str]
     return {"model": model, "train": train, "build_seconds": seconds}
 
 
-def _dubs(clip: Path, line: str, model: Path, work: Path, renderers: Sequence[str]) -> dict:
-    """Each renderer's dub of ``clip`` (made when missing) and the unrelated sentence's."""
+def _dubs(
+    clip: Path, line: str, model: Path, work: Path, renderers: Sequence[str], colour: str | None
+) -> dict:
+    """Each renderer's dub of ``clip`` (made when missing) and the unrelated sentence's, the
+    mouth's colour matched by ``colour`` (None: the default's)."""
     out = {}
     for name in [*renderers, "unrelated"]:
-        video = work / f"{clip.stem}_{name}.mp4"
+        video = work / f"{clip.stem}_{name}{'@' + colour if colour else ''}.mp4"
         if not video.is_file():
             text = UNRELATED if name == "unrelated" else line
             audio = [] if name == "unrelated" else ["--audio", str(clip), *RENDERERS[name]]
             _run(
                 [
-                    _miketalk(),
+                    *_miketalk(colour),
                     "dub",
                     str(clip),
                     *audio,
@@ -227,7 +234,7 @@ def _dubs(clip: Path, line: str, model: Path, work: Path, renderers: Sequence[st
                     str(video),
                     "--force",
                 ],
-                work / f"{clip.stem}_{name}.log",
+                video.with_suffix(".log"),
             )
         out[name] = video
     return out
@@ -297,7 +304,9 @@ def measure_clip(clip: Path, dubs: dict[str, Path], out: Path) -> tuple[list, pd
         spoken = lips[speech]
         rows.append({"clip": clip.stem, "renderer": name, **scores(real, points, speech),
                      "lip_dE": float(np.nanmean(np.linalg.norm(spoken, axis=1))),
+                     "lip_dL": float(np.nanmean(spoken[:, 0])),
                      "lip_da": float(np.nanmean(spoken[:, 1])),
+                     "lip_db": float(np.nanmean(spoken[:, 2])),
                      "lip_dE_sd": float(np.nanstd(np.linalg.norm(spoken, axis=1)))})  # fmt: skip
         frames[name] = np.pad(opening(points), (0, len(real) - len(points)), constant_values=np.nan)
     strip(clip, dubs, real, out / f"strip_{clip.stem}.png")
@@ -340,6 +349,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="addresses held out together, comma-separated (repeatable)",
     )
     parser.add_argument("--renderer", action="append", choices=list(RENDERERS), default=None)
+    parser.add_argument("--colour", choices=("gain", "offset"), default=None,
+                        help="the mouth's colour match (default: the product's)")  # fmt: skip
     return run_bench(parser, argv, _work)
 
 
@@ -363,7 +374,7 @@ def _work(args) -> str:
         for address in held:
             clip = args.obama / "video" / f"{address}.mp4"
             try:
-                dubs = _dubs(clip, captions[address], fold["model"], work, renderers)
+                dubs = _dubs(clip, captions[address], fold["model"], work, renderers, args.colour)
             except MiketalkError as err:  # a caption the recording does not say: refused
                 refused.append(f"{address}: {err}")
                 continue
