@@ -479,8 +479,10 @@ def test_max_px_per_frame_out_of_range(
         (["--timings", "x.align"], "--timings goes with --audio"),
         (["--phones", "recognized"], "--phones goes with --audio"),
         (["--phones", "guessed"], "invalid choice"),
-        (["--audio", "a.wav", "--timings", "x.align", "--phones", "recognized"],
-         "--phones recognized takes the recording's words from the recognizer; --timings"),
+        (
+            ["--audio", "a.wav", "--timings", "x.align", "--phones", "recognized"],
+            "--phones recognized takes the recording's words from the recognizer; --timings",
+        ),
     ],
 )
 def test_contradictory_or_bad_options(
