@@ -383,3 +383,35 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     # the stand-in model has no reference to compare the person with (test_identity does)
     tracked_path = background_files.video_background(model, path, check_person=False)
     assert tracked_path == ("tracked", path)
+
+
+def test_dub_with_no_model_takes_the_videos_own_from_the_cache(
+    capsys, tmp_path: Path, person: Path, video: Path, monkeypatch: pytest.MonkeyPatch
+):
+    """No ``--model``: the model kept under the video's checksum is used (a second dub of
+    the same video starts at once); with none there, the output's mistake is said before a
+    build starts."""
+    import importlib
+    import shutil
+
+    from miketalk.api import video_model
+
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("MIKETALK_MODEL", raising=False)
+    builds: list[tuple] = []
+    building = importlib.import_module("miketalk.api.build")
+    monkeypatch.setattr(building, "build", lambda *a, **k: builds.append(a))
+    line = _error(capsys, "dub", str(video), "--text", "Bin blue.", "-o", str(tmp_path / "o.txt"))
+    assert ".mp4" in line and builds == []
+    cached = tmp_path / "cache" / "video-models" / video_model.video_digest(video)[:32]
+    shutil.copytree(person, cached)
+    out = tmp_path / "dub.mp4"
+    code, _, err = _run(capsys, "dub", str(video), "--text", "Bin blue.", "-o", str(out))
+    assert code == 0, err
+    assert builds == [] and out.is_file()  # no build, and no other model to take
+    shutil.rmtree(cached)  # not there: built (here a stand-in that builds nothing)
+    _error(capsys, "dub", str(video), "--text", "Bin blue.", "-o", str(out))
+    assert [Path(b[1]) for b in builds] == [cached]
+    other = tmp_path / "other.mkv"
+    other.write_bytes(video.read_bytes() + b"\0")  # another file: another model
+    assert video_model.video_digest(other) != video_model.video_digest(video)

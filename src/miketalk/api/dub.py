@@ -46,7 +46,9 @@ def dub(
     output : path-like
         The ``.mp4`` to write (``NAME.json`` beside it).
     settings : DubSettings, optional
-        The model (built from clips of the person), how the mouth moves, the voice.
+        The model (built from clips of the person; None, with no ``$MIKETALK_MODEL``: one
+        built from ``video`` itself, kept in a cache by its checksum,
+        :mod:`miketalk.api.video_model`), how the mouth moves, the voice.
     models : OpenModels, optional
         Models kept open between calls (the page's).
     progress : bool
@@ -74,6 +76,11 @@ def dub(
     settings = settings if settings is not None else DubSettings()
     if not Path(video).is_file():
         raise MiketalkError(f"video file not found: {video}")
+    if settings.model is None and not os.environ.get("MIKETALK_MODEL"):  # the video's own
+        from miketalk.api.video_model import with_video_model
+
+        settings = with_video_model(video, speech, output, settings, inputs=tuple(inputs),
+                                    progress=progress)  # fmt: skip
     plan = checked(speech, output, settings, inputs=(*inputs, video), dub=True)
     _, _, fps = video_info(video)
     try:

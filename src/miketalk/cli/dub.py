@@ -111,7 +111,11 @@ def add_dub_parser(sub) -> None:
     dub.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
     phones_option(dub)
     dub.add_argument("-o", "--output", required=True, help="the .mp4 to write (and its .json)")
-    dub.add_argument("--model", help="a model built from clips of the person in the video")
+    dub.add_argument(
+        "--model",
+        help="a model built from clips of the person in the video (default: $MIKETALK_MODEL, "
+        "else one built from the video itself, kept by its checksum for the next dub)",
+    )
     dub.add_argument(
         "--sampling",
         choices=[s for s in SAMPLINGS if s != "paper"],  # a video cannot be lengthened
