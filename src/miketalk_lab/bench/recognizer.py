@@ -11,6 +11,8 @@ decoder for comparison, and writes
 - ``rule.csv``: what the language/noise rule (:mod:`miketalk.speech.recognize.judge`) sees on
   English (GRID s1, the addresses, espeak-ng's en-us), German and Spanish (espeak-ng's ``de``,
   ``es``), noise, and s1 under white noise at 10, 0 and -5 dB SNR;
+- ``disagreement.csv``: the rule warning when a given text and the recognized words
+  disagree, scored (:mod:`miketalk_lab.bench.disagreement`);
 - ``summary.md``: the tables.
 
 Word error rate: (substitutions + deletions + insertions) / reference words, both sides
@@ -293,7 +295,9 @@ def measure(pool: Path, addresses: Path, out: Path, limit: int | None = None) ->
     speed = joined_speed(clips)
     rule = rule_table(rule_cases(clips), heard)
     rule.to_csv(out / "rule.csv", index=False)
-    text = summary(heard, rule, speed)
+    from miketalk_lab.bench.disagreement import measure as disagreement
+
+    text = summary(heard, rule, speed) + "\n" + disagreement(out / "heard.csv", out)
     (out / "summary.md").write_text(text, "utf-8")
     return text
 
