@@ -41,6 +41,8 @@ def pytest_configure(config: pytest.Config) -> None:
     - The workflow's models are looked for in an empty folder of this session's
       (``$MIKETALK_RESULTS``), never in the checkout's ``results/``, and the caller's
       ``$MIKETALK_MODEL`` is dropped: a test that needs a model builds or names its own.
+      What a run keeps for the next (``$MIKETALK_CACHE``: models' checks, decoded frames)
+      is kept in a folder of the session's, not the user's cache.
       The controller sets both; xdist's workers and every process a test starts inherit them.
     - pytest-xdist's workers (``make test`` runs ``-n 2``) start with Ctrl-C ignored, and
       the processes they start would inherit that: the tests of what Ctrl-C does need
@@ -50,7 +52,10 @@ def pytest_configure(config: pytest.Config) -> None:
     if not os.environ.get("PYTEST_XDIST_WORKER"):
         empty = Path(tempfile.mkdtemp(prefix="miketalk-test-results-"))
         os.environ["MIKETALK_RESULTS"] = str(empty)
+        cache = Path(tempfile.mkdtemp(prefix="miketalk-test-cache-"))
+        os.environ["MIKETALK_CACHE"] = str(cache)  # what a run keeps for the next: the session's
         config.add_cleanup(lambda: shutil.rmtree(empty, ignore_errors=True))
+        config.add_cleanup(lambda: shutil.rmtree(cache, ignore_errors=True))
     if os.environ.get("PYTEST_XDIST_WORKER"):
         signal.signal(signal.SIGINT, signal.default_int_handler)
 

@@ -349,3 +349,48 @@ def test_a_crop_models_compositor_leaves_the_jaw_unwarped_a_full_frames_warps_it
     monkeypatch.setattr(defaults, "BLEND_FOLLOW_CROP", "face")
     c = model_compositor(model, (size, size))
     assert c.follow and (c.follow_within is not None) is crop
+
+
+@pytest.mark.parametrize("blend", ["feather", "poisson"])
+def test_frames_in_the_encoders_colours_are_the_composite_converted_whole(blend):
+    """Converting only the mouth's box (grown to even corners) into a copy of the background's
+    own I420 frame gives what converting the whole composited RGB frame gives, byte for byte,
+    on frames the mouth lands in and on frames played without a mouth."""
+    from miketalk.composite.background import Background, composited
+    from miketalk.media.yuv import I420Frame, to_i420
+
+    frames = np.stack([_texture(seed=s) for s in (11, 12, 13)])
+    transforms = np.stack([_affine(), _affine(angle=-2.0, shift=(2.7, 1.3)), _affine()])
+    renders = [_texture(seed=s) for s in (21, 22, 23, 24)]
+    shown = np.array([True, True, False])
+    compositor = Compositor(MOUTH, SIZE, blend=blend)
+    plain = Background(frames, transforms, _field(), 25.0, shown=shown)
+    coded = Background(frames, transforms, _field(), 25.0, shown=shown,
+                       i420=np.stack([to_i420(f) for f in frames]))  # fmt: skip
+    rgb = list(composited(renders, plain, compositor, fps=25.0))
+    yuv = list(composited(renders, coded, compositor, fps=25.0, i420=True))
+    assert all(isinstance(f, I420Frame) for f in yuv)
+    changed = [not np.array_equal(r, frames[plain.index(k, 25.0)]) for k, r in enumerate(rgb)]
+    assert changed == [True, True, False, True]  # frame 2 plays without a mouth
+    for r, y in zip(rgb, yuv, strict=True):
+        assert np.array_equal(y.planes, to_i420(r))
+    again = list(composited(renders, coded, compositor, fps=25.0))  # not asked: RGB
+    assert all(np.array_equal(a, r) for a, r in zip(again, rgb, strict=True))
+
+
+def test_a_box_pasted_into_i420_planes_is_the_whole_frame_converted():
+    from miketalk.media.yuv import even_box, paste_rgb, to_i420
+
+    rng = np.random.default_rng(5)
+    for h, w in ((10, 14), (12, 16), (288, 360)):
+        a, b = (rng.integers(0, 256, (h, w, 3), np.uint8) for _ in range(2))
+        box = even_box((3, 1, w - 3, h - 1), (h, w))
+        assert all(v % 2 == 0 for v in box) and box != (0, 0, w, h)
+        x0, y0, x1, y1 = box
+        whole = a.copy()
+        whole[y0:y1, x0:x1] = b[y0:y1, x0:x1]
+        planes = to_i420(a)
+        paste_rgb(planes, box, b[y0:y1, x0:x1])
+        assert np.array_equal(planes, to_i420(whole))
+    with pytest.raises(MiketalkError, match="even"):
+        paste_rgb(to_i420(a), (1, 0, 4, 4), b[0:4, 1:4])

@@ -252,3 +252,40 @@ def test_a_model_opened_again_unchanged_is_not_hashed_again_and_a_change_is_foun
     os.utime(image, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))  # a later time, surely
     with pytest.raises(MiketalkError, match=r"aa\.png does not match its checksum"):
         Model(directory)
+
+
+def test_a_check_passed_in_one_run_is_not_repeated_by_the_next_and_a_change_is_found(
+    model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The record of a passed check outlives the process (the user's cache): a new run
+    opening the same unchanged model hashes nothing; a file changed since (the same size,
+    another checksum), or a record from another manifest, is checked again and refused."""
+    from miketalk.model import manifest
+
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    directory = tmp_path / "model"
+    shutil.copytree(model_dir, directory)
+    hashed: list[Path] = []
+    digest = manifest.file_digest
+    monkeypatch.setattr(manifest, "file_digest", lambda p: hashed.append(p) or digest(p))
+    monkeypatch.setattr(manifest, "SETTLED_NS", 0)
+    listed = len(json.loads((directory / "manifest.json").read_text())["files"])
+    monkeypatch.setattr(manifest, "_CHECKED", {})
+    Model(directory).close()
+    assert len(hashed) == listed
+    assert len(list((tmp_path / "cache" / manifest.RECORDS).glob("*.json"))) == 1
+    monkeypatch.setattr(manifest, "_CHECKED", {})  # a new run: only the record is left
+    Model(directory).close()
+    assert len(hashed) == listed
+    monkeypatch.setenv("MIKETALK_CACHE", "off")  # nothing kept: hashed at every run
+    monkeypatch.setattr(manifest, "_CHECKED", {})
+    Model(directory).close()
+    assert len(hashed) == 2 * listed
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    image = directory / "visemes" / "aa.png"
+    data = bytearray(image.read_bytes())
+    data[-20] ^= 0xFF
+    image.write_bytes(bytes(data))
+    monkeypatch.setattr(manifest, "_CHECKED", {})
+    with pytest.raises(MiketalkError, match=r"aa\.png does not match its checksum"):
+        Model(directory)

@@ -401,3 +401,26 @@ def test_a_stale_journal_does_not_undo_a_newer_file(tmp_path):
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == {
         "v.mp4": b"newer video", "v.json": b"old json",
     }  # fmt: skip
+
+
+def test_frames_in_the_encoders_colours_are_encoded_as_given(tmp_path):
+    """I420 frames go to the encoder unconverted: losslessly encoded, they decode to the very
+    planes given; mixed with RGB frames they are refused, and nothing is left."""
+    import subprocess
+
+    from miketalk.media.video import ffmpeg_exe
+    from miketalk.media.yuv import I420Frame, to_i420
+
+    planes = [to_i420(f) for f in _frames(6)]
+    path = tmp_path / "yuv.mp4"
+    write_mp4(path, (I420Frame(p) for p in planes), fps=25, n_frames=6, crf=0)
+    decoded = subprocess.run(
+        [ffmpeg_exe(), "-v", "error", "-i", str(path), "-f", "rawvideo", "-pix_fmt", "yuv420p",
+         "-"], capture_output=True, check=True,
+    ).stdout  # fmt: skip
+    assert decoded == b"".join(p.tobytes() for p in planes)
+    assert np.array_equal(I420Frame(planes[0]).rgb().shape, (48, 64, 3))
+    mixed = tmp_path / "mixed.mp4"
+    with pytest.raises(MiketalkError, match="frame 1"):
+        write_mp4(mixed, [I420Frame(planes[0]), _frames(1)[0]], fps=25)
+    assert not mixed.exists()

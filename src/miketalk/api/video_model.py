@@ -23,16 +23,13 @@ __all__ = ["cache_dir", "video_digest", "video_model"]
 
 log = logging.getLogger(__name__)
 
-#: The environment variable naming the cache's folder.
-CACHE_ENV = "MIKETALK_CACHE"
-
 
 def cache_dir() -> Path:
-    """Where models built from dubbed videos are kept (module docstring)."""
-    if env := os.environ.get(CACHE_ENV):
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "miketalk"
+    """Where models built from dubbed videos are kept (module docstring): the user's cache,
+    :func:`miketalk.media.user_cache.cache_root`."""
+    from miketalk.media.user_cache import cache_root
+
+    return cache_root()
 
 
 def video_digest(video: str | os.PathLike[str]) -> str:

@@ -36,6 +36,7 @@ import numpy as np
 from miketalk import defaults
 from miketalk.composite.loop import pingpong
 from miketalk.errors import MiketalkError
+from miketalk.media.yuv import I420Frame, even_box, paste_rgb
 
 __all__ = [
     "Background",
@@ -84,6 +85,11 @@ class Background:
     steady_shots : dict of int to numpy.ndarray, or None
         Each shot's own :attr:`steady` (its light): the mouth's colour is matched to the
         shot it is put into (None: to :attr:`steady` everywhere).
+    i420 : numpy.ndarray or None
+        (N, H * 3 // 2, W) uint8: the same frames in the encoder's colours
+        (:mod:`miketalk.media.yuv`; a model's own frames, kept decoded,
+        :mod:`miketalk.media.kept_frames`), so that :func:`composited` converts only the
+        mouth's box of each. None: only RGB.
 
     The frames may be an array or a sequence read when needed
     (:mod:`miketalk.media.frame_source`): indexed by a whole number, with ``shape``.
@@ -99,6 +105,7 @@ class Background:
     shown: np.ndarray | None = None
     shot: np.ndarray | None = None
     steady_shots: dict[int, np.ndarray] | None = None
+    i420: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -120,7 +127,8 @@ def composited(
     *,
     fps: float,
     rest: np.ndarray | None = None,
-) -> Iterator[np.ndarray]:
+    i420: bool = False,
+) -> Iterator[np.ndarray | I420Frame]:
     """Each render (reference coordinates) blended into its background frame.
 
     Parameters
@@ -137,15 +145,24 @@ def composited(
         of it and ``background.steady``), or once for each of its shots
         (``background.steady_shots``: a cut to another light), instead of frame by
         frame.
+    i420 : bool
+        Yield :class:`~miketalk.media.yuv.I420Frame` frames when the background has its
+        frames in the encoder's colours (:attr:`Background.i420`): each a copy of its
+        background frame's with the mouth's box (grown to even corners) converted from the
+        blend, what converting the whole blended frame gives. Else (H', W', 3) RGB frames.
     """
     offset = None
     if rest is not None and background.steady is not None:
         offset = compositor.colour_field(rest, background.steady)
     by_shot: dict[int, np.ndarray] = {}
+    planes = background.i420 if i420 else None
     for k, render in enumerate(renders):
         i = background.index(k, fps)
         if background.shown is not None and not background.shown[i]:
-            yield np.array(background.frames[i], np.uint8, copy=True)
+            if planes is not None:
+                yield I420Frame(np.array(planes[i], np.uint8, copy=True))
+            else:
+                yield np.array(background.frames[i], np.uint8, copy=True)
             continue
         here = offset
         shot = -1 if background.shot is None else int(background.shot[i])
@@ -153,13 +170,23 @@ def composited(
             if shot not in by_shot:
                 by_shot[shot] = compositor.colour_field(rest, background.steady_shots[shot])
             here = by_shot[shot]
-        yield compositor(
-            background.frames[i],
-            render,
-            background.transforms[i],
-            field=background.field,
-            offset=here,
-        )
+        frame, transform = background.frames[i], background.transforms[i]
+        if planes is None:
+            yield compositor(frame, render, transform, field=background.field, offset=here)
+            continue
+        out = np.array(planes[i], np.uint8, copy=True)
+        blended = compositor.blend_box(frame, render, transform, field=background.field,
+                                       offset=here)  # fmt: skip
+        if blended is not None:
+            box, pixels = blended
+            even = even_box(box, background.size)
+            if even != box:  # the box's own pixels beside it, to convert 2x2 blocks whole
+                region = np.array(frame[even[1] : even[3], even[0] : even[2]], np.uint8)
+                region[box[1] - even[1] : box[3] - even[1],
+                       box[0] - even[0] : box[2] - even[0]] = pixels  # fmt: skip
+                pixels = region
+            paste_rgb(out, even, pixels)
+        yield I420Frame(out)
 
 
 def background_doc(background: Background | None) -> dict:

@@ -19,6 +19,7 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.composite.background import Background, composited
+from miketalk.media.yuv import I420Frame
 
 __all__ = [
     "BACKGROUND_CHOICES",
@@ -142,9 +143,15 @@ def video_background(
 
 
 def composite_renders(
-    renders: Iterable[np.ndarray], background: Background, model: Any, *, fps: float
-) -> Iterator[np.ndarray]:
-    """:func:`composited` with the model's mouth box, size and silence image.
+    renders: Iterable[np.ndarray],
+    background: Background,
+    model: Any,
+    *,
+    fps: float,
+    i420: bool = False,
+) -> Iterator[np.ndarray | I420Frame]:
+    """:func:`composited` with the model's mouth box, size and silence image (``i420``:
+    frames in the encoder's colours where the background has them).
 
     Parameters
     ----------
@@ -160,4 +167,4 @@ def composite_renders(
 
     compositor = model_compositor(model, model.size)
     rest = model.image(SILENCE) if SILENCE in model.visemes else None
-    return composited(renders, background, compositor, fps=fps, rest=rest)
+    return composited(renders, background, compositor, fps=fps, rest=rest, i420=i420)

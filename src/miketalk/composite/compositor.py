@@ -355,21 +355,40 @@ class Compositor:
         numpy.ndarray
             (H', W', 3) uint8.
         """
+        out = np.array(frame, np.uint8, copy=True)
+        blended = self.blend_box(frame, render, transform, field=field, offset=offset)
+        if blended is not None:
+            (x0, y0, x1, y1), pixels = blended
+            out[y0:y1, x0:x1] = pixels
+        return out
+
+    def blend_box(
+        self,
+        frame: np.ndarray,
+        render: np.ndarray,
+        transform: np.ndarray,
+        *,
+        field: np.ndarray | None = None,
+        offset: np.ndarray | None = None,
+    ) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
+        """What :meth:`__call__` changes, and only that: the frame's box ``(x0, y0, x1, y1)``
+        the blend touches and its pixels there, (y1 - y0, x1 - x0, 3) uint8 (None: the
+        mouth falls outside the frame, nothing changes). Only the box is read from
+        ``frame`` (a mapped frame is not read whole)."""
         if render.shape[:2] != self.size:
             raise MiketalkError(
                 f"the render is {render.shape[1]}x{render.shape[0]}, the reference "
                 f"{self.size[1]}x{self.size[0]}"
             )
-        out = np.array(frame, np.uint8, copy=True)
         placement = self.place(transform, frame.shape[:2], field=field)
         if placement is None:
-            return out
+            return None
         x0, y0, x1, y1 = placement.box
         mouth = cv2.remap(
             render, placement.map_x, placement.map_y, INTERPOLATIONS[self.interpolation],
             borderMode=cv2.BORDER_REPLICATE,
         ).astype(np.float32)  # fmt: skip
-        here = out[y0:y1, x0:x1].astype(np.float32)
+        here = np.asarray(frame[y0:y1, x0:x1], np.float32)
         a = placement.alpha[..., None]
         if offset is not None:
             match = offset if isinstance(offset, ColourMatch) else ColourMatch(offset)
@@ -387,12 +406,13 @@ class Compositor:
             here = follow_render(here, mouth, placement.alpha, placement.map_y, self.mouth_box,
                                  within=within)  # fmt: skip
         if self.blend == "poisson":
+            out = np.array(frame, np.uint8, copy=True)
             if self.follow:  # the frame the mouth is cloned into, its jaw moved
                 out[y0:y1, x0:x1] = np.clip(here + 0.5, 0, 255).astype(np.uint8)
-            return _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
+            cloned = _seamless(out, np.clip(mouth + 0.5, 0, 255).astype(np.uint8), placement)
+            return placement.box, cloned[y0:y1, x0:x1]
         blended = here + a * (mouth - here)
-        out[y0:y1, x0:x1] = np.clip(blended + 0.5, 0, 255).astype(np.uint8)
-        return out
+        return placement.box, np.clip(blended + 0.5, 0, 255).astype(np.uint8)
 
 
 def _seamless(frame: np.ndarray, mouth: np.ndarray, placement: Placement) -> np.ndarray:

@@ -126,7 +126,14 @@ class ImageFrames(_Cached):
         super().__init__(len(self._paths), first.shape[:2], keep)
         self._remember(0, first)
 
-    def _read(self, i: int) -> np.ndarray:
+    def read_file(self, i: int) -> np.ndarray:
+        """Frame ``i`` read from its file, not kept (any thread may call it).
+
+        Raises
+        ------
+        MiketalkError
+            A file that cannot be read, or not of the first one's size.
+        """
         from miketalk.media.images import read_image
 
         frame = read_image(self._paths[i])
@@ -135,6 +142,10 @@ class ImageFrames(_Cached):
                 f"{self._paths[i]} is {frame.shape[1]}x{frame.shape[0]}, the frames before it "
                 f"{self._frame_shape[1]}x{self._frame_shape[0]}"
             )
+        return frame
+
+    def _read(self, i: int) -> np.ndarray:
+        frame = self.read_file(i)
         self._remember(i, frame)
         return frame
 

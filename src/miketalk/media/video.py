@@ -44,15 +44,26 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_path
 from miketalk.media.audio import check_rate, check_samples, write_wav
+from miketalk.media.encoder import FILE_X264, LIVE_X264, X264, ffmpeg_exe
 from miketalk.media.ffmpeg_log import encoding_failure
+from miketalk.media.probe import probe_durations
 from miketalk.media.scratch import scratch_dir
+from miketalk.media.yuv import I420Frame
 
 if sys.platform == "linux":
     import fcntl
 else:  # pragma: no cover - the pipe keeps its default size
     fcntl = None
 
-__all__ = ["audio_format", "ffmpeg_exe", "probe_durations", "write_mp4"]
+__all__ = [
+    "FILE_X264",
+    "LIVE_X264",
+    "X264",
+    "audio_format",
+    "ffmpeg_exe",
+    "probe_durations",
+    "write_mp4",
+]
 
 _BITEXACT = ["-fflags", "+bitexact", "-map_metadata", "-1"]
 _AUDIO_BITRATE = "96k"
@@ -65,25 +76,6 @@ _STDERR_TAIL = 15  # lines of ffmpeg's log quoted in errors
 _PIPE_BYTES = 8 << 20  # wanted size of the pipe to ffmpeg
 
 
-def ffmpeg_exe() -> str:
-    """Path of the ffmpeg binary bundled with imageio-ffmpeg.
-
-    Raises
-    ------
-    MiketalkError
-        If imageio-ffmpeg or its binary is missing.
-    """
-    try:
-        import imageio_ffmpeg
-
-        return imageio_ffmpeg.get_ffmpeg_exe()
-    except (ImportError, RuntimeError) as exc:
-        raise MiketalkError(
-            f"ffmpeg not found ({exc}); reinstall miketalk's dependencies "
-            "(pip install imageio-ffmpeg)"
-        ) from exc
-
-
 def write_mp4(
     path: str | os.PathLike[str],
     frames: Iterable[np.ndarray] | np.ndarray,
@@ -93,8 +85,9 @@ def write_mp4(
     rate: int | None = None,
     n_frames: int | None = None,
     crf: int = 18,
-    preset: str = "veryfast",
+    preset: str = FILE_X264.preset,
     audio_file: str | os.PathLike[str] | None = None,
+    tune: str | None = None,
 ) -> None:
     """Write frames and mono audio to an H.264 (yuv420p) + AAC mp4, atomically and reproducibly.
 
@@ -105,7 +98,9 @@ def write_mp4(
     frames : iterable of ndarray, or ndarray
         ``(H, W, 3)`` RGB or ``(H, W)`` grey uint8 frames, all of one shape; or
         one ``(N, H, W, 3)`` / ``(N, H, W)`` array. An odd width or height (which
-        yuv420p cannot hold) is padded by one by repeating the last column/row.
+        yuv420p cannot hold) is padded by one by repeating the last column/row. Or
+        :class:`~miketalk.media.yuv.I420Frame` frames, all of one size: encoded as they
+        are, without ffmpeg's conversion from RGB.
     fps : float, keyword-only
         Frame rate, > 0 (a float such as 29.97 is turned into the nearest fraction).
     audio : ndarray of int16, shape (n,), keyword-only, optional
@@ -122,6 +117,8 @@ def write_mp4(
         x264 constant rate factor, 0 (lossless) to 51; 18 is visually lossless.
     preset : str, keyword-only
         x264 preset (speed/size trade-off; does not affect determinism).
+    tune : str, keyword-only, optional
+        x264 tune (:data:`LIVE_X264`'s ``zerolatency``); None: none.
     audio_file : path-like, keyword-only, optional
         A recording whose first audio stream is the sound, at its own rate and channels
         (see the module docstring), instead of ``audio``.
@@ -164,8 +161,8 @@ def write_mp4(
             audio_args = _audio_input(work, audio, rate, int(n_frames), fps_q)
         with atomic_path(path, suffix=".mp4") as out:
             count = _encode_video(
-                exe, _iter_frames(frames), fps_q, int(crf), preset, out, work / "video.log",
-                *audio_args,
+                exe, _iter_frames(frames), fps_q, X264(preset, int(crf), tune), out,
+                work / "video.log", *audio_args,
             )  # fmt: skip
             if count != n_frames:
                 raise MiketalkError(f"{count} frames were given, not n_frames={n_frames}")
@@ -230,43 +227,6 @@ def _audio_file_input(
     ]  # fmt: skip
 
 
-def probe_durations(path: str | os.PathLike[str]) -> tuple[float, float]:
-    """Durations in seconds of the video and audio streams of a media file, by decoding it.
-
-    Each stream's duration is ``end - start`` of its decoded frames (the last
-    frame's timestamp plus its duration, minus the first timestamp), after the
-    container's edit lists are applied, i.e. what a player plays.
-
-    Parameters
-    ----------
-    path : path-like
-        An mp4 (or any file ffmpeg reads).
-
-    Returns
-    -------
-    video_seconds, audio_seconds : float
-        0.0 for a stream the file does not have.
-
-    Raises
-    ------
-    MiketalkError
-        If the file is missing or ffmpeg cannot decode it.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise MiketalkError(f"media file not found: {path}")
-    args = ["-hide_banner", "-nostdin", "-loglevel", "error", "-i", str(path), "-f", "framemd5"]
-    proc = subprocess.run(
-        [ffmpeg_exe(), *args, "-"],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if proc.returncode != 0:
-        raise MiketalkError(f"ffmpeg could not read {path}:\n{_tail(proc.stderr)}")
-    return _durations_from_framemd5(proc.stdout)
-
-
 # ---------------------------------------------------------------------------
 # helpers
 # ---------------------------------------------------------------------------
@@ -297,6 +257,14 @@ def _iter_frames(frames: Iterable[np.ndarray] | np.ndarray) -> Iterator[np.ndarr
         raise MiketalkError(f"frames must be an iterable of images, got {type(frames).__name__}")
     first: tuple[int, ...] | None = None
     for i, frame in enumerate(frames):
+        if isinstance(frame, I420Frame):  # already the encoder's colours (even-sized)
+            shape = ("i420", *frame.planes.shape)
+            if first is None:
+                first = shape
+            elif shape != first:
+                raise MiketalkError(f"frame {i} is {shape} but frame 0 is {first}")
+            yield I420Frame(np.ascontiguousarray(frame.planes, np.uint8))
+            continue
         if not isinstance(frame, np.ndarray):
             raise MiketalkError(f"frame {i} is a {type(frame).__name__}, not a numpy array")
         if frame.dtype != np.uint8:
@@ -332,8 +300,7 @@ def _encode_video(
     exe: str,
     frames: Iterator[np.ndarray],
     fps: Fraction,
-    crf: int,
-    preset: str,
+    x264: X264,
     out: Path,
     log: Path,
     inputs: list[str],
@@ -347,12 +314,15 @@ def _encode_video(
     first = next(frames, None)
     if first is None:
         raise MiketalkError("frames is empty; a video needs at least one frame")
-    height, width = first.shape[:2]
-    pix_fmt = "rgb24" if first.ndim == 3 else "gray"
+    if isinstance(first, I420Frame):
+        (height, width), pix_fmt = first.size, "yuv420p"
+    else:
+        height, width = first.shape[:2]
+        pix_fmt = "rgb24" if first.ndim == 3 else "gray"
     args = [
         "-f", "rawvideo", "-pix_fmt", pix_fmt, "-s", f"{width}x{height}",
         "-framerate", f"{fps.numerator}/{fps.denominator}", "-i", "pipe:0", *inputs,
-        "-map", "0:v:0", "-c:v", "libx264", "-preset", preset, "-crf", str(crf),
+        "-map", "0:v:0", *x264.args(),
         "-pix_fmt", "yuv420p", "-threads", "1", "-flags:v", "+bitexact", *streams, *_BITEXACT,
         "-movflags", "+faststart", "-f", "mp4", str(out),
     ]  # fmt: skip
@@ -370,7 +340,7 @@ def _encode_video(
                 raise RuntimeError("no pipe to ffmpeg")
             _widen_pipe(stdin.fileno())
             for frame in _chain(first, frames):
-                stdin.write(frame.data)
+                stdin.write(frame.planes.data if isinstance(frame, I420Frame) else frame.data)
                 count += 1
             stdin.close()
             code = proc.wait()
@@ -414,29 +384,3 @@ def _chain(first: np.ndarray, rest: Iterator[np.ndarray]) -> Iterator[np.ndarray
 def _tail(text: str) -> str:
     lines = text.strip().splitlines()[-_STDERR_TAIL:]
     return "\n".join(lines) if lines else "(ffmpeg printed nothing)"
-
-
-def _durations_from_framemd5(text: str) -> tuple[float, float]:
-    """(video, audio) seconds from ffmpeg's framemd5 listing of the decoded frames."""
-    media: dict[str, str] = {}
-    time_base: dict[str, Fraction] = {}
-    spans: dict[str, tuple[int, int]] = {}
-    for line in text.splitlines():
-        if line.startswith("#media_type") or line.startswith("#tb"):
-            key, value = line[1:].split(":", 1)
-            kind, stream = key.split()
-            if kind == "tb":
-                time_base[stream] = Fraction(value.strip())
-            else:
-                media[stream] = value.strip()
-        elif line and not line.startswith("#"):
-            stream, _dts, pts, duration = (f.strip() for f in line.split(",")[:4])
-            start, end = int(pts), int(pts) + int(duration)
-            old = spans.get(stream, (start, end))
-            spans[stream] = (min(old[0], start), max(old[1], end))
-    seconds = {"video": 0.0, "audio": 0.0}
-    for stream, (start, end) in spans.items():
-        kind = media.get(stream)
-        if kind in seconds and seconds[kind] == 0.0:  # first stream of each kind
-            seconds[kind] = float((end - start) * time_base[stream])
-    return seconds["video"], seconds["audio"]

@@ -48,9 +48,10 @@ class KeptBackground:
         From any of its members, if the model keeps no background (``exists`` is False).
     """
 
-    def __init__(self, model_dir: str | os.PathLike[str]) -> None:
+    def __init__(self, model_dir: str | os.PathLike[str], files: dict | None = None) -> None:
         self.model_dir = Path(model_dir)
         self.where = self.model_dir / DIRECTORY
+        self.files = files or {}  # the manifest's: each file's size and SHA-256
 
     @property
     def exists(self) -> bool:
@@ -110,15 +111,17 @@ class KeptBackground:
         )
 
     def read(self) -> Background:
-        """The background sequence (its frames read when first played, then kept).
+        """The background sequence: its frames decoded once and kept decoded, in RGB and
+        in the encoder's colours (:func:`~miketalk.media.kept_frames.kept_frames`, named by
+        each frame's size and SHA-256 in the manifest), else read when first played.
 
         Raises
         ------
         MiketalkError
             If the model keeps none.
         """
-        from miketalk.media.frame_source import ImageFrames
         from miketalk.media.images import read_image
+        from miketalk.media.kept_frames import KeptFrames, kept_frames
 
         if not self.exists:
             raise MiketalkError(
@@ -126,8 +129,14 @@ class KeptBackground:
                 "person): use --background still or a video"
             )
         meta = self.meta
-        paths = [self.where / f"{i:04d}.png" for i in range(meta["frames"])]
-        frames = ImageFrames(paths, keep=len(paths))  # read once when first played, then kept
+        names = [f"{DIRECTORY}/{i:04d}.png" for i in range(meta["frames"])]
+        listed = [self.files.get(name) for name in names]
+        frames = kept_frames(
+            [self.model_dir / name for name in names],
+            identity=listed if all(listed) else None,  # else each file's stat
+        )
+        i420 = frames.i420 if isinstance(frames, KeptFrames) else None
+        frames = frames.rgb if isinstance(frames, KeptFrames) else frames
         field = np.load(self.where / FIELD)
         transforms = np.array(meta["transforms"], np.float64).reshape(-1, 2, 3)
         return Background(
@@ -139,6 +148,7 @@ class KeptBackground:
             f"clip {meta['clip']}",
             read_image(self.where / STEADY),
             np.array(meta["shown"], bool) if "shown" in meta else None,
+            i420=i420,
         )
 
 

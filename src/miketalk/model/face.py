@@ -115,7 +115,7 @@ class Model(Morphs):
         super().__init__(
             images, flows, displacement, size, cache_size=cache_size, morph_options=morph_options
         )
-        self._kept = KeptBackground(self.directory)
+        self._kept = KeptBackground(self.directory, manifest.get("files"))
 
     def changed_on_disk(self) -> bool:
         """Whether a file the manifest lists was replaced, resized or touched since the

@@ -137,7 +137,7 @@ def write_utterance(
     if background is not None:
         from miketalk.composite.background_files import composite_renders
 
-        frames = composite_renders(frames, background, model, fps=timeline.fps)
+        frames = composite_renders(frames, background, model, fps=timeline.fps, i420=True)
     if progress:
         from tqdm import tqdm
 
