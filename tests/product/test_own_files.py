@@ -267,11 +267,10 @@ def served(face: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Itera
     from miketalk.serve import app as serve_app
     from miketalk.serve.config import ServeConfig
 
-    monkeypatch.setattr(serve_app.Handler, "timeout", 1)
     model = _copy(face, tmp_path)
     config = ServeConfig(
         results=tmp_path / "results", models=tmp_path / "models", host="127.0.0.1", port=0,
-        known_models=(model,), workflow=False, max_upload_bytes=200 << 20,
+        known_models=(model,), workflow=False, max_upload_bytes=200 << 20, stall_seconds=1,
     )  # fmt: skip
     httpd = serve_app.make_server(config)
     thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1})

@@ -9,13 +9,18 @@ own folder; a text file named ``.mp4`` is the library's one line in the page; a 
 that climbs out of the folder is only shown; a request from elsewhere, an upload over the
 limit and a bad job are each one line. Then the build ends with its stages shown and a face
 that speaks, and a cancelled build leaves nothing. A model the server keeps open is checked
-again when one of its files changes. ``MIKETALK_SERVE_SHOTS=DIR`` saves screenshots there.
+again when one of its files changes. After Speak the result is announced and focused, and on
+a phone's screen; the jobs are reached by the keyboard, show their place in the queue and can
+be cancelled; the text's limit is stated before any work and a longer text refused, never
+cut; a build's warnings are shown and logged once, and its messages name the uploaded video.
+``MIKETALK_SERVE_SHOTS=DIR`` saves screenshots there.
 """
 
 from __future__ import annotations
 
 import http.client
 import json
+import logging
 import os
 import threading
 import time
@@ -86,9 +91,14 @@ def server(synthetic: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterato
         build_options=quick,
     )  # fmt: skip
     httpd = make_server(config)
+    httpd.logged = []  # what the server logged (its warnings: each once)
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = lambda record: httpd.logged.append(record.getMessage())
+    logging.getLogger("miketalk").addHandler(handler)
     thread = threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.1})
     thread.start()
     yield httpd
+    logging.getLogger("miketalk").removeHandler(handler)
     httpd.shutdown()
     thread.join()
     httpd.server_close()
@@ -238,6 +248,13 @@ def test_typed_text_plays_with_its_cues_and_downloads(page, url: str, server) ->
         ]  # fmt: skip
         download = page.request.get(seen["mp4"])
         assert download.ok and download.body() == (folder / "say.mp4").read_bytes()
+        named = page.get_attribute("#get-mp4", "download")  # not say.mp4: the job's own name
+        assert named.startswith(seen["job"] + "-bin-blue-at-f-two-now") and named.endswith(".mp4")
+        assert f'filename="{named}"' in download.headers["content-disposition"]
+        # announced and focused: not dropped to the body
+        assert page.evaluate("document.activeElement.id") == "result-title"
+        assert page.inner_text("#announce").startswith("Said: ")
+        assert page.get_attribute("#announce", "aria-live") == "polite"
     page.evaluate("document.getElementById('player').pause()")
     shot(page, "played")
     assert page.errors == []
@@ -387,6 +404,12 @@ def test_the_build_ends_with_its_stages_and_a_face_that_speaks(building, server)
     assert model.name == build["id"] and (model / "manifest.json").is_file()
     said = [j["finished"] for j in jobs if j["kind"] == "say" and j["status"] == "done"]
     assert any(build["started"] < t < build["finished"] for t in said)  # while it built
+    # its warnings (two clips lack visemes) are on the page, and in the server's log once
+    shown = building.locator("#build-progress .warnings li").all_inner_texts()
+    assert shown and shown == build["warnings"]
+    assert any("has no instance in the training clips" in w for w in shown), shown
+    for line in shown:
+        assert sum(line in logged for logged in server.logged) == 1, (line, server.logged)
     seen = _say(building, "s1 here", "Bin blue at F two now.")
     assert not seen["error"]
     folder = _job_folder(server, seen["job"])
@@ -411,6 +434,23 @@ def test_a_cancelled_build_leaves_nothing(building, joined, server) -> None:
     assert all(m["label"] != "never" for m in server.app.catalog.describe())
     job = next(j for j in server.app.board.listing() if j["kind"] == "build")
     assert job["status"] == "cancelled" and job["inputs"]["name"] == "never"
+
+
+def test_a_build_of_another_videos_words_names_the_uploaded_video(
+    building, joined, server, tmp_path: Path
+) -> None:
+    script = tmp_path / "anna's words.txt"
+    script.write_text("Elephants juggle marmalade quietly beneath purple umbrellas. " * 3)
+    building.bring_to_front()
+    building.click("#tab-build")
+    building.fill("#build-form input[name=name]", "wrong words")
+    building.set_input_files("#build-form input[name=video]", str(joined.video))
+    building.set_input_files("#build-form input[name=script]", str(script))
+    building.click("#build-form button[type=submit]")
+    _build_status(building, "failed", 300)
+    line = building.locator("#build-form .error").inner_text()
+    assert joined.video.name in line and "video.mp4" not in line, line  # before: video.mp4
+    assert line.startswith("error: ") and "\n" not in line
 
 
 def test_the_command_starts_and_stops(tmp_path: Path) -> None:
@@ -551,3 +591,101 @@ def test_a_model_that_is_not_there_is_refused_at_start(tmp_path: Path) -> None:
         )  # fmt: skip
         assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
         assert proc.stderr.startswith(f"miketalk: error: --model {missing}: no model there")
+
+
+def test_on_a_phone_the_result_is_on_the_screen(browser, url: str) -> None:
+    phone = browser.new_page()
+    phone.set_viewport_size({"width": 390, "height": 844})
+    try:
+        _open(phone, url)
+        label = phone.locator("#models li .name").first.inner_text()
+        _say(phone, label, "Bin blue at F two now.")
+        top, height = phone.evaluate(
+            "[document.getElementById('result').getBoundingClientRect().top, innerHeight]"
+        )
+        assert 0 <= top < height / 2, (top, height)  # before: below the fold
+        shot(phone, "phone")
+    finally:
+        phone.close()
+
+
+def test_a_job_is_reached_and_opened_with_the_keyboard(page, url: str) -> None:
+    _open(page, url)
+    page.wait_for_selector("#jobs li.openable")
+    page.focus("#say-form textarea[name=text]")
+    for _ in range(80):  # Tab through the page until a job of the list has the focus
+        page.keyboard.press("Tab")
+        if page.evaluate("document.activeElement.matches('#jobs li.openable')"):
+            break
+    else:
+        raise AssertionError("no job of the list is reached by Tab")
+    job_id = page.evaluate("document.activeElement.dataset.id")
+    page.evaluate("document.getElementById('player').removeAttribute('data-job')")
+    page.keyboard.press("Enter")
+    page.wait_for_selector(f"#player[data-job='{job_id}']", state="attached")
+    assert not page.is_hidden("#result")
+
+
+def test_the_text_limit_is_stated_and_a_longer_text_refused_before_any_work(
+    page, url: str, server
+) -> None:
+    _open(page, url)
+    limit = server.app.settings()["max_text_chars"]
+    stated = page.inner_text("#say-limit")
+    assert f"{limit:,}" in stated and "never cut" in stated  # before any work
+    before = len(server.app.board.listing())
+    text = "Bin blue at F two now. " * (limit // 23 + 1)
+    page.fill("#say-form textarea[name=text]", text)
+    assert page.input_value("#say-form textarea[name=text]") == text  # pasted whole
+    assert "too many" in page.inner_text("#say-limit")
+    page.click("#say-form button[type=submit]")
+    error = page.locator("#say-form .error")
+    error.wait_for(state="visible")
+    assert error.inner_text() == (
+        f"error: the text is {len(text):,} characters long: at most {limit:,}; nothing was "
+        "sent or cut"
+    )
+    assert len(server.app.board.listing()) == before  # no job
+    page.fill("#say-form textarea[name=text]", "")
+
+
+def test_the_queue_shows_each_jobs_place_and_cancels_a_queued_one(
+    page, url: str, server, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from miketalk.serve import jobs
+
+    gate, spoken = threading.Event(), jobs.speak
+
+    def held(folder, model_dir, *, text, **more):  # the first job runs until let go
+        if text == "Hold on.":
+            assert gate.wait(120)
+        return spoken(folder, model_dir, text=text, **more)
+
+    monkeypatch.setattr(jobs, "speak", held)
+    _open(page, url)
+    asked = [
+        page.evaluate(
+            """async (text) => (await (await fetch('/api/jobs', {method: 'POST',
+            headers: {'X-Miketalk': '1', 'Content-Type': 'application/json'},
+            body: JSON.stringify({kind: 'say', model: 'model', text})})).json()).id""",
+            text,
+        )
+        for text in ("Hold on.", "One.", "Two.")
+    ]
+    try:
+        page.wait_for_selector(f"#jobs li[data-id='{asked[2]}'] .status:has-text('2nd in line')")
+        assert "1st in line" in page.inner_text(f"#jobs li[data-id='{asked[1]}'] .status")
+        assert page.inner_text(f"#jobs li[data-id='{asked[0]}'] .status") == "running"
+        shot(page, "queue")
+        page.click(f"#jobs li[data-id='{asked[1]}'] button.cancel")
+        page.wait_for_selector(f"#jobs li[data-id='{asked[1]}'] .status:has-text('cancelled')")
+        page.wait_for_selector(f"#jobs li[data-id='{asked[2]}'] .status:has-text('1st in line')")
+    finally:
+        gate.set()
+    assert server.app.board.public(asked[1])["status"] == "cancelled"
+    for job_id in (asked[0], asked[2]):
+        for _ in range(600):
+            if server.app.board.public(job_id)["status"] not in ("queued", "running"):
+                break
+            time.sleep(0.1)
+        assert server.app.board.public(job_id)["status"] == "done"

@@ -17,6 +17,7 @@ import argparse
 import ipaddress
 import logging
 import sys
+import threading
 from pathlib import Path
 
 from miketalk.api import MiketalkError
@@ -80,13 +81,17 @@ def cmd_serve(args: argparse.Namespace) -> int:
             "can use the page and its files",
             file=sys.stderr,
         )
+    serving = threading.Thread(target=server.serve_forever, name="miketalk-serve", daemon=True)
+    serving.start()
     try:
-        server.serve_forever(poll_interval=0.25)
+        while serving.is_alive():  # Ctrl-C and SIGTERM land in this (the main) thread
+            serving.join(0.25)
     except KeyboardInterrupt:
         print("miketalk serve: stopping", file=sys.stderr)
     finally:
+        server.app.close()  # the jobs first: a stream being played ends with its job
+        server.shutdown()
         server.server_close()
-        server.app.close()
     logging.getLogger("miketalk").info("miketalk serve stopped")
     return 0
 

@@ -104,8 +104,8 @@ class BuildRun:
 
     def messages(self, timeout: float) -> list[tuple]:
         """What the child reported within ``timeout`` seconds (empty: nothing yet), as tuples:
-        ``("stage", name, seconds, peak_mb)``, ``("done", seconds by stage)``,
-        ``("error", line)``, ``("cancelled",)``."""
+        ``("stage", name, seconds, peak_mb)``, ``("warning", line)``, ``("done", seconds by
+        stage)``, ``("error", line)``, ``("cancelled",)``."""
         if self._pipe < 0:
             return []
         ready, _, _ = select.select([self._pipe], [], [], timeout)
@@ -158,7 +158,8 @@ def _one_line(err: BaseException) -> str:
 
 
 def main(argv: list[str]) -> int:
-    """The child: build what standard input says, report on the pipe ``argv[1]``."""
+    """The child: build what standard input says, report on the pipe ``argv[1]``: its
+    stages, its warnings (the server logs each once and shows it on the page), its end."""
     logging.basicConfig(level=logging.WARNING, format="miketalk serve: build: %(message)s")
     from miketalk.console import handle_termination
 
@@ -167,6 +168,17 @@ def main(argv: list[str]) -> int:
     def send(*message: object) -> None:
         with contextlib.suppress(OSError, ValueError):
             report.write(json.dumps(message) + "\n")
+
+    class Reported(logging.Handler):  # a warning goes to the server, not to stderr
+        def emit(self, record: logging.LogRecord) -> None:
+            send("warning", " ".join(self.format(record).split()))
+
+    warned = Reported(logging.WARNING)
+    warned.addFilter(lambda r: r.levelno < logging.ERROR)
+    root = logging.getLogger()
+    for handler in root.handlers:
+        handler.setLevel(logging.ERROR)
+    root.addHandler(warned)
 
     with handle_termination():
         try:

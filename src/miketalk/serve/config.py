@@ -19,6 +19,8 @@ DEFAULT_MAX_UPLOAD_MB = 512
 DEFAULT_RESULTS = Path("miketalk-serve")
 #: The largest JSON body of a request (a job's settings and text), bytes.
 MAX_JSON_BYTES = 1 << 20
+#: Seconds a request's body may stop coming before it is answered 408 and let go.
+DEFAULT_STALL_SECONDS = 60.0
 #: The longest text a job speaks, characters.
 MAX_TEXT_CHARS = 20_000
 
@@ -50,6 +52,9 @@ class ServeConfig:
         ``mixed_window``: the tests build with the ``.test`` workflow's quicker flows).
     workflow : bool
         Also list the models of the workflow's results (``results/model/*``).
+    stall_seconds : float
+        How long a request's body may stop coming before it is answered 408 and its
+        connection closed.
     """
 
     results: Path = DEFAULT_RESULTS
@@ -61,6 +66,7 @@ class ServeConfig:
     workers: int = 2
     build_options: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
     workflow: bool = True
+    stall_seconds: float = DEFAULT_STALL_SECONDS
 
     def __post_init__(self) -> None:
         results = Path(os.path.abspath(self.results))

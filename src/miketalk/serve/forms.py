@@ -20,7 +20,8 @@ from miketalk.api import DubSettings, MiketalkError, SaySettings, SettingError
 from miketalk.api.vocabulary import DEFAULT_VOICE, LIPSYNC_MODELS, VOICES
 from miketalk.serve.catalog import Catalog, Entry
 from miketalk.serve.config import MAX_TEXT_CHARS
-from miketalk.serve.jobs import Board, Job, plainly
+from miketalk.serve.jobs import Board
+from miketalk.serve.records import Job, plainly
 from miketalk.serve.uploads import Upload, Uploads
 
 #: The kinds of job the page can ask for.

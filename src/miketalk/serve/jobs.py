@@ -23,7 +23,6 @@ import queue
 import secrets
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -31,17 +30,13 @@ from miketalk.api import MiketalkError, OpenModels, load_engine
 from miketalk.serve.build import BUILD_STAGES, BuildRun
 from miketalk.serve.catalog import Catalog
 from miketalk.serve.config import ServeConfig
-from miketalk.serve.work import Outcome, one_line, speak, write_text
+from miketalk.serve.records import FINAL, RECORD, STOPPED, Job, earlier_jobs
+from miketalk.serve.work import Outcome, one_line, speak, warnings_of, write_text
 
 log = logging.getLogger(__name__)
 
-#: The file in a job's folder that records it.
-RECORD = "job.json"
-#: A job's statuses; the last four are final.
-STATUSES = ("queued", "running", "done", "failed", "cancelled", "interrupted")
-FINAL = frozenset(STATUSES[2:])
-#: What the page is told of a job the server's stop ended.
-STOPPED = "the server stopped before this job ended"
+#: The most warnings the page is shown of one job (all are logged).
+MAX_WARNINGS = 20
 #: Seconds :meth:`Board.close` waits for the speech thread once it has been interrupted.
 SPEECH_STOP_SECONDS = 10.0
 
@@ -65,76 +60,6 @@ def interrupt(thread: threading.Thread) -> None:
         ctypes.pythonapi.PyThreadState_SetAsyncExc(
             ctypes.c_ulong(thread.ident), ctypes.py_object(ServerStopping)
         )
-
-
-@dataclass
-class Job:
-    """One piece of work the page asked for.
-
-    Attributes
-    ----------
-    id, kind : str
-        Its id (also its folder's name) and what it does: ``say``, ``dub`` or ``build``.
-    folder : Path
-        Its own folder in the results.
-    params : dict
-        What the work takes (paths included; never sent to the page).
-    shown : dict
-        What the page shows of its inputs (names as they were uploaded, the text, the model).
-    aliases : list of (str, str)
-        Server paths and the names the page knows them by (for messages).
-    """
-
-    id: str
-    kind: str
-    folder: Path
-    params: dict[str, Any] = field(default_factory=dict)
-    shown: dict[str, Any] = field(default_factory=dict)
-    aliases: list[tuple[str, str]] = field(default_factory=list)
-    status: str = "queued"
-    created: float = field(default_factory=time.time)
-    started: float | None = None
-    finished: float | None = None
-    stage: str | None = None
-    stages: list[dict[str, Any]] = field(default_factory=list)
-    message: str | None = None
-    result: dict[str, Any] | None = None
-    files: dict[str, Path] = field(default_factory=dict)
-    cancel_asked: bool = False
-
-    def public(self) -> dict[str, Any]:
-        """What the page sees: no server path."""
-        end = self.finished or time.time()
-        return {
-            "id": self.id,
-            "kind": self.kind,
-            "status": self.status,
-            "created": self.created,
-            "started": self.started,
-            "finished": self.finished,
-            "elapsed": round(end - self.started, 2) if self.started else None,
-            "stage": self.stage,
-            "stages": list(self.stages),
-            "all_stages": list(BUILD_STAGES) if self.kind == "build" else [],
-            "progress": len(self.stages) / len(BUILD_STAGES) if self.kind == "build" else None,
-            "message": self.message,
-            "result": self.result,
-            "inputs": dict(self.shown),
-            "files": {name: f"/files/{self.id}/{name}" for name in self.files},
-            "cancellable": self.status == "queued"
-            or (self.kind == "build" and self.status == "running"),
-        }
-
-    def plainly(self, line: str) -> str:
-        """``line`` with the server's paths named as the page knows them."""
-        return plainly(line, self.aliases)
-
-
-def plainly(line: str, aliases: list[tuple[str, str]]) -> str:
-    """``line`` with each path of ``aliases`` (path, name) named as the page knows it."""
-    for path, name in sorted(aliases, key=lambda a: -len(a[0])):
-        line = line.replace(path, name)
-    return line
 
 
 class Board:
@@ -208,12 +133,22 @@ class Board:
         """What the page sees of one job."""
         job = self.get(job_id)
         with self._lock:
+            self._number_queues()
             return job.public()
 
     def listing(self) -> list[dict[str, Any]]:
         """Every job, the newest first."""
         with self._lock:
+            self._number_queues()
             return [j.public() for j in sorted(self._jobs.values(), key=lambda j: -j.created)]
+
+    def _number_queues(self) -> None:
+        """Each queued job's place in its queue (1: the next to start), builds apart."""
+        for builds in (False, True):
+            waiting = [j for j in self._jobs.values()
+                       if j.status == "queued" and (j.kind == "build") == builds]  # fmt: skip
+            for place, job in enumerate(sorted(waiting, key=lambda j: j.created), 1):
+                job.position = place
 
     def cancel(self, job_id: object) -> dict[str, Any]:
         """Cancel a queued job, or stop a running build (its thread terminates the child).
@@ -291,7 +226,8 @@ class Board:
                 if not self._start(job, "dubbing" if job.kind == "dub" else "speaking"):
                     continue
                 try:
-                    outcome = speak(job.folder, **job.params, warm=warm)
+                    with warnings_of(lambda line, job=job: self.warn(job, line, logged=True)):
+                        outcome = speak(job.folder, **job.params, warm=warm)
                 except ServerStopping:
                     self._end(job, "interrupted", STOPPED)
                     return
@@ -330,6 +266,8 @@ class Board:
                 for message in run.messages(0.2 if alive else 0):
                     if message[0] == "stage":
                         self._stage_done(job, message[1], message[2])
+                    elif message[0] == "warning":
+                        self.warn(job, message[1])
                     else:
                         ended = message
                 if ended is None and not alive:
@@ -342,6 +280,16 @@ class Board:
         finally:
             run.close()
         self._build_ended(job, ended)
+
+    def warn(self, job: Job, line: str, *, logged: bool = False) -> None:
+        """A warning of ``job``'s work, shown on the page (its first :data:`MAX_WARNINGS`)
+        and logged once (here, unless it was ``logged`` where it was said)."""
+        line = job.plainly(str(line))
+        if not logged:
+            log.warning("job %s: %s", job.id, line)
+        with self._lock:
+            if len(job.warnings) < MAX_WARNINGS:
+                job.warnings.append(line)
 
     def _stage_done(self, job: Job, name: str, seconds: float) -> None:
         with self._lock:
@@ -384,31 +332,5 @@ class Board:
 
     def _load_history(self) -> None:
         """The jobs of earlier runs of the server, from their records."""
-        try:
-            folders = sorted(p for p in self.config.results.iterdir() if p.is_dir())
-        except OSError:
-            return
-        for folder in folders:
-            try:
-                doc = json.loads((folder / RECORD).read_text(encoding="utf-8"))
-                job = Job(doc["id"], doc["kind"], folder, shown=dict(doc.get("inputs") or {}))
-            except (OSError, ValueError, KeyError, TypeError):
-                continue
-            if job.id != folder.name:
-                continue
-            job.status = doc.get("status") if doc.get("status") in FINAL else "interrupted"
-            job.created = float(doc.get("created") or os.path.getmtime(folder))
-            job.started, job.finished = doc.get("started"), doc.get("finished")
-            job.stages = list(doc.get("stages") or [])
-            job.result = doc.get("result")
-            job.message = doc.get("message")
-            if job.status == "interrupted":
-                job.message = "the server stopped before this job ended"
-                job.finished = job.started
-            files = doc.get("files") or {}
-            job.files = {
-                name: folder / name
-                for name, stored in files.items()
-                if name == stored and (folder / name).is_file()
-            }
+        for job in earlier_jobs(self.config.results):
             self._jobs[job.id] = job

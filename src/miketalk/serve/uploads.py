@@ -32,7 +32,6 @@ SUFFIXES: dict[str, frozenset[str]] = {
 }
 #: How long an upload no job took is kept, seconds.
 KEEP_SECONDS = 3600.0
-_CHUNK = 1 << 20
 _ID = re.compile(r"u[0-9a-f]{32}")
 
 
@@ -92,9 +91,11 @@ class Uploads:
         shutil.rmtree(directory, ignore_errors=True)
         directory.mkdir(parents=True, exist_ok=True)
 
-    def check(self, kind: str, raw_name: str | None, length: int | None) -> None:
-        """Refuse an unknown kind, a body of unknown length, an empty one or one over the
-        limit, unread.
+    def check(
+        self, kind: str, raw_name: str | None, length: int | None, *, chunked: bool = False
+    ) -> None:
+        """Refuse an unknown kind, a body of unknown length (unless ``chunked``: its length
+        is counted as it comes), an empty one or one over the limit, unread.
 
         Raises
         ------
@@ -105,49 +106,43 @@ class Uploads:
             raise UploadRefused(f"unknown kind of upload {kind!r}: {', '.join(SUFFIXES)}")
         name = display_name(raw_name)
         if length is None:
-            raise UploadRefused("an upload must say its length (Content-Length)", 411)
+            if not chunked:
+                raise UploadRefused("an upload must say its length (Content-Length)", 411)
+            return
         if length <= 0:
             raise UploadRefused(f"{name} is empty")
         if length > self.max_bytes:
-            raise UploadRefused(
-                f"{name} is {megabytes(length)}: larger than the upload limit of "
-                f"{megabytes(self.max_bytes)} (miketalk serve --max-upload-mb)",
-                413,
-            )
+            raise UploadRefused(self.too_large(name, megabytes(length)), 413)
 
-    def receive(
-        self, kind: str, raw_name: str | None, length: int | None, body: BinaryIO
-    ) -> Upload:
-        """Keep ``length`` bytes of ``body`` as a new upload of ``kind``.
+    def too_large(self, name: str, size: str) -> str:
+        """The line refusing ``name`` of ``size`` over the limit."""
+        return (
+            f"{name} is {size}: larger than the upload limit of {megabytes(self.max_bytes)} "
+            "(miketalk serve --max-upload-mb)"
+        )
+
+    def begin(self, kind: str, raw_name: str | None, length: int | None) -> Receiving:
+        """Start keeping a new upload of ``kind``: its bytes are written as they come
+        (:meth:`Receiving.write`), of ``length`` bytes, or of any length up to the limit when
+        the body is chunked (``length`` None).
 
         Raises
         ------
         UploadRefused
-            An upload refused by :meth:`check`, a body shorter than
-            its length.
+            An upload refused by :meth:`check`.
         """
-        self.check(kind, raw_name, length)
+        self.check(kind, raw_name, length, chunked=length is None)
         name = display_name(raw_name)
         self.sweep()
         suffix = os.path.splitext(name)[1].lower()
         upload_id = "u" + secrets.token_hex(16)
         path = self.directory / (upload_id + (suffix if suffix in SUFFIXES[kind] else ""))
-        left = length
-        try:
-            with open(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600), "wb") as out:
-                while left > 0:
-                    chunk = body.read(min(_CHUNK, left))
-                    if not chunk:
-                        raise UploadRefused(f"the upload of {name} was cut off; send it again")
-                    out.write(chunk)
-                    left -= len(chunk)
-        except BaseException:
-            path.unlink(missing_ok=True)
-            raise
-        upload = Upload(upload_id, kind, path, name, length, time.monotonic())
+        out = open(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600), "wb")
+        return Receiving(self, Upload(upload_id, kind, path, name, 0, 0.0), length, out)
+
+    def _keep(self, upload: Upload) -> None:
         with self._lock:
-            self._waiting[upload_id] = upload
-        return upload
+            self._waiting[upload.id] = upload
 
     def take(self, upload_id: object, kinds: tuple[str, ...], folder: Path, stem: str) -> Upload:
         """Move a waiting upload into a job's ``folder`` as ``stem`` + its suffix.
@@ -176,3 +171,56 @@ class Uploads:
         for upload in old:
             with contextlib.suppress(OSError):
                 upload.path.unlink()
+
+
+class Receiving:
+    """An upload being received: its bytes written as they come, kept by :meth:`done`,
+    removed by :meth:`discard` (a body cut off, stalled, or over the limit)."""
+
+    def __init__(self, uploads: Uploads, upload: Upload, length: int | None, out: BinaryIO):
+        self._uploads, self._upload, self._length, self._out = uploads, upload, length, out
+        self.received = 0
+
+    def write(self, chunk: bytes) -> None:
+        """Write the next ``chunk`` of the body.
+
+        Raises
+        ------
+        UploadRefused
+            More than its length, or (chunked) more than the limit: 413.
+        """
+        self.received += len(chunk)
+        limit = self._uploads.max_bytes if self._length is None else self._length
+        if self.received > limit:
+            name = self._upload.name
+            if self._length is None:
+                line = self._uploads.too_large(name, f"over {megabytes(limit)}")
+            else:
+                line = f"{name}: more bytes came than its length ({self._length})"
+            raise UploadRefused(line, 413)
+        self._out.write(chunk)
+
+    def done(self) -> Upload:
+        """Keep the upload, now whole.
+
+        Raises
+        ------
+        UploadRefused
+            A body shorter than its length, or empty.
+        """
+        self._out.close()
+        name = self._upload.name
+        if self._length is not None and self.received < self._length:
+            raise UploadRefused(f"the upload of {name} was cut off; send it again")
+        if self.received == 0:
+            raise UploadRefused(f"{name} is empty")
+        u = self._upload
+        upload = Upload(u.id, u.kind, u.path, u.name, self.received, time.monotonic())
+        self._uploads._keep(upload)
+        return upload
+
+    def discard(self) -> None:
+        """Remove what was written (nothing of it is kept)."""
+        with contextlib.suppress(OSError):
+            self._out.close()
+        self._upload.path.unlink(missing_ok=True)

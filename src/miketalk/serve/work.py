@@ -8,9 +8,12 @@ process of its own (:mod:`miketalk.serve.build`).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import logging
 import os
+import threading
+from collections.abc import Callable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,6 +126,34 @@ def _outcome(said: SayResult, output: Path, extra: dict) -> Outcome:
         ),
     }
     return Outcome(result, files)
+
+
+class _Warned(logging.Handler):
+    """The warnings the library logs from one thread, each handed to ``told``."""
+
+    def __init__(self, told: Callable[[str], None]) -> None:
+        super().__init__(logging.WARNING)
+        self.told, self.thread = told, threading.get_ident()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.thread == self.thread and record.levelno < logging.ERROR
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.told(" ".join(record.getMessage().split()))
+
+
+@contextlib.contextmanager
+def warnings_of(told: Callable[[str], None]) -> Iterator[None]:
+    """Hand ``told`` each warning the library logs in this thread while the body runs (words
+    read as spaces, a video that ends early): the page shows them; the server's log keeps
+    its own line of each, once."""
+    handler = _Warned(told)
+    library = logging.getLogger("miketalk")
+    library.addHandler(handler)
+    try:
+        yield
+    finally:
+        library.removeHandler(handler)
 
 
 def write_text(path: Path, text: str) -> None:

@@ -167,9 +167,29 @@ function showError(form, message) {
   line.hidden = !message;
 }
 
+// The text's limit, stated in the page before any work, and the count of what is typed.
+function showCount(form) {
+  const text = $("textarea[name=text]", form).value;
+  const max = state.config ? state.config.max_text_chars : 0;
+  const line = $(".limit", form);
+  if (!line || !max) return true;
+  $(".max", line).textContent = max.toLocaleString("en");
+  const over = text.length > max;
+  $(".count", line).textContent = text.length ?
+    `(${text.length.toLocaleString("en")} now${over ? `: ${(text.length - max).toLocaleString("en")} too many` : ""})` : "";
+  line.classList.toggle("over", over);
+  return !over;
+}
+
 async function submitSpeech(form, kind) {
   showError(form, null);
   if (!state.model) { showError(form, "choose a face in the list first"); return; }
+  if (!showCount(form)) {
+    const max = state.config.max_text_chars.toLocaleString("en");
+    showError(form, `the text is ${$("textarea[name=text]", form).value.length.toLocaleString("en")} ` +
+      `characters long: at most ${max}; nothing was sent or cut`);
+    return;
+  }
   const clicked = performance.now();
   state.shown = null;
   $("#result").hidden = true;  // until this job's result
@@ -192,16 +212,18 @@ async function submitSpeech(form, kind) {
     const job = await post("/api/jobs", body);
     refreshJobs();
     const done = await follow(job.id, (j) => {
-      setBusy(form, j.status === "queued" ? "waiting for the job before it" :
+      setBusy(form, j.status === "queued" ? `queued: ${ordinal(j.position)} in line` :
         `${j.stage || j.status}${j.elapsed ? ` (${j.elapsed.toFixed(1)} s)` : ""}`);
     }, 150);
-    if (done.status === "done") showResult(done, clicked);
+    if (done.status === "done") showResult(done, clicked, true);
     else showError(form, done.message || done.status);
   } catch (err) {
     showError(form, err.message);
   } finally {
     setBusy(form, null);
     refreshJobs();
+    // the button was disabled while it worked: the focus goes back to it, not to the body
+    if (document.activeElement === document.body) $("button[type=submit]", form).focus();
   }
 }
 
@@ -281,6 +303,7 @@ function drawBuild(job) {
   $(".fill", box).style.width = `${percent}%`;
   $(".bar", box).setAttribute("aria-valuenow", String(percent));
   const stage = job.status === "running" ? (job.stage || "") : job.status;
+  drawWarnings($(".warnings", box), job.warnings);
   $(".elapsed", box).textContent =
     `${stage}${job.elapsed ? ` · ${Math.round(job.elapsed)} s in all` : ""}`;
   box.dataset.status = job.status;
@@ -289,7 +312,23 @@ function drawBuild(job) {
 
 // -- the result: the video, its downloads, its mouth cues
 
-function showResult(job, clicked) {
+function ordinal(n) {
+  if (!n) return "";
+  const tail = (n % 100 >= 11 && n % 100 <= 13) ? "th" : ({ 1: "st", 2: "nd", 3: "rd" }[n % 10] || "th");
+  return `${n}${tail}`;
+}
+
+function drawWarnings(list, warnings) {
+  list.replaceChildren();
+  for (const line of warnings || []) {
+    const item = document.createElement("li");
+    item.textContent = line;
+    list.append(item);
+  }
+}
+
+// Speak's result: announced (aria-live), the focus on it and on the screen (a phone's too).
+function showResult(job, clicked, announce) {
   const result = job.result;
   const section = $("#result");
   section.hidden = false;
@@ -311,8 +350,17 @@ function showResult(job, clicked) {
   };
   for (const [selector, name] of Object.entries(links)) {
     $(selector).href = `${job.files[name]}?download`;
+    $(selector).download = (job.downloads && job.downloads[name]) || name;
   }
   drawCues(result.cues, result.duration);
+  drawWarnings($(".warnings", section), job.warnings);
+  if (announce) {
+    const notes = (job.warnings || []).length;
+    $("#announce").textContent = `${job.kind === "dub" ? "Dubbed" : "Said"}: ${result.summary}.` +
+      (notes ? ` ${notes} note${notes > 1 ? "s" : ""} below.` : "") + " The video plays.";
+    $("#result-title").focus({ preventScroll: true });
+    section.scrollIntoView({ block: "start", behavior: "instant" });
+  }
 }
 
 function drawCues(cues, duration) {
@@ -367,16 +415,21 @@ function followPlayer() {
 async function refreshJobs() {
   let jobs;
   try { jobs = await api("/api/jobs"); } catch (err) { return; }
+  state.jobsRunning = jobs.some((j) => !FINAL.has(j.status));
   const list = $("#jobs");
+  const focused = document.activeElement && list.contains(document.activeElement) ?
+    [document.activeElement.closest("li").dataset.id, document.activeElement.className] : null;
   list.replaceChildren();
   for (const job of jobs.slice(0, 30)) {
     const item = document.createElement("li");
+    item.dataset.id = job.id;
     const kind = document.createElement("span");
     kind.className = "kind";
     kind.textContent = job.kind;
     const status = document.createElement("span");
     status.className = `status ${job.status}`;
-    status.textContent = job.status;
+    status.textContent = job.status === "queued" && job.position ?
+      `queued, ${ordinal(job.position)} in line` : job.status;
     const what = document.createElement("div");
     what.className = "what";
     const inputs = job.inputs || {};
@@ -390,12 +443,46 @@ async function refreshJobs() {
       why.textContent = job.message;
       item.append(why);
     }
+    if (job.cancellable) {
+      const cancel = document.createElement("button");
+      cancel.type = "button";
+      cancel.className = "cancel";
+      cancel.textContent = job.status === "queued" ? "Cancel" : "Stop";
+      cancel.setAttribute("aria-label", `${cancel.textContent} this ${job.kind}`);
+      cancel.addEventListener("click", async (e) => {
+        e.stopPropagation();
+        cancel.disabled = true;
+        try { await post(`/api/jobs/${encodeURIComponent(job.id)}/cancel`); } catch (err) { /* its end says why */ }
+        refreshJobs();
+      });
+      item.append(cancel);
+    }
     if (job.status === "done" && job.result && job.result.video) {
       item.classList.add("openable");
+      item.tabIndex = 0;
+      item.setAttribute("role", "button");
       item.title = "show this result";
-      item.addEventListener("click", () => { showResult(job); showTab(job.kind); });
+      item.setAttribute("aria-label", `show this ${job.kind}: ${what.textContent}`);
+      const open = () => { showTab(job.kind); showResult(job, undefined, true); };
+      item.addEventListener("click", open);
+      item.addEventListener("keydown", (e) => {
+        if (e.target === item && (e.key === "Enter" || e.key === " ")) { e.preventDefault(); open(); }
+      });
     }
     list.append(item);
+  }
+  if (focused) {  // the list is drawn anew: the keyboard's place in it is kept
+    const item = $$("#jobs li").find((li) => li.dataset.id === focused[0]);
+    const again = item && (focused[1] === "cancel" ? $("button.cancel", item) : item);
+    if (again) again.focus(); else list.closest("aside").focus();
+  }
+}
+
+// The list of jobs follows the queue: every second while a job is not over, else every 5 s.
+async function watchJobs() {
+  for (;;) {
+    await sleep(state.jobsRunning ? 1000 : 5000);
+    if (!document.hidden) await refreshJobs();
   }
 }
 
@@ -421,6 +508,7 @@ async function start() {
     }
   });
   for (const form of [$("#say-form"), $("#dub-form")]) {
+    $("textarea[name=text]", form).addEventListener("input", () => showCount(form));
     const audio = $("input[name=audio]", form);
     audio.addEventListener("change", () => {
       $("select[name=voice]", form).disabled = audio.files.length > 0;
@@ -436,9 +524,11 @@ async function start() {
       }
       select.value = state.config.default_voice;
     }
+    for (const form of [$("#say-form"), $("#dub-form")]) showCount(form);
     $("#server").textContent = `miketalk ${state.config.version} · uploads up to ${megabytes(state.config.max_upload_bytes)}`;
     await loadModels();
     await refreshJobs();
+    watchJobs();
     const running = (await api("/api/jobs")).find((j) => j.kind === "build" && !FINAL.has(j.status));
     if (running) watchBuild(running);  // a reload goes on showing the build
   } catch (err) {

@@ -1,0 +1,212 @@
+"""``miketalk serve``'s HTTP side on Starlette and uvicorn, without a browser: the security
+headers on every answer, uploads sent chunked (kept whole, or refused over the limit while
+they come), ranges and downloads named after their job, a stalled body answered 408, and the
+page's messages naming an upload as it was sent, not as the server keeps it.
+"""
+
+from __future__ import annotations
+
+import http.client
+import json
+import os
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from miketalk.serve.guard import SECURITY
+from miketalk.speech import FestivalBackend
+
+#: The pages and answers probed for the security headers: the page, its files, JSON, a
+#: refusal, a file a job made.
+PROBED = ["/", "/static/page.js", "/static/page.css", "/api/config", "/api/models", "/nowhere",
+          "/files/nojob/say.mp4"]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from test_cli import shifted_model
+
+    return shifted_model(tmp_path_factory.mktemp("synthetic_face"), 64)
+
+
+@pytest.fixture(scope="module")
+def server(synthetic: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    from miketalk.serve.app import make_server
+    from miketalk.serve.config import ServeConfig
+
+    root = tmp_path_factory.mktemp("serve_http")
+    config = ServeConfig(
+        results=root / "results", models=root / "models", host="127.0.0.1", port=0,
+        known_models=(synthetic,), workflow=False, max_upload_bytes=4 << 20, stall_seconds=1,
+    )  # fmt: skip
+    httpd = make_server(config)
+    thread = threading.Thread(target=httpd.serve_forever)
+    thread.start()
+    yield httpd
+    httpd.app.close()
+    httpd.shutdown()
+    thread.join()
+    httpd.server_close()
+
+
+def _ask(server, method: str, path: str, body=None, **headers: str):
+    """``(status, headers, body)`` of one request (an iterable body is sent chunked)."""
+    host, port = server.server_address[:2]
+    connection = http.client.HTTPConnection(host, port, timeout=30)
+    headers = {"Host": f"{host}:{port}"} | {k.replace("_", "-"): v for k, v in headers.items()}
+    try:
+        connection.request(method, path, body=body, headers=headers)
+        response = connection.getresponse()
+        return response.status, {k.lower(): v for k, v in response.getheaders()}, response.read()
+    finally:
+        connection.close()
+
+
+def _say(server, text: str) -> dict:
+    status, _, raw = _ask(server, "POST", "/api/jobs",
+                          json.dumps({"kind": "say", "model": "model", "text": text}).encode(),
+                          X_Miketalk="1")  # fmt: skip
+    assert status == 201, raw
+    job = json.loads(raw)
+    for _ in range(600):
+        job = json.loads(_ask(server, "GET", f"/api/jobs/{job['id']}")[2])
+        if job["status"] not in ("queued", "running"):
+            return job
+        time.sleep(0.1)
+    raise AssertionError(f"the say did not end: {job}")
+
+
+def test_every_answer_carries_the_security_headers(server) -> None:
+    seen = {}
+    for path in PROBED:
+        status, headers, _ = _ask(server, "GET", path)
+        seen[path] = status
+        for name, value in SECURITY.items():
+            assert headers.get(name) == value, (path, name, headers)
+        assert "frame-ancestors 'none'" in headers["content-security-policy"]
+    assert seen["/nowhere"] == seen["/files/nojob/say.mp4"] == 404
+    assert seen["/"] == seen["/api/config"] == 200
+    assert SECURITY["cross-origin-resource-policy"] == "same-origin"
+    # a refusal of the guard itself (another Host, a POST from elsewhere) carries them too
+    for status, headers, _ in (
+        _ask(server, "GET", "/api/config", Host="evil.example"),
+        _ask(server, "POST", "/api/jobs", b"{}", X_Miketalk="1", Origin="http://evil.example"),
+        _ask(server, "POST", "/api/jobs", b"{}", X_Miketalk="1", Sec_Fetch_Site="cross-site"),
+    ):
+        assert status in (403, 404)
+        assert headers["cross-origin-resource-policy"] == "same-origin"
+
+
+def test_a_chunked_upload_is_kept_whole(server) -> None:
+    data = os.urandom(3 << 20)
+    pieces = (data[i : i + 100_000] for i in range(0, len(data), 100_000))
+    status, _, raw = _ask(server, "POST", "/api/upload?kind=audio", pieces, X_Miketalk="1",
+                          X_Miketalk_Name="my%20talk.wav")  # fmt: skip
+    doc = json.loads(raw)
+    assert status == 200, doc
+    assert doc["name"] == "my talk.wav" and doc["size"] == len(data)
+    kept = server.app.config.uploads / f"{doc['upload']}.wav"
+    assert kept.read_bytes() == data
+
+
+def _send_until_refused(server, head: bytes, pieces: Iterator[bytes]) -> bytes:
+    """Send ``head`` and then ``pieces`` (in a thread) until the server stops taking them;
+    its answer."""
+    host, port = server.server_address[:2]
+    with socket.create_connection((host, port), timeout=30) as sock:
+        sock.sendall(head)
+
+        def send() -> None:
+            try:
+                for piece in pieces:
+                    sock.sendall(piece)
+            except OSError:  # refused: the server closed the connection
+                pass
+
+        sender = threading.Thread(target=send)
+        sender.start()
+        answer = b""
+        try:
+            while chunk := sock.recv(65536):
+                answer += chunk
+        except ConnectionResetError:
+            pass
+        sender.join(60)
+    return answer
+
+
+def test_a_chunked_upload_over_the_limit_is_refused_as_it_comes(server) -> None:
+    uploads = server.app.config.uploads
+    before = set(uploads.iterdir())
+    host, port = server.server_address[:2]
+    head = (f"POST /api/upload?kind=video HTTP/1.1\r\nHost: {host}:{port}\r\nX-Miketalk: 1\r\n"
+            "X-Miketalk-Name: big.mp4\r\nTransfer-Encoding: chunked\r\n\r\n").encode()  # fmt: skip
+    block = b"\0" * (1 << 18)
+    chunk = f"{len(block):x}\r\n".encode() + block + b"\r\n"
+    answer = _send_until_refused(server, head, (chunk for _ in range(64)))  # 16 MB of 4 MB
+    assert answer.startswith(b"HTTP/1.1 413"), answer[:200]
+    body = json.loads(answer.split(b"\r\n\r\n", 1)[1])
+    assert body["error"] == (
+        "big.mp4 is over 4 MB: larger than the upload limit of 4 MB "
+        "(miketalk serve --max-upload-mb)"
+    )
+    assert set(uploads.iterdir()) == before  # nothing of it kept
+    assert _ask(server, "GET", "/api/config")[0] == 200
+
+
+def test_a_stalled_json_body_is_408_and_the_server_answers_on(server) -> None:
+    host, port = server.server_address[:2]
+    head = (f"POST /api/jobs HTTP/1.1\r\nHost: {host}:{port}\r\nX-Miketalk: 1\r\n"
+            "Content-Length: 100\r\n\r\n{\"kind\"").encode()  # fmt: skip
+    with socket.create_connection((host, port), timeout=30) as stalled:
+        stalled.sendall(head)
+        answer = b""
+        while chunk := stalled.recv(4096):  # until the server closes it
+            answer += chunk
+    assert answer.startswith(b"HTTP/1.1 408"), answer[:80]
+    assert b"nothing received for 1 s: send it again" in answer
+    assert b"500" not in answer.split(b"\r\n")[0]
+    assert _ask(server, "GET", "/api/config")[0] == 200
+
+
+def test_a_video_is_served_in_ranges_and_downloaded_under_the_jobs_name(server) -> None:
+    if not FestivalBackend().is_available():
+        pytest.skip("Festival not installed")
+    job = _say(server, "Bin blue at F two.")
+    assert job["status"] == "done", job
+    path = server.app.config.results / job["id"] / "say.mp4"
+    whole = path.read_bytes()
+    status, headers, part = _ask(server, "GET", job["files"]["say.mp4"], Range="bytes=100-1099")
+    assert status == 206 and part == whole[100:1100]
+    assert headers["content-range"] == f"bytes 100-1099/{len(whole)}"
+    assert headers["accept-ranges"] == "bytes"
+    status, headers, _ = _ask(server, "GET", job["files"]["say.mp4"], Range=f"bytes={len(whole)}-")
+    assert status == 416
+    status, headers, body = _ask(server, "GET", job["files"]["say.mp4"] + "?download")
+    named = f"{job['id']}-bin-blue-at-f-two.mp4"
+    assert status == 200 and body == whole
+    assert headers["content-disposition"] == f'attachment; filename="{named}"'
+    assert job["downloads"]["say.mp4"] == named
+    assert job["downloads"]["cues.json"] == named.replace(".mp4", "-cues.json")
+    status, headers, _ = _ask(server, "GET", job["files"]["say.mp4"])  # played: no download
+    assert status == 200 and "content-disposition" not in headers
+
+
+def test_a_message_names_the_upload_as_it_was_sent(server, tmp_path: Path) -> None:
+    """The library names a file by its own name alone (``video.mp4``): the page says the
+    name the file was uploaded with."""
+    from miketalk.serve.records import plainly
+
+    folder = "/srv/results/20261129-110000-build-abcdef/"
+    aliases = [(folder, ""), (folder + "video.mp4", "holiday clip.mp4"),
+               (folder + "transcript.txt", "what anna says.txt")]  # fmt: skip
+    line = ("none of the 9 words can be aligned to the sound of video.mp4: it has no speech; "
+            f"see {folder}transcript.txt (not myvideo.mp4 nor video.mp4s)")  # fmt: skip
+    assert plainly(line, aliases) == (
+        "none of the 9 words can be aligned to the sound of holiday clip.mp4: it has no "
+        "speech; see what anna says.txt (not myvideo.mp4 nor video.mp4s)"
+    )
