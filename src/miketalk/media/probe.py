@@ -8,7 +8,7 @@ from fractions import Fraction
 from pathlib import Path
 
 from miketalk.errors import MiketalkError
-from miketalk.media.encoder import ffmpeg_exe
+from miketalk.media.x264 import ffmpeg_exe
 
 __all__ = ["probe_durations"]
 

@@ -44,10 +44,10 @@ import numpy as np
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_path
 from miketalk.media.audio import check_rate, check_samples, write_wav
-from miketalk.media.encoder import FILE_X264, LIVE_X264, X264, ffmpeg_exe
 from miketalk.media.ffmpeg_log import encoding_failure
 from miketalk.media.probe import probe_durations
 from miketalk.media.scratch import scratch_dir
+from miketalk.media.x264 import FILE_X264, LIVE_X264, X264, ffmpeg_exe
 from miketalk.media.yuv import I420Frame
 
 if sys.platform == "linux":
