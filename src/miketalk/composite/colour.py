@@ -15,6 +15,12 @@ convolution, and bring the render to the frame with it:
   values the render holds and in linear light, since both are powers of each other). It
   keeps each pixel's ratio to the skin beside it: the lips stay as much redder than the
   skin as they were in the model's frames, and the dark mouth stays dark.
+- ``"lips"`` (whole backgrounds only, :meth:`~miketalk.composite.compositor.Compositor.
+  colour_field`): an additive offset learned over the whole blend region, not its edge, at a
+  small scale (:data:`LIPS_SIGMA`), from the model's rest image to the median of the
+  background's frames (his own closed-ish mouth in this light): the lips take his lips'
+  colour there, the skin his skin's. Matched frame by frame (no median), it would copy the
+  frame's own moving mouth, so there it is ``"offset"``.
 
 Measured on the weekly addresses held out, each dubbed with its own recording (docs/anyone.md,
 "The mouth's colour"): :data:`miketalk.defaults.BLEND_COLOUR` says which is the default.
@@ -32,7 +38,11 @@ from miketalk.errors import MiketalkError
 __all__ = ["COLOUR_MATCHES", "ColourMatch", "colour_gain", "colour_offset", "match_colour"]
 
 #: The ways a render's colour is matched to a frame's (module docstring).
-COLOUR_MATCHES = ("offset", "gain")
+COLOUR_MATCHES = ("offset", "gain", "lips")
+
+#: ``"lips"``: the Gaussian sigma of its local offset, in mouth widths (the lips are some
+#: 0.2 of the mouth's width thick).
+LIPS_SIGMA = 0.15
 
 #: A gain is held within ``[1 / GAIN_LIMIT, GAIN_LIMIT]`` (a render nearly black at the band
 #: would otherwise give a gain without bound).
@@ -131,11 +141,22 @@ class ColourMatch:
 
 
 def match_colour(
-    render: np.ndarray, frame: np.ndarray, band: np.ndarray, *, sigma: float, how: str
+    render: np.ndarray,
+    frame: np.ndarray,
+    band: np.ndarray,
+    *,
+    sigma: float,
+    how: str,
+    inside: np.ndarray | None = None,
+    width: float = 0.0,
 ) -> ColourMatch:
     """The :class:`ColourMatch` of ``how`` (:data:`COLOUR_MATCHES`) from ``render`` to
-    ``frame`` on ``band`` (arguments as :func:`colour_offset`'s)."""
-    if how == "offset":
+    ``frame`` on ``band`` (arguments as :func:`colour_offset`'s); ``"lips"`` learns on
+    ``inside`` (the blend's weights) at :data:`LIPS_SIGMA` of the mouth's ``width``, and is
+    ``"offset"`` without them."""
+    if how == "lips" and inside is not None and width > 0:
+        return ColourMatch(colour_offset(render, frame, inside, sigma=LIPS_SIGMA * width))
+    if how in ("offset", "lips"):
         return ColourMatch(colour_offset(render, frame, band, sigma=sigma))
     if how == "gain":
         gain = colour_gain(render, frame, band, sigma=sigma)

@@ -224,7 +224,7 @@ class Compositor:
         ``(H, W)`` of the reference (and of the renders).
     colour_match : bool
         Match the render's colour to each frame's (:mod:`miketalk.composite.colour`).
-    colour : {"gain", "offset"}, optional
+    colour : {"offset", "gain", "lips"}, optional
         How (:func:`~miketalk.composite.colour.match_colour`; None:
         :data:`miketalk.defaults.BLEND_COLOUR`, whose docstring holds its measure).
     blend : {"feather", "poisson"}
@@ -323,7 +323,8 @@ class Compositor:
         """
         band = 4.0 * self.alpha * (1.0 - self.alpha)
         return match_colour(render.astype(np.float32), steady.astype(np.float32), band,
-                            sigma=self._sigma, how=self.colour)  # fmt: skip
+                            sigma=self._sigma, how=self.colour, inside=self.alpha,
+                            width=float(self.mouth_box[2]))  # fmt: skip
 
     def __call__(
         self,

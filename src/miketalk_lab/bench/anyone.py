@@ -349,7 +349,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="addresses held out together, comma-separated (repeatable)",
     )
     parser.add_argument("--renderer", action="append", choices=list(RENDERERS), default=None)
-    parser.add_argument("--colour", choices=("gain", "offset"), default=None,
+    parser.add_argument("--colour", choices=("offset", "gain", "lips"), default=None,
                         help="the mouth's colour match (default: the product's)")  # fmt: skip
     return run_bench(parser, argv, _work)
 
