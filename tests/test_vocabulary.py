@@ -178,7 +178,7 @@ def test_one_video_defaults_are_the_library_s(parser: argparse.ArgumentParser) -
 
 
 def test_the_background_s_names_and_default_are_the_library_s() -> None:
-    from miketalk.composite.background_files import BACKGROUND_CHOICES, BackgroundChoice
+    from miketalk.composite.for_model import BACKGROUND_CHOICES, BackgroundChoice
 
     assert BACKGROUND_CHOICES == ("auto", "still") == tuple(BackgroundChoice)
     face = _schema("faces")["additionalProperties"]["properties"]["background"]

@@ -87,7 +87,7 @@ BLEND_FEATHER = 0.1
 BLEND_FOLLOW = True
 
 #: How a face-crop model's compositor warps the frame's jaw
-#: (:func:`miketalk.composite.background_files.model_compositor`): ``"on"`` (as
+#: (:func:`miketalk.composite.for_model.model_compositor`): ``"on"`` (as
 #: :data:`BLEND_FOLLOW`: up to half a mouth width beyond the blend mask), ``"face"`` (held
 #: inside the crop's keep, its jaw ellipse and skin: ``Compositor(follow_within=...)``) or
 #: ``"off"``. A crop model's mask stops at the jaw line, so ``"on"`` bends a textured room

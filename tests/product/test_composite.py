@@ -355,7 +355,7 @@ def test_a_crop_models_compositor_leaves_the_jaw_unwarped_a_full_frames_warps_it
     import json
 
     from miketalk import defaults
-    from miketalk.composite.background_files import model_compositor
+    from miketalk.composite.for_model import model_compositor
     from miketalk.media.images import write_png
     from miketalk.model.background import KeptBackground
     from miketalk.track.crop import FaceCropSettings, crop_doc

@@ -358,7 +358,7 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     a video that shows the face in some frames only is tracked as before."""
     from types import SimpleNamespace
 
-    from miketalk.composite import background_files, tracked
+    from miketalk.composite import for_model, tracked
     from miketalk.track import detect
     from miketalk.track.crop import FaceCropSettings
 
@@ -370,7 +370,7 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     )
     nobody = _write(tmp_path / "nobody.mkv", _clip(30)[0])  # the synthetic head: no dlib face
     with pytest.raises(MiketalkError) as refused:
-        background_files.video_background(model, nobody)
+        for_model.video_background(model, nobody)
     assert str(refused.value) == (
         f"no face found in {nobody} (7 of 7 frames looked at show none): it needs one "
         "person's frontal face"
@@ -381,7 +381,7 @@ def test_a_video_without_a_face_anywhere_is_refused_after_a_first_look(tmp_path,
     some[:28] = 128  # his face in the last 12 frames only
     path = _write(tmp_path / "some.mkv", some)
     # the stand-in model has no reference to compare the person with (test_identity does)
-    tracked_path = background_files.video_background(model, path, check_person=False)
+    tracked_path = for_model.video_background(model, path, check_person=False)
     assert tracked_path == ("tracked", path)
 
 

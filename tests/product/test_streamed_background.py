@@ -16,7 +16,7 @@ from test_dub import _model
 from test_stabilize import _clip, _write_video
 
 from miketalk.composite.background import background_from_video
-from miketalk.composite.background_files import video_background
+from miketalk.composite.for_model import video_background
 from miketalk.media import frame_source
 from miketalk.media.decode import read_video
 from miketalk.media.frame_source import VideoFrames

@@ -4,7 +4,7 @@ from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.composite.background_files import resolve_background
+    from miketalk.composite.for_model import resolve_background
     from miketalk.lipsync.settings import LipsyncSettings
     from miketalk.talk.say import open_model, say
     from miketalk.visemes import VisemeTable

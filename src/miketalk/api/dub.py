@@ -2,7 +2,7 @@
 frame rate, his head moving as it does in the video.
 
 Every frame of the video is registered to the model's reference
-(:func:`miketalk.composite.background_files.video_background`: through its face crops for a
+(:func:`miketalk.composite.for_model.video_background`: through its face crops for a
 model built in one), the mouth is drawn for the speech at the video's own frame rate and
 composited into every frame. Speech longer than the video plays it forwards, backwards,
 forwards (no jump); shorter speech ends the video with it.
@@ -68,7 +68,7 @@ def dub(
         then a video whose frames do not show the model's person, or whose frames were not
         taken at a constant rate.
     """
-    from miketalk.composite.background_files import video_background
+    from miketalk.composite.for_model import video_background
     from miketalk.lipsync.settings import check_fps
     from miketalk.media.decode import video_info
     from miketalk.media.timing import check_constant_rate

@@ -42,7 +42,7 @@ class OpenModels:
         MiketalkError
             No model there, or one that cannot be opened.
         """
-        from miketalk.composite.background_files import resolve_background
+        from miketalk.composite.for_model import resolve_background
         from miketalk.model.face import open_model
 
         model_dir = Path(model_dir)
@@ -86,7 +86,7 @@ def opened(
     ``still``, a video of the person: refused if it shows another person, unless not
     ``check_person``; None: ``auto``), from ``models`` when given (and left open there), else
     opened and closed here."""
-    from miketalk.composite.background_files import resolve_background
+    from miketalk.composite.for_model import resolve_background
     from miketalk.model.face import open_model
 
     if models is None:

@@ -3,7 +3,7 @@
 ``miketalk dub VIDEO (--text T | --audio A [--text T]) -o OUT.mp4`` (a recording without its
 text: its words recognized): every frame
 of VIDEO is registered to the model's reference
-(:func:`miketalk.composite.background_files.video_background`: through its face crops
+(:func:`miketalk.composite.for_model.video_background`: through its face crops
 for a model built in one), the mouth is
 synthesized for the new speech at the video's own frame rate, and composited
 into every frame at the video's own size (:mod:`miketalk.composite.compositor`),

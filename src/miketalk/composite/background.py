@@ -2,7 +2,7 @@
 
 A model built from clips keeps a few seconds of one training clip, cut where
 the head stands still (:func:`miketalk.composite.loop.still_window`), as it was
-recorded (:func:`miketalk.composite.background_files.write_background`, in
+recorded (:func:`miketalk.building.background.write_background`, in
 ``<model>/background/``): the frames,
 each frame's stabilization transform and the clip's conform field
 (:mod:`miketalk.stabilize`), where the eyes blink, and what is needed

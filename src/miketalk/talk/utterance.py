@@ -135,7 +135,7 @@ def write_utterance(
     )
     frames = jerk.watch(rendered)
     if background is not None:
-        from miketalk.composite.background_files import composite_renders
+        from miketalk.composite.for_model import composite_renders
 
         frames = composite_renders(frames, background, model, fps=timeline.fps, i420=True)
     if progress:

@@ -252,7 +252,7 @@ def warm_say(model_dir: str, out_dir: str, sentences: Sequence[str] = SENTENCES)
     """Open the model once, then time ``say`` of each sentence (Festival speaking included),
     as ``miketalk say`` calls the library (:func:`miketalk.cli.say.cmd_say`)."""
     from miketalk import defaults
-    from miketalk.composite.background_files import resolve_background
+    from miketalk.composite.for_model import resolve_background
     from miketalk.lipsync.settings import LipsyncSettings
     from miketalk.speech import get_backend
     from miketalk.talk.say import open_model, say

@@ -3,7 +3,7 @@
 A model built in the face's canonical crop renders the mouth in crop pixels and pastes it
 back into every full-resolution frame through the inverse of that frame's transform. Each
 held-out clip is dubbed with its own audio and its known word timings by the product's own
-path (:func:`dub_through_product`: :func:`~miketalk.composite.background_files.
+path (:func:`dub_through_product`: :func:`~miketalk.composite.for_model.
 video_background` and :func:`~miketalk.talk.say.say` with a
 :class:`~miketalk.talk.say.Recorded`, what ``miketalk dub CLIP --audio CLIP --timings
 ALIGN`` runs), and measured two ways:
@@ -168,16 +168,16 @@ def _product_inputs(clip, work: Path) -> tuple[Path, Path | None, str | None, di
 def dub_through_product(clip, *, model, lipsync: tuple[str, str | None], work: Path) -> CropDub:
     """Dub ``clip`` with its own audio as ``miketalk dub`` does; keep what it encoded.
 
-    The background is :func:`~miketalk.composite.background_files.video_background` of the
+    The background is :func:`~miketalk.composite.for_model.video_background` of the
     clip's video (a clip cut from one video: :func:`~miketalk.composite.tracked.
     tracked_background` of its part, which ``video_background`` calls for a whole file),
     the mp4 :func:`~miketalk.talk.say.say`'s of a :class:`~miketalk.talk.say.Recorded` with
     the clip's word timings, at the clip's frame rate, with ``dub``'s other defaults. The
     render before paste-back is drawn again along the timeline the product wrote (drawing is
     deterministic) and pasted back as the product does
-    (:func:`~miketalk.composite.background_files.composite_renders`): the frames it encoded.
+    (:func:`~miketalk.composite.for_model.composite_renders`): the frames it encoded.
     """
-    from miketalk.composite.background_files import (
+    from miketalk.composite.for_model import (
         composite_renders,
         model_compositor,
         video_background,

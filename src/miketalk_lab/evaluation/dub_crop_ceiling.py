@@ -44,7 +44,7 @@ FOLLOWS = ("on", "face", "off")
 
 def crop_keep(model) -> np.ndarray:
     """The crop model's keep: its reference's skin times the crop's jaw ellipse, (H, W) float32
-    (what :func:`~miketalk.composite.background_files.model_compositor` multiplies into the
+    (what :func:`~miketalk.composite.for_model.model_compositor` multiplies into the
     blend mask) of the :class:`~miketalk.model.face.Model` ``model``."""
     from miketalk.composite.follow import skin_weight
     from miketalk.track.crop import jaw_mask
@@ -58,7 +58,7 @@ def crop_keep(model) -> np.ndarray:
 def crop_compositor(model, size: tuple[int, int], follow: str):
     """The product's compositor of a crop model (a :class:`~miketalk.model.face.Model`) with
     the jaw's warp ``follow`` (:data:`FOLLOWS`)."""
-    from miketalk.composite.background_files import model_compositor
+    from miketalk.composite.for_model import model_compositor
 
     if follow not in FOLLOWS:
         raise MiketalkError(f"follow must be one of {', '.join(FOLLOWS)}, not {follow!r}")

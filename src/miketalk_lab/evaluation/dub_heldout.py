@@ -125,7 +125,7 @@ def dub_heldout(
         For a face-crop model: filled with each clip's dub time (s, wall), which the tables
         leave out.
     """
-    from miketalk.composite.background_files import model_compositor
+    from miketalk.composite.for_model import model_compositor
     from miketalk.corpus.clip_sources import RATE, decode_clip
     from miketalk.corpus.eigenlips import fit_corpus_eigenlips
     from miketalk.lipsync.timeline import plan

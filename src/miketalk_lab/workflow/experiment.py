@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 
 from miketalk.building.frame import FrameSettings
-from miketalk.composite.background_files import BACKGROUND_CHOICES
+from miketalk.composite.for_model import BACKGROUND_CHOICES
 from miketalk_lab.workflow import checks, faces, paths, sweeps
 from miketalk_lab.workflow.config import SCHEMA, canonical, project_path, validate_config
 from miketalk_lab.workflow.vocabulary import PAPER

@@ -1,6 +1,6 @@
-"""A model's person on video: its background, registered video and compositor, asked of
-the model (:class:`miketalk.model.face.Model`: its background video, crop, tracker
-reference and mouth box).
+"""What composite/ does for a :class:`miketalk.model.face.Model`: the background a ``say`` or
+``dub`` plays under its mouth, and its mouth composited into it, each asked of the model
+(its background video, crop, tracker reference and mouth box), never read from its folder.
 
 :func:`resolve_background` is ``--background``'s choice (the model's own video, its still
 face, or any video of its person registered to its reference by
