@@ -225,7 +225,7 @@ def test_a_face_in_its_face_crop_plans_its_corpus_to_its_held_out_dub(tmp_path: 
     [
         (
             {"model": "learned", "trajectory": "window"},
-            "faces.s1: lipsync trajectory goes with lipsync model trained, not 'learned'",
+            "faces.s1: lipsync trajectory goes with lipsync model trained",
         ),
         ({"model": "trained", "trajectory": "heard"}, "'heard' is not one of"),
     ],

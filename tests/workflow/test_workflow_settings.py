@@ -254,11 +254,13 @@ def test_a_crop_face_from_one_video_builds_in_its_crop_and_is_dubbed() -> None:
 def test_a_trajectory_goes_with_the_trained_model() -> None:
     config = dot_test()
     config["faces"]["s1"]["lipsync"] = {"model": "learned", "trajectory": "window"}
-    assert refused(config) == (
-        "faces.s1: lipsync trajectory goes with lipsync model trained, not 'learned'"
-    )
-    checks.check_trajectory_goes_with_trained("s1", {"model": "trained", "trajectory": "window"})
-    checks.check_trajectory_goes_with_trained("s1", {"model": "paper", "trajectory": None})
+    assert refused(config) == "faces.s1: lipsync trajectory goes with lipsync model trained"
+    fine = ({"model": "trained", "trajectory": "window"}, {"model": "paper", "trajectory": None})
+    for lipsync in fine:
+        checks.check_lipsync("s1", lipsync, "trained", from_clips=True)
+    with pytest.raises(ConfigError) as caught:
+        checks.check_lipsync("s1", {"model": "paper", "trajectory": "window"}, "trained", True)
+    assert str(caught.value) == "faces.s1: lipsync trajectory goes with lipsync model trained"
 
 
 def test_a_model_fitted_to_clips_needs_a_face_from_clips() -> None:

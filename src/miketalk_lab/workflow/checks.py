@@ -11,42 +11,20 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from miketalk.corpus.clip_sources import read_transcripts
-from miketalk.errors import MiketalkError
+from miketalk.errors import MiketalkError, SettingError
 from miketalk.flow.strategies import get_strategy
 from miketalk_lab.workflow.config import ConfigError
-from miketalk_lab.workflow.vocabulary import FITTED_MODELS, TRAINED
+from miketalk_lab.workflow.vocabulary import FITTED_MODELS
 
-
-def check_trajectory_goes_with_trained(face: str, lipsync: Mapping) -> None:
-    """A lipsync trajectory goes with the trained lip-sync model (the one drawn along it).
-
-    The workflow's one place for the rule, said in the config's terms; the library says it
-    for the command line (:func:`miketalk.lipsync.settings.check_trajectory`, through
-    :func:`~miketalk.lipsync.settings.resolve_lipsync_model`). The schema already refuses
-    the heard trajectory, which only a recording has.
-
-    Parameters
-    ----------
-    face : str
-        The face's name (for the message).
-    lipsync : Mapping
-        Its lip-sync settings (the config's, with its own overrides).
-
-    Raises
-    ------
-    ConfigError
-        For a trajectory with another model.
-    """
-    if lipsync["trajectory"] is not None and lipsync["model"] != TRAINED:
-        raise ConfigError(
-            f"faces.{face}: lipsync trajectory goes with lipsync model trained, not "
-            f"{lipsync['model']!r}"
-        )
+#: The library's names of the settings (:class:`~miketalk.errors.SettingError`) as the
+#: config spells them.
+CONFIG_NAMES = {"trajectory": "lipsync trajectory", "lipsync_model": "lipsync model"}
 
 
 def check_lipsync(face: str, lipsync: Mapping, recording_model: str, from_clips: bool) -> None:
     """A face's lip-sync models: one fitted to clips needs a face built from clips, and a
-    trajectory goes with the trained model.
+    trajectory goes with the trained model (:func:`miketalk.lipsync.settings.check_trajectory`,
+    the rule the command line's settings are checked by).
 
     Parameters
     ----------
@@ -64,13 +42,18 @@ def check_lipsync(face: str, lipsync: Mapping, recording_model: str, from_clips:
     ConfigError
         Naming the face and the setting.
     """
+    from miketalk.lipsync.settings import check_trajectory
+
     for key, model in (("model", lipsync["model"]), ("recording_model", recording_model)):
         if model in FITTED_MODELS and not from_clips:
             raise ConfigError(
                 f"faces.{face}: lipsync {key} {model!r} needs a face built from clips "
                 "(it is fitted to their aligned frames)"
             )
-    check_trajectory_goes_with_trained(face, lipsync)
+    try:  # the library's rule (the command line's), named as the config's keys
+        check_trajectory(lipsync["trajectory"], lipsync_model=lipsync["model"], recorded=False)
+    except SettingError as err:
+        raise ConfigError(f"faces.{face}: {err.render(CONFIG_NAMES)}") from None
 
 
 def check_method(face: str, method: str, methods: Mapping) -> None:
