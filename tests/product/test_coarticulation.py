@@ -322,3 +322,25 @@ def test_one_blas_thread_holds_blas_to_one_thread_and_the_fit_is_the_same() -> N
             one = fit(clips, TARGETS, leads=(0.0, 0.04))
         assert all(i["num_threads"] == 2 for i in threadpool_info() if i["user_api"] == "blas")
     assert one.magnitude == two.magnitude and one.rate == two.rate and one.lead == two.lead
+
+
+def test_a_blend_drawn_in_a_region_is_the_whole_frames_there(exact_model: Path) -> None:
+    """Three or more visemes drawn only in a region (what compositing reads): byte for byte
+    the whole frame's pixels there, with and without the median, at the frame's edges too;
+    the rest is the reference viseme's image."""
+    rng = np.random.default_rng(3)
+    with Model(exact_model) as model:
+        for median in (True, False):
+            morpher = MultiMorpher(model)
+            morpher.median = median
+            for region in ((10, 12, 40, 50), (0, 0, 20, 64), (30, 40, 64, 64), (5, 5, 6, 7)):
+                x0, y0, x1, y1 = region
+                chosen = rng.choice(len(VISEMES), size=int(rng.integers(3, 6)), replace=False)
+                weights = [(VISEMES[i], float(rng.random() + 0.05)) for i in chosen]
+                whole = morpher.frame(weights)
+                part = morpher.frame(weights, region=region)
+                assert np.array_equal(part[y0:y1, x0:x1], whole[y0:y1, x0:x1])
+                reference = max(weights, key=lambda item: item[1])[0]
+                outside = np.ones(whole.shape[:2], bool)
+                outside[y0:y1, x0:x1] = False
+                assert np.array_equal(part[outside], model.image(reference)[outside])

@@ -421,3 +421,42 @@ def test_a_box_pasted_into_i420_planes_is_the_whole_frame_converted():
         assert np.array_equal(planes, to_i420(whole))
     with pytest.raises(MiketalkError, match="even"):
         paste_rgb(to_i420(a), (1, 0, 4, 4), b[0:4, 1:4])
+
+
+@pytest.mark.parametrize("follow", [True, False])
+def test_renders_that_differ_only_outside_the_region_composite_the_same(follow, monkeypatch):
+    """A drawing may draw only the region a background's compositing reads
+    (MouthCompositing.region: every frame's placement and the sampling's reach): renders
+    that differ only outside it give the same frames, through the jaw's warp too; a change
+    inside it shows."""
+    from types import SimpleNamespace
+
+    from miketalk import defaults
+    from miketalk.composite import background_files
+    from miketalk.composite.background import Background
+
+    monkeypatch.setattr(defaults, "BLEND_FOLLOW", follow)
+    monkeypatch.setattr(background_files, "model_compositor",
+                        lambda model, size: Compositor(MOUTH, SIZE, follow=follow))  # fmt: skip
+    frames = np.stack([_texture(seed=s) for s in (11, 12, 13)])
+    transforms = np.stack([_affine(), _affine(angle=-6.0, scale=0.95, shift=(2.7, 1.3)),
+                           _affine(angle=8.0, shift=(-4.0, 3.0))])  # fmt: skip
+    rest = _texture(seed=30)
+    model = SimpleNamespace(size=SIZE, visemes=("x",), image=lambda v: rest)
+    background = Background(frames, transforms, _field(), 25.0)
+    compositing = background_files.MouthCompositing(model, background)
+    x0, y0, x1, y1 = compositing.region
+    assert 0 < (x1 - x0) * (y1 - y0) < 0.6 * SIZE[0] * SIZE[1]
+    renders = [_texture(seed=s) for s in (21, 22, 23)]
+    elsewhere = []
+    for r in renders:
+        other = _texture(seed=99)
+        other[y0:y1, x0:x1] = r[y0:y1, x0:x1]
+        elsewhere.append(other)
+    same = list(compositing.frames(renders, fps=25.0))
+    assert all(np.array_equal(a, b) for a, b in
+               zip(same, compositing.frames(elsewhere, fps=25.0), strict=True))  # fmt: skip
+    inside = [r.copy() for r in renders]
+    inside[1][(y0 + y1) // 2, (x0 + x1) // 2] ^= 0xFF
+    changed = list(compositing.frames(inside, fps=25.0))
+    assert not np.array_equal(changed[1], same[1])

@@ -28,7 +28,7 @@ the face twice or whose colour is far from the model's
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,6 +128,7 @@ def composited(
     fps: float,
     rest: np.ndarray | None = None,
     i420: bool = False,
+    placements: Sequence | None = None,
 ) -> Iterator[np.ndarray | I420Frame]:
     """Each render (reference coordinates) blended into its background frame.
 
@@ -150,6 +151,9 @@ def composited(
         frames in the encoder's colours (:attr:`Background.i420`): each a copy of its
         background frame's with the mouth's box (grown to even corners) converted from the
         blend, what converting the whole blended frame gives. Else (H', W', 3) RGB frames.
+    placements : sequence, optional
+        Each background frame's :meth:`Compositor.place`, made before (None: made for each
+        output frame).
     """
     offset = None
     if rest is not None and background.steady is not None:
@@ -171,12 +175,18 @@ def composited(
                 by_shot[shot] = compositor.colour_field(rest, background.steady_shots[shot])
             here = by_shot[shot]
         frame, transform = background.frames[i], background.transforms[i]
+        blended = compositor.blend_box(
+            frame, render, transform, field=background.field, offset=here,
+            placement=None if placements is None else placements[i],
+        )  # fmt: skip
         if planes is None:
-            yield compositor(frame, render, transform, field=background.field, offset=here)
+            out = np.array(frame, np.uint8, copy=True)
+            if blended is not None:
+                (x0, y0, x1, y1), pixels = blended
+                out[y0:y1, x0:x1] = pixels
+            yield out
             continue
         out = np.array(planes[i], np.uint8, copy=True)
-        blended = compositor.blend_box(frame, render, transform, field=background.field,
-                                       offset=here)  # fmt: skip
         if blended is not None:
             box, pixels = blended
             even = even_box(box, background.size)

@@ -30,13 +30,12 @@ pixels by it with a weight that is one at the mask's edge below the mouth and fa
 out over half a mouth width beyond it and above the mouth, so the jaw line outside
 the mask continues the render's inside it.
 
-``blend="poisson"`` uses ``cv2.seamlessClone`` instead. On s1's 8 held-out
-clips dubbed with their own audio it scores a higher whole-frame PSNR (40.2
-against 39.2 dB) and a seam gradient ratio nearer 1 (0.99 against 0.93), but
-the mouth's opening stops following the synthesized mouth (its correlation
-with the real opening over the speech 0.16 against 0.65): the
-gradient-domain blend takes each frame's level from the border, where the
-real jaw moves. So the feathered blend is the default.
+``blend="poisson"`` uses ``cv2.seamlessClone`` instead. On s1's 8 held-out clips dubbed
+with their own audio it scores a higher whole-frame PSNR (40.2 against 39.2 dB) and a seam
+gradient ratio nearer 1 (0.99 against 0.93), but the mouth's opening stops following the
+synthesized mouth (its correlation with the real opening over the speech 0.16 against
+0.65): the gradient-domain blend takes each frame's level from the border, where the real
+jaw moves. So the feathered blend is the default.
 """
 
 from __future__ import annotations
@@ -371,17 +370,20 @@ class Compositor:
         *,
         field: np.ndarray | None = None,
         offset: np.ndarray | None = None,
+        placement: Placement | None = None,
     ) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
         """What :meth:`__call__` changes, and only that: the frame's box ``(x0, y0, x1, y1)``
         the blend touches and its pixels there, (y1 - y0, x1 - x0, 3) uint8 (None: the
         mouth falls outside the frame, nothing changes). Only the box is read from
-        ``frame`` (a mapped frame is not read whole)."""
+        ``frame`` (a mapped frame is not read whole); ``placement``: :meth:`place`'s, made
+        before (a background frame's, kept)."""
         if render.shape[:2] != self.size:
             raise MiketalkError(
                 f"the render is {render.shape[1]}x{render.shape[0]}, the reference "
                 f"{self.size[1]}x{self.size[0]}"
             )
-        placement = self.place(transform, frame.shape[:2], field=field)
+        if placement is None:
+            placement = self.place(transform, frame.shape[:2], field=field)
         if placement is None:
             return None
         x0, y0, x1, y1 = placement.box

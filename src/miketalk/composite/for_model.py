@@ -24,6 +24,7 @@ from miketalk.media.yuv import I420Frame
 __all__ = [
     "BACKGROUND_CHOICES",
     "BackgroundChoice",
+    "MouthCompositing",
     "composite_renders",
     "model_compositor",
     "resolve_background",
@@ -151,7 +152,8 @@ def composite_renders(
     i420: bool = False,
 ) -> Iterator[np.ndarray | I420Frame]:
     """:func:`composited` with the model's mouth box, size and silence image (``i420``:
-    frames in the encoder's colours where the background has them).
+    frames in the encoder's colours where the background has them):
+    :meth:`MouthCompositing.frames`.
 
     Parameters
     ----------
@@ -163,8 +165,63 @@ def composite_renders(
     fps : float
         The output's frame rate.
     """
-    from miketalk.visemes import SILENCE
+    return MouthCompositing(model, background).frames(renders, fps=fps, i420=i420)
 
-    compositor = model_compositor(model, model.size)
-    rest = model.image(SILENCE) if SILENCE in model.visemes else None
-    return composited(renders, background, compositor, fps=fps, rest=rest, i420=i420)
+
+#: A background of at most this many frames keeps each frame's placement (a model's own,
+#: a few seconds, played in a loop); a longer one (a dubbed video, each frame played once)
+#: has them made again as it plays, so that memory does not grow with its length.
+KEEP_PLACEMENTS = 256
+
+#: Pixels beyond a placement's map the compositor's sampling reads (bicubic: two).
+SAMPLED_BEYOND = 2
+
+
+class MouthCompositing:
+    """A model's mouth composited into a background: the compositor of its mouth box
+    (:func:`model_compositor`), its silence image, and where each background frame puts
+    the mouth (:meth:`~miketalk.composite.compositor.Compositor.place`, made once).
+
+    :attr:`region` is ``(x0, y0, x1, y1)``, the renders' pixels compositing reads (every
+    placement's map and the interpolation's reach), or None when no frame shows the mouth:
+    a drawing may draw that region alone (:meth:`miketalk.draw.registry.Drawing.frames`);
+    the output is the same.
+    """
+
+    def __init__(self, model: Any, background: Background) -> None:
+        from miketalk.visemes import SILENCE
+
+        self.model, self.background = model, background
+        self.compositor = model_compositor(model, model.size)
+        self.rest = model.image(SILENCE) if SILENCE in model.visemes else None
+        h, w = model.size
+        low, high = np.array([w, h], np.float64), np.array([-1.0, -1.0])
+        kept = []
+        for i in range(len(background)):
+            placement = None
+            if background.shown is None or background.shown[i]:
+                placement = self.compositor.place(
+                    background.transforms[i], background.size, field=background.field
+                )
+            if placement is not None:
+                for k, grid in enumerate((placement.map_x, placement.map_y)):
+                    low[k], high[k] = min(low[k], grid.min()), max(high[k], grid.max())
+            kept.append(placement)
+        self.placements = kept if len(kept) <= KEEP_PLACEMENTS else None
+        self.region: tuple[int, int, int, int] | None = None
+        if high[0] >= 0:
+            # remap rounds a position to 1/32 px: up to one pixel on, then the reach
+            x0, y0 = (max(0, int(np.floor(v)) - SAMPLED_BEYOND) for v in low)
+            x1 = min(w, int(np.floor(high[0])) + SAMPLED_BEYOND + 2)
+            y1 = min(h, int(np.floor(high[1])) + SAMPLED_BEYOND + 2)
+            if x1 > x0 and y1 > y0:
+                self.region = (x0, y0, x1, y1)
+
+    def frames(
+        self, renders: Iterable[np.ndarray], *, fps: float, i420: bool = False
+    ) -> Iterator[np.ndarray | I420Frame]:
+        """Each render blended into its background frame (:func:`composited`)."""
+        return composited(
+            renders, self.background, self.compositor, fps=fps, rest=self.rest, i420=i420,
+            placements=self.placements,
+        )  # fmt: skip

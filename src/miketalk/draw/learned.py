@@ -32,7 +32,7 @@ from miketalk.draw.coarticulation.weights import weights_at
 from miketalk.lipsync.motion import weights_step
 from miketalk.lipsync.sampling import Displacement
 from miketalk.lipsync.timeline import Timeline
-from miketalk.render.multimorph import MultiMorpher, Weights
+from miketalk.render.multimorph import Box, MultiMorpher, Weights
 from miketalk.workers import RENDER_WORKERS
 
 __all__ = ["MAX_SAMPLES", "Exposure", "learned_exposures", "render_learned", "render_model_learned"]
@@ -158,6 +158,7 @@ def render_learned(
     morpher: MultiMorpher | None = None,
     weights: Sequence[Weights] | None = None,
     exposures: Sequence[Exposure] | None = None,
+    region: Box | None = None,
 ) -> Iterator[np.ndarray]:
     """The frames of ``timeline`` with the learned coarticulation, in order.
 
@@ -182,6 +183,11 @@ def render_learned(
     exposures : sequence of Exposure, optional
         Each frame's drawn states (:func:`learned_exposures`), averaged into it; given,
         ``weights`` is not used. A frame of one state is that state's morph.
+    region : tuple of int, optional
+        ``(x0, y0, x1, y1)``: only these pixels are read (a frame composited into video,
+        :meth:`miketalk.composite.compositor.Compositor.render_region`); a morph of three
+        or more visemes is drawn there only (:meth:`MultiMorpher.blend`), the same bytes
+        there, the rest of its frame not drawn.
     """
     if exposures is None:
         if weights is None:
@@ -189,7 +195,7 @@ def render_learned(
         exposures = [((row, 1.0),) for row in weights]
     morpher = morpher or MultiMorpher(model)
     workers = RENDER_WORKERS if workers is None else max(1, int(workers))
-    draw = _exposure_drawer(morpher)
+    draw = _exposure_drawer(morpher, region)
     # read the flows the frames need, in the order they are needed
     needed: list[tuple[str, str]] = []
     for row in drawn_states(exposures):
@@ -217,16 +223,16 @@ def render_learned(
                 future.cancel()
 
 
-def _exposure_drawer(morpher: MultiMorpher):
+def _exposure_drawer(morpher: MultiMorpher, region: Box | None = None):
     """Draw one frame's states: the one state's morph, or the average of several, accumulated
     in float32 in order and rounded (as :meth:`miketalk.model.face.Model.exposure`)."""
 
     def draw(exposure: Exposure) -> np.ndarray:
         if len(exposure) == 1:
-            return morpher.frame(exposure[0][0])
+            return morpher.frame(exposure[0][0], region=region)
         total = None
         for row, share in exposure:
-            image = morpher.frame(row)
+            image = morpher.frame(row, region=region)
             if total is None:
                 total = np.zeros(image.shape, np.float32)
             cv2.addWeighted(image, share, total, 1.0, 0.0, dst=total, dtype=cv2.CV_32F)

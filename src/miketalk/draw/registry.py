@@ -61,8 +61,11 @@ class Drawing:
         *,
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
+        region: tuple[int, int, int, int] | None = None,
     ) -> Frames:
-        """The frames of ``timeline`` drawn with ``model`` (see :data:`Frames`)."""
+        """The frames of ``timeline`` drawn with ``model`` (see :data:`Frames`); ``region``
+        ``(x0, y0, x1, y1)``: only these pixels of each frame will be read (a frame
+        composited into video), which a drawing may draw alone."""
         return model.render(timeline), None, None
 
     def doc(self) -> dict:
@@ -84,6 +87,7 @@ class LearnedDrawing(Drawing):
         *,
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
+        region: tuple[int, int, int, int] | None = None,
     ) -> Frames:
         """The frames, with the viseme weights at each frame's middle and the states drawn,
         in order (several for a frame blurred to keep consecutive states within
@@ -96,7 +100,9 @@ class LearnedDrawing(Drawing):
             timeline, self.coarticulation, displacement=model.displacement,
             max_px_per_frame=max_px_per_frame, middles=middles,
         )  # fmt: skip
-        rendered = render_learned(model, timeline, self.coarticulation, exposures=exposures)
+        rendered = render_learned(
+            model, timeline, self.coarticulation, exposures=exposures, region=region
+        )
         return rendered, middles, drawn_states(exposures)
 
 
@@ -122,6 +128,7 @@ class TrainedDrawing(Drawing):
         *,
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
+        region: tuple[int, int, int, int] | None = None,
     ) -> Frames:
         """The frames drawn from the person's own (``recording``: the sound the trajectory
         may hear; ``max_px_per_frame`` does not apply)."""

@@ -41,9 +41,12 @@ from miketalk.lipsync.timeline import Timeline
 
 
 class JerkMeter:
-    """Measures the jerk of frames as they stream past (see the module docstring)."""
+    """Measures the jerk of frames as they stream past (see the module docstring); with
+    ``region`` ``(x0, y0, x1, y1)``, of those pixels only (a frame composited into video:
+    the mouth's region, the only one drawn)."""
 
-    def __init__(self) -> None:
+    def __init__(self, region: tuple[int, int, int, int] | None = None) -> None:
+        self.region = region  # (x0, y0, x1, y1): the frames' pixels measured (None: all)
         self._before: np.ndarray | None = None  # frame k - 1
         self._last: np.ndarray | None = None  # frame k
         self.count = 0
@@ -52,6 +55,9 @@ class JerkMeter:
 
     def add(self, frame: np.ndarray) -> None:
         """Take the next frame ((H, W, 3) RGB or (H, W) grey, uint8)."""
+        if self.region is not None:
+            x0, y0, x1, y1 = self.region
+            frame = frame[y0:y1, x0:x1]
         grey = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY) if frame.ndim == 3 else frame
         grey = grey.astype(np.int16)
         if self._last is not None and self._before is not None:

@@ -68,6 +68,9 @@ class MorphSource(Protocol):
 #: Weights (viseme, weight) of one frame.
 Weights = Sequence[tuple[str, float]]
 
+#: A region of a frame, ``(x0, y0, x1, y1)``.
+Box = tuple[int, int, int, int]
+
 
 class MultiMorpher:
     """Frames at any weighted point between a model's visemes (see the module docstring).
@@ -118,11 +121,12 @@ class MultiMorpher:
                 self._flows.popitem(last=False)
         return forward
 
-    def frame(self, weights: Weights) -> np.ndarray:
+    def frame(self, weights: Weights, *, region: Box | None = None) -> np.ndarray:
         """The frame at the weighted point ``weights`` (``(viseme, weight)``, weights >= 0).
 
         Visemes of zero weight are ignored; the others are renormalized. Two
-        visemes are the paper's morph from the first to the second.
+        visemes are the paper's morph from the first to the second. With ``region``
+        ``(x0, y0, x1, y1)``, three or more are drawn there only (:meth:`blend`).
 
         Raises
         ------
@@ -144,34 +148,62 @@ class MultiMorpher:
         if len(items) == 2:
             (a, wa), (b, wb) = items
             return self.model.frame(a, b, wb / (wa + wb))
-        return self.blend(items)
+        return self.blend(items, region=region)
 
-    def blend(self, weights: Weights) -> np.ndarray:
-        """The backward-warp blend of the module docstring, for any number of visemes."""
+    def blend(self, weights: Weights, *, region: Box | None = None) -> np.ndarray:
+        """The backward-warp blend of the module docstring, for any number of visemes.
+
+        With ``region`` ``(x0, y0, x1, y1)`` only its pixels are drawn, byte for byte
+        what the whole frame has there (each output pixel's arithmetic is its own; the
+        appearance is made only where the region samples it, the median filter's one
+        pixel beyond it included); the rest of the frame is the reference viseme's image
+        (a frame composited into video is read only in the mouth's region,
+        :meth:`miketalk.composite.compositor.Compositor.render_region`).
+        """
         total = sum(w for _, w in weights)
         items = [(v, w / total) for v, w in weights]
         reference, w_ref = max(items, key=lambda item: item[1])
         image = self.model.image(reference)
-        appearance = image.astype(np.float32) * np.float32(w_ref)
-        shape = np.zeros((*self.model.size, 2), np.float32)
-        for viseme, w in items:
-            if viseme == reference:
-                continue
-            flow = self.flow(reference, viseme)
-            warped = _remap(self.model.image(viseme), self._grid + flow)
-            cv2.scaleAdd(warped.astype(np.float32), float(w), appearance, dst=appearance)
-            cv2.scaleAdd(flow, float(w), shape, dst=shape)
-        # P(q) = q - S(P(q)): start at q - S(q), iterate
-        where = self._grid - shape
+        h, w = self.model.size
+        x0, y0, x1, y1 = (0, 0, w, h) if region is None else region
+        if self.median:  # the 3x3 median's pixel beyond the region
+            x0, y0, x1, y1 = max(0, x0 - 1), max(0, y0 - 1), min(w, x1 + 1), min(h, y1 + 1)
+        others = [(self.flow(reference, v), v, wv) for v, wv in items if v != reference]
+        shape = np.zeros((h, w, 2), np.float32)
+        for flow, _, wv in others:
+            cv2.scaleAdd(flow, float(wv), shape, dst=shape)
+        # P(q) = q - S(P(q)): start at q - S(q), iterate (on the region's pixels q)
+        grid = self._grid[y0:y1, x0:x1]
+        where = grid - shape[y0:y1, x0:x1]
         for _ in range(self.inverse_iterations):
-            where = self._grid - _remap(shape, where)
-        out = _remap(appearance, where)
+            where = grid - _remap(shape, where)
+        # the appearance where ``where`` samples it (bilinear: the pixel after it too)
+        ax0, ay0 = (
+            max(0, min(w - 1, int(np.floor(v.min())))) for v in (where[..., 0], where[..., 1])
+        )
+        ax1, ay1 = (
+            max(1, min(n, int(np.floor(v.max())) + 2))
+            for v, n in ((where[..., 0], w), (where[..., 1], h))
+        )
+        ax1, ay1 = max(ax1, ax0 + 1), max(ay1, ay0 + 1)
+        appearance = image[ay0:ay1, ax0:ax1].astype(np.float32) * np.float32(w_ref)
+        for flow, viseme, wv in others:
+            sampled = self._grid[ay0:ay1, ax0:ax1] + flow[ay0:ay1, ax0:ax1]
+            warped = _remap(self.model.image(viseme), sampled)
+            cv2.scaleAdd(warped.astype(np.float32), float(wv), appearance, dst=appearance)
+        offset = np.array([ax0, ay0], np.float32)
+        out = _remap(appearance, where - offset)
         out = np.clip(np.floor(out + 0.5), 0, 255).astype(np.uint8)
-        return cv2.medianBlur(out, 3) if self.median else out
+        out = cv2.medianBlur(out, 3) if self.median else out
+        if region is None:
+            return out
+        frame = np.array(image, np.uint8, copy=True)
+        rx0, ry0, rx1, ry1 = region
+        frame[ry0:ry1, rx0:rx1] = out[ry0 - y0 : ry1 - y0, rx0 - x0 : rx1 - x0]
+        return frame
 
 
 def _remap(image: np.ndarray, where: np.ndarray) -> np.ndarray:
     """Bilinear ``image(where(q))`` with replicated borders (``where`` absolute, float32)."""
-    return cv2.remap(image, where, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).reshape(
-        image.shape
-    )
+    out = cv2.remap(image, where, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(where.shape[:2] + image.shape[2:])

@@ -129,15 +129,19 @@ def write_utterance(
     for t in timeline.transitions:  # every viseme must be in the model before we start
         model.displacement(t.source, t.target)
     started = time.perf_counter()
-    jerk = JerkMeter()
+    compositing = region = None
+    if background is not None:  # only the region compositing reads is drawn (and measured)
+        from miketalk.composite.for_model import MouthCompositing
+
+        compositing = MouthCompositing(model, background)
+        region = compositing.region
+    jerk = JerkMeter(region)
     rendered, weights, states = drawing.frames(
-        model, timeline, recording=recording, max_px_per_frame=max_px_per_frame
+        model, timeline, recording=recording, max_px_per_frame=max_px_per_frame, region=region
     )
     frames = jerk.watch(rendered)
-    if background is not None:
-        from miketalk.composite.for_model import composite_renders
-
-        frames = composite_renders(frames, background, model, fps=timeline.fps, i420=True)
+    if compositing is not None:
+        frames = compositing.frames(frames, fps=timeline.fps, i420=True)
     if progress:
         from tqdm import tqdm
 
