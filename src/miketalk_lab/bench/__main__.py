@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[3]
 
 MODULES = (
     "synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "one_video",
-    "responsiveness", "anyone", "recognized_phones", "recognized_build",
+    "responsiveness", "anyone", "recognized_phones", "recognized_build", "speed",
 )  # fmt: skip
 
 

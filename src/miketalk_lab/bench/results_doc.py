@@ -355,16 +355,10 @@ def results_markdown(
     )
     lines += _markdown_file("People other than s1: the weekly addresses ([anyone.md](anyone.md))",
                             bench_out / "anyone" / "summary.md", f"{bench} anyone")  # fmt: skip
-    lines += _markdown_file(
-        "Forced aligner against GRID's word timings",
-        bench_out / "real_face" / "aligner" / "summary.md",
-        f"{bench} real_face",
-    )
-    lines += _markdown_file(
-        "Stabilization: residual motion",
-        bench_out / "real_face" / "stabilization" / "summary.md",
-        f"{bench} real_face",
-    )
+    for title, part in (("Forced aligner against GRID's word timings", "aligner"),
+                        ("Stabilization: residual motion", "stabilization")):  # fmt: skip
+        lines += _markdown_file(title, bench_out / "real_face" / part / "summary.md",
+                                f"{bench} real_face")  # fmt: skip
     lines += ["## The synthetic face: against ground truth", ""]
     if (metrics / "SKIPPED.txt").is_file():
         lines += [f"`{_shown(metrics / 'SKIPPED.txt')}`: "
@@ -401,7 +395,10 @@ def results_markdown(
         f"{run} results/metrics/sync_sweep.csv",
         SYNC_COLUMNS,
     )
-    lines += ["## `make bench`", "", *bench_section(bench_out)]
+    lines += ["## `make bench`", ""]
+    lines += _markdown_file("Speed: say, dub and the 720p render (issue 51's targets)",
+                            bench_out / "speed" / "summary.md", f"{bench} speed")  # fmt: skip
+    lines += bench_section(bench_out)
     return "\n".join(lines).rstrip() + "\n"
 
 

@@ -1,0 +1,243 @@
+"""Speed: ``say`` and ``dub`` timed as a user runs them, and the 720p render's throughput.
+
+``python -m miketalk_lab.bench speed`` (``make bench``, after ``make run``), or
+``python -m miketalk_lab.bench.speed --out OUT [--runs N] [--obama DIR] [--s1 MODEL]``.
+Issue 51's targets (2 cores, warm, medians of 5 whole-command runs):
+
+- ``say`` of 10 words to an mp4 on s1 (``results/model/s1``, the workflow's: made by
+  ``snakemake results/model/s1`` when ``make run`` has not), **at most 1.0 s**;
+- the same on a 720p model built from the weekly addresses (``miketalk build`` of every
+  address but wa06 and wa08, as :mod:`miketalk_lab.bench.anyone` builds its first fold; its
+  model is reused when that bench made it), **at most 2.0 s**;
+- the 720p model's render (the drawing and the compositing into its 1280x720 frames, in the
+  encoder's colours) on **one** core, **at least 1.5x real time** (the other core is
+  Festival's, the encoder's and the page's);
+- ``dub`` of 10 s of 720p (wa05, wa06 and wa07 joined, dubbed with their own recording and
+  caption lines), **at most 5 s**.
+
+Each command runs once unmeasured (warm: the model's check and decoded frames kept in the
+user's cache, :mod:`miketalk.media.user_cache`; the page cache full), then :data:`RUNS`
+times; each figure is the median with its min and max, its wall time from start to exit
+and its CPU (user + system of it and its children, ``resource.getrusage``), with the load
+average before and after: on a shared machine a slow wall with a steady CPU is the load's.
+The package's bytecode is compiled first (``compileall``), as a wheel's install does: an
+editable install under ``PYTHONDONTWRITEBYTECODE`` would otherwise compile every module at
+every run. Writes ``OUT/timings.csv`` and ``OUT/summary.md``.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[3]
+S1_SENTENCE = "Bin blue at F two now and lay green by G soon."
+HD_SENTENCE = "We will build a stronger economy for every family in America."
+#: The addresses the 720p model leaves out (the anyone bench's first fold).
+HELD = ("wa06", "wa08")
+#: The addresses joined into the 10-s video dubbed.
+DUBBED = ("wa05", "wa06", "wa07")
+RUNS = 5
+#: Each target: (figure, at most / at least, bound).
+TARGETS = {
+    "s1_say_10_words": ("<=", 1.0),
+    "hd_say_10_words": ("<=", 2.0),
+    "hd_render_one_core_x_realtime": (">=", 1.5),
+    "hd_dub_10s": ("<=", 5.0),
+}
+
+
+def timed(command: Sequence[str], runs: int = RUNS) -> dict[str, float]:
+    """``command`` run once unmeasured, then ``runs`` times: wall and CPU median, min, max."""
+    import resource
+
+    walls, cpus, loads = [], [], []
+    for i in range(runs + 1):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        loads.append(os.getloadavg()[0])
+        started = time.monotonic()
+        subprocess.run(command, check=True, capture_output=True)
+        wall = time.monotonic() - started
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if i:
+            walls.append(wall)
+            cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    loads.append(os.getloadavg()[0])
+    return {
+        "median": statistics.median(walls), "min": min(walls), "max": max(walls),
+        "cpu_median": statistics.median(cpus), "cpu_min": min(cpus), "cpu_max": max(cpus),
+        "load_before": loads[0], "load_after": loads[-1],
+    }  # fmt: skip
+
+
+def render_throughput(model: Path, timeline_json: Path) -> dict[str, float]:
+    """Frames drawn and composited (I420) per second of one core, over the seconds they
+    play: the x real time of the 720p render (a process held to one processor, one
+    OpenCV thread, one drawing worker)."""
+    code = f"""
+import os, time, json, cv2
+os.sched_setaffinity(0, {{sorted(os.sched_getaffinity(0))[0]}})
+cv2.setNumThreads(1)
+import miketalk.workers
+miketalk.workers.RENDER_WORKERS = 1  # before the drawing's modules bind it
+from miketalk.composite.background_files import MouthCompositing
+from miketalk.model.face import open_model
+from miketalk.talk.utterance import read_said
+said = read_said({str(timeline_json)!r})
+model = open_model({str(model)!r})
+best = None
+for _ in range(3):
+    started = time.process_time(); wall = time.perf_counter()
+    comp = MouthCompositing(model, model.background())
+    drawing = model.drawing(said.lipsync_model, recorded=False)
+    frames, _, _ = drawing.frames(model, said.timeline, max_px_per_frame=said.max_px_per_frame,
+                                  region=comp.region)
+    n = sum(1 for _ in comp.frames(frames, fps=said.timeline.fps, i420=True))
+    spent = (time.process_time() - started, time.perf_counter() - wall)
+    best = spent if best is None or spent[1] < best[1] else best
+print(json.dumps({{"frames": n, "cpu": best[0], "wall": best[1], "fps": said.timeline.fps}}))
+"""
+    out = subprocess.run(
+        [sys.executable, "-c", code], check=True, capture_output=True, text=True
+    ).stdout
+    import json
+
+    got = json.loads(out.strip().splitlines()[-1])
+    seconds = got["frames"] / got["fps"]
+    return {"x_realtime_wall": seconds / got["wall"], "x_realtime_cpu": seconds / got["cpu"],
+            "frames": got["frames"], "load": os.getloadavg()[0]}  # fmt: skip
+
+
+def s1_model() -> Path:
+    """``results/model/s1`` of the workflow, made with its stages when missing."""
+    model = ROOT / "results" / "model" / "s1"
+    if not (model / "manifest.json").is_file():
+        subprocess.run(
+            [sys.executable, "-m", "snakemake", "--cores", "2", "--rerun-incomplete",
+             "results/model/s1"], check=True, cwd=ROOT,
+        )  # fmt: skip
+    return model
+
+
+def hd_model(obama: Path, work: Path) -> Path:
+    """The anyone bench's first fold's model (every address but :data:`HELD`), reused from
+    that bench's work folder when it made it, else built in ``work``."""
+    from miketalk_lab.bench.anyone import _fold_model
+
+    theirs = work.parent.parent / "anyone" / "work" / f"model_{'_'.join(HELD)}"
+    if (theirs / "manifest.json").is_file():
+        return theirs
+    ids = sorted(p.stem for p in (obama / "video").glob("wa*.mp4"))
+    return _fold_model(obama, work, HELD, ids)["model"]
+
+
+def run(out_dir: Path) -> dict[str, float]:
+    """Every figure of the module docstring (``make bench``)."""
+    config = yaml.safe_load((ROOT / ".bench" / "anyone" / "config.yaml").read_text())
+    return measure(out_dir, (ROOT / config["obama"]).resolve())
+
+
+def measure(out_dir: Path, obama: Path, *, runs: int = RUNS, s1: Path | None = None) -> dict:
+    """Time everything, write ``timings.csv`` and ``summary.md``; the figures."""
+    from miketalk_lab.bench.bad_input import join_addresses
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    work = out_dir / "work"
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "src" / "miketalk")],
+                   check=True, capture_output=True)  # fmt: skip
+    miketalk = [sys.executable, "-m", "miketalk.cli"]
+    s1 = s1 or s1_model()
+    hd = hd_model(obama, work)
+    rows: dict[str, dict[str, float]] = {}
+    out = work / "out"
+    rows["s1_say_10_words"] = timed(
+        [*miketalk, "say", S1_SENTENCE, "--model", str(s1), "-o", str(out / "s1.mp4"), "--force"],
+        runs,
+    )
+    rows["hd_say_10_words"] = timed(
+        [*miketalk, "say", HD_SENTENCE, "--model", str(hd), "-o", str(out / "hd.mp4"), "--force"],
+        runs,
+    )
+    throughput = render_throughput(hd, out / "hd.json")
+    joined = join_addresses(obama, work, DUBBED, "dubbed")
+    text = (work / "dubbed.txt").read_text("utf-8").replace("\n", " ").strip()
+    video = str(work / "dubbed.mp4")
+    rows["hd_dub_10s"] = timed(
+        [*miketalk, "dub", video, "--audio", video, "--text", text, "--model", str(hd),
+         "-o", str(out / "dub.mp4"), "--force"], runs,
+    )  # fmt: skip
+    dubbed_seconds = joined["frames"] / joined["fps"]
+    with (out_dir / "timings.csv").open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["command", *next(iter(rows.values())).keys()])
+        for name, row in rows.items():
+            writer.writerow([name, *(f"{v:.3f}" for v in row.values())])
+    figures: dict[str, float] = {}
+    for name, row in rows.items():
+        figures |= {
+            f"{name}_seconds": row["median"],
+            f"{name}_min_seconds": row["min"],
+            f"{name}_max_seconds": row["max"],
+            f"{name}_cpu_seconds": row["cpu_median"],
+        }
+    figures["hd_render_one_core_x_realtime"] = throughput["x_realtime_wall"]
+    figures["hd_render_one_core_x_realtime_cpu"] = throughput["x_realtime_cpu"]
+    figures["hd_dub_video_s"] = dubbed_seconds  # fmt: skip
+    (out_dir / "summary.md").write_text(
+        summary(rows, throughput, dubbed_seconds, runs), encoding="utf-8"
+    )
+    return figures
+
+
+def summary(rows: dict, throughput: dict, dubbed_seconds: float, runs: int) -> str:
+    """The timing table (median, min, max; CPU; load) against the targets."""
+    lines = [
+        f"# Speed (issue 51): medians of {runs} whole-command runs after one unmeasured",
+        "",
+        "| command | target | wall median (s) | min | max | CPU median (s) | load before/after |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for name, row in rows.items():
+        op, bound = TARGETS[name]
+        lines.append(
+            f"| {name} | {op} {bound:g} s | {row['median']:.2f} | {row['min']:.2f} | "
+            f"{row['max']:.2f} | {row['cpu_median']:.2f} | "
+            f"{row['load_before']:.1f} / {row['load_after']:.1f} |"
+        )
+    op, bound = TARGETS["hd_render_one_core_x_realtime"]
+    lines += [
+        "",
+        f"720p render on one core ({throughput['frames']} frames, drawing and compositing "
+        f"in I420; target {op} {bound:g}x real time): **{throughput['x_realtime_wall']:.2f}x** "
+        f"real time by the wall, {throughput['x_realtime_cpu']:.2f}x by its CPU "
+        f"(load {throughput['load']:.1f}). The dubbed video lasts {dubbed_seconds:.2f} s.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m miketalk_lab.bench.speed``."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m miketalk_lab.bench.speed")
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--obama", type=Path, default=ROOT.parent / "shared" / "data" / "obama")
+    parser.add_argument("--s1", type=Path, default=None, help="an s1 model (default: made)")
+    parser.add_argument("--runs", type=int, default=RUNS)
+    args = parser.parse_args(argv)
+    measure(args.out, args.obama, runs=args.runs, s1=args.s1)
+    print((args.out / "summary.md").read_text("utf-8"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
