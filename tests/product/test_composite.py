@@ -432,7 +432,7 @@ def test_renders_that_differ_only_outside_the_region_composite_the_same(follow, 
     from types import SimpleNamespace
 
     from miketalk import defaults
-    from miketalk.composite import background_files
+    from miketalk.composite import for_model as background_files
     from miketalk.composite.background import Background
 
     monkeypatch.setattr(defaults, "BLEND_FOLLOW", follow)

@@ -88,7 +88,7 @@ os.sched_setaffinity(0, {{sorted(os.sched_getaffinity(0))[0]}})
 cv2.setNumThreads(1)
 import miketalk.workers
 miketalk.workers.RENDER_WORKERS = 1  # before the drawing's modules bind it
-from miketalk.composite.background_files import MouthCompositing
+from miketalk.composite.for_model import MouthCompositing
 from miketalk.model.face import open_model
 from miketalk.talk.utterance import read_said
 said = read_said({str(timeline_json)!r})
