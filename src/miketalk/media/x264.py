@@ -29,14 +29,17 @@ class X264:
         return ["-c:v", "libx264", "-preset", self.preset, *tune, "-crf", str(self.crf)]
 
 
-#: An mp4 file: crf 18 (visually lossless) at ``veryfast``. On 116 frames of a 720p weekly
-#: address (yuv420p in): 1.13 s of CPU, 0.85 MB, PSNR 47.8 dB against its input.
+#: An mp4 file: crf 18 (visually lossless) at ``veryfast``. On the 304 frames of 10.14 s of
+#: the weekly addresses at 720p (yuv420p in, ``python -m miketalk_lab.bench speed``): 7.9 ms
+#: of CPU a frame, 1.55 MB, PSNR 48.1 dB against its input.
 FILE_X264 = X264("veryfast", 18)
 
-#: A live stream (``-o -``, the page): ``ultrafast``, no look-ahead or B-frames
+#: A stream watched as it is made: ``ultrafast``, no look-ahead or B-frames
 #: (``zerolatency``: a frame leaves the encoder as soon as it is in), crf 20. On the same
-#: frames: 0.35 s of CPU (a third of the file's: headroom on two cores), 2.6 MB (a pipe or
-#: the page on this machine, not a network), PSNR 47.9 dB.
+#: frames: 3.3 ms a frame (four tenths of the file's: headroom on two cores), 6.1 MB (a pipe
+#: or the page on this machine, not a network), PSNR 48.4 dB. Its frames decode to other
+#: bytes than the file's: a live stream that must be the file's frames (``say -o -``) keeps
+#: :data:`FILE_X264`.
 LIVE_X264 = X264("ultrafast", 20, "zerolatency")
 
 

@@ -116,6 +116,44 @@ print(json.dumps({{"frames": n, "cpu": best[0], "wall": best[1], "fps": said.tim
             "frames": got["frames"], "load": os.getloadavg()[0]}  # fmt: skip
 
 
+def x264_settings(video: Path, work: Path) -> dict[str, dict[str, float]]:
+    """The file writer's and the live stream's x264 settings
+    (:data:`~miketalk.media.x264.FILE_X264`, :data:`~miketalk.media.x264.LIVE_X264`) on the
+    same 720p frames (``video`` decoded to yuv420p once): the encoder's CPU (one thread),
+    the bytes, and PSNR against the frames given."""
+    import re
+    import resource
+
+    from miketalk.media.x264 import FILE_X264, LIVE_X264, ffmpeg_exe
+
+    work.mkdir(parents=True, exist_ok=True)
+    exe, raw = ffmpeg_exe(), work / "frames.yuv"
+    subprocess.run([exe, "-v", "error", "-y", "-i", str(video), "-f", "rawvideo", "-pix_fmt",
+                    "yuv420p", str(raw)], check=True)  # fmt: skip
+    from miketalk.media.decode import video_info
+
+    width, height, fps = video_info(video)
+    source = ["-f", "rawvideo", "-pix_fmt", "yuv420p", "-s", f"{width}x{height}", "-r",
+              f"{fps}", "-i", str(raw)]  # fmt: skip
+    out = {}
+    for name, x264 in (("file", FILE_X264), ("live", LIVE_X264)):
+        mp4 = work / f"x264_{name}.mp4"
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        subprocess.run([exe, "-v", "error", "-y", *source, *x264.args(), "-threads", "1",
+                        "-pix_fmt", "yuv420p", str(mp4)], check=True)  # fmt: skip
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        psnr = subprocess.run([exe, "-i", str(mp4), *source, "-lavfi", "psnr", "-f", "null", "-"],
+                              capture_output=True, text=True, check=True).stderr  # fmt: skip
+        frames = raw.stat().st_size // (width * height * 3 // 2)
+        out[name] = {
+            "cpu_ms_per_frame": 1000 * (after.ru_utime - before.ru_utime) / frames,
+            "megabytes": mp4.stat().st_size / 1e6,
+            "psnr_db": float(re.findall(r"average:([0-9.]+)", psnr)[-1]),
+        }
+    raw.unlink()
+    return out
+
+
 def s1_model() -> Path:
     """``results/model/s1`` of the workflow, made with its stages when missing."""
     model = ROOT / "results" / "model" / "s1"
@@ -176,6 +214,7 @@ def measure(out_dir: Path, obama: Path, *, runs: int = RUNS, s1: Path | None = N
          "-o", str(out / "dub.mp4"), "--force"], runs,
     )  # fmt: skip
     dubbed_seconds = joined["frames"] / joined["fps"]
+    encoders = x264_settings(Path(video), work)
     with (out_dir / "timings.csv").open("w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["command", *next(iter(rows.values())).keys()])
@@ -192,14 +231,16 @@ def measure(out_dir: Path, obama: Path, *, runs: int = RUNS, s1: Path | None = N
     figures["hd_render_one_core_x_realtime"] = throughput["x_realtime_wall"]
     figures["hd_render_one_core_x_realtime_cpu"] = throughput["x_realtime_cpu"]
     figures["hd_dub_video_s"] = dubbed_seconds  # fmt: skip
+    for name, row in encoders.items():
+        figures |= {f"x264_{name}_{k}": v for k, v in row.items()}
     (out_dir / "summary.md").write_text(
-        summary(rows, throughput, dubbed_seconds, runs), encoding="utf-8"
+        summary(rows, throughput, dubbed_seconds, runs, encoders), encoding="utf-8"
     )
     return figures
 
 
-def summary(rows: dict, throughput: dict, dubbed_seconds: float, runs: int) -> str:
-    """The timing table (median, min, max; CPU; load) against the targets."""
+def summary(rows: dict, throughput: dict, dubbed_seconds: float, runs: int, encoders: dict) -> str:
+    """The timing table (median, min, max; CPU; load) against the targets, and x264's."""
     lines = [
         f"# Speed (issue 51): medians of {runs} whole-command runs after one unmeasured",
         "",
@@ -221,7 +262,14 @@ def summary(rows: dict, throughput: dict, dubbed_seconds: float, runs: int) -> s
         f"real time by the wall, {throughput['x_realtime_cpu']:.2f}x by its CPU "
         f"(load {throughput['load']:.1f}). The dubbed video lasts {dubbed_seconds:.2f} s.",
         "",
-    ]
+        "x264 on the dubbed video's 720p frames (yuv420p in, one thread):",
+        "",
+        "| settings | CPU ms a frame | MB | PSNR (dB) |",
+        "| --- | --- | --- | --- |",
+        *(f"| {name} | {r['cpu_ms_per_frame']:.2f} | {r['megabytes']:.2f} | {r['psnr_db']:.2f} |"
+          for name, r in encoders.items()),
+        "",
+    ]  # fmt: skip
     return "\n".join(lines)
 
 
