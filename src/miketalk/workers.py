@@ -243,9 +243,11 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
     audio in one call), during which a signal's handler cannot run: the parent waits on a
     pipe (in slices of 0.1 s: the module docstring), so Ctrl-C or SIGTERM stops the wait at
     once, and the child is killed with it. The child dies with its parent, also when the
-    parent is killed outright; ``ps`` names it ``mt:`` and the function's name. Where
-    ``fork`` is missing, or outside the main thread (where signals are not handled), the
-    function runs here.
+    parent is killed outright; ``ps`` names it ``mt:`` and the function's name. From
+    another thread (an utterance's stream, :mod:`miketalk.talk.stream`) the child is forked
+    the same way: the thread waits on the pipe without holding the interpreter, so the main
+    thread still handles a signal, and the stream's stop kills the child. Where ``fork`` is
+    missing, the function runs here.
 
     Raises
     ------
@@ -255,9 +257,8 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
     """
     import pickle
     import select
-    import threading
 
-    if not hasattr(os, "fork") or threading.current_thread() is not threading.main_thread():
+    if not hasattr(os, "fork"):
         return function(*args)
     read_end, write_end = os.pipe()
     parent = os.getpid()

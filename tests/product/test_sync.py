@@ -153,23 +153,19 @@ def test_read_said_errors(tmp_path: Path) -> None:
 def test_the_frames_measured_are_the_frames_say_writes(
     model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from miketalk.talk import utterance as utterance_module
+    from miketalk.talk import publish as publish_module
     from miketalk.talk.say import say
     from miketalk.talk.utterance import read_said
     from miketalk_lab.evaluation.sync import utterance_frames
 
     written: list[np.ndarray] = []
-    real_write_mp4 = utterance_module.write_mp4
 
-    def capture(path, frames, *args, **kwargs):
-        def tee():
-            for frame in frames:
-                written.append(frame.copy())
-                yield frame
+    class Capture(publish_module.StreamEncoder):  # the encoder the mp4 writer feeds
+        def add(self, frame, audio=None):
+            written.append(frame.copy())
+            super().add(frame, audio)
 
-        return real_write_mp4(path, tee(), *args, **kwargs)
-
-    monkeypatch.setattr(utterance_module, "write_mp4", capture)
+    monkeypatch.setattr(publish_module, "StreamEncoder", Capture)
     out = tmp_path / "hello.mp4"
     say("Hello world.", out, model=Model(model_dir))
     assert out.exists() and len(written) > 10

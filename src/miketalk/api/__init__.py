@@ -2,9 +2,11 @@
 typed result (docs/api.md).
 
 - :func:`say`: a text or a recording (:class:`Recorded`) to an mp4 of the model's face
-  speaking it (:class:`SaySettings`, :class:`SayResult`);
+  speaking it (:class:`SaySettings`, :class:`SayResult`), or a fragmented MP4 on a pipe;
+  :func:`say_stream`: the same as a stream of timed chunks (a frame and its sound at a
+  time, a bounded queue, cancellable);
 - :func:`dub`: a video of the model's person made to say new speech (:class:`DubSettings`,
-  :class:`DubResult`);
+  :class:`DubResult`); :func:`dub_stream` as a stream;
 - :func:`build`: a model from one video of a person and what it says
   (:class:`BuildSettings`, :class:`BuildResult`);
 - :func:`cues`: the mouth cues of a text or a recording (:class:`CuesSettings`,
@@ -20,7 +22,7 @@ and the page (:mod:`miketalk.serve`) call nothing else of the library
 
 from miketalk.api.build import build, list_model_files, sweep_build
 from miketalk.api.cues import cues, phones
-from miketalk.api.dub import dub
+from miketalk.api.dub import dub, dub_stream
 from miketalk.api.models import (
     ModelInfo,
     OpenModels,
@@ -30,15 +32,19 @@ from miketalk.api.models import (
     model_picture,
 )
 from miketalk.api.results import BuildResult, CuesResult, DubResult, SayResult
-from miketalk.api.say import Recorded, check, say
+from miketalk.api.say import Recorded, check, say, say_stream, write_fragmented
 from miketalk.api.settings import BuildSettings, CuesSettings, DubSettings, SaySettings
 from miketalk.errors import MachineFailure, MiketalkError, SettingError
 from miketalk.model.parts import workflow_results
 from miketalk.speech.text import read_text_file
+from miketalk.talk.stream import QUEUE_CHUNKS, Cancelled, Chunk, Stream, StreamInfo
 
 __all__ = [
+    "QUEUE_CHUNKS",
     "BuildResult",
     "BuildSettings",
+    "Cancelled",
+    "Chunk",
     "CuesResult",
     "CuesSettings",
     "DubResult",
@@ -51,11 +57,14 @@ __all__ = [
     "SayResult",
     "SaySettings",
     "SettingError",
+    "Stream",
+    "StreamInfo",
     "build",
     "check",
     "cues",
     "describe_model",
     "dub",
+    "dub_stream",
     "is_model",
     "list_model_files",
     "load_engine",
@@ -63,6 +72,8 @@ __all__ = [
     "phones",
     "read_text_file",
     "say",
+    "say_stream",
     "sweep_build",
     "workflow_results",
+    "write_fragmented",
 ]

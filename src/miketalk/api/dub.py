@@ -13,20 +13,35 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from miketalk.api.models import OpenModels, opened
 from miketalk.api.results import DubResult
-from miketalk.api.say import Speech, checked, draw, started, voice_of
+from miketalk.api.say import (
+    Checked,
+    Recorded,
+    Speech,
+    check,
+    checked,
+    engine,
+    started,
+    voice_of,
+    write,
+)
 from miketalk.api.settings import DubSettings
 from miketalk.errors import MiketalkError
 
-__all__ = ["dub"]
+if TYPE_CHECKING:
+    from miketalk.talk.frames import Uttered
+    from miketalk.talk.stream import Emitter, Stream
+
+__all__ = ["dub", "dub_stream"]
 
 
 def dub(
     video: str | os.PathLike[str],
     speech: Speech,
-    output: str | os.PathLike[str],
+    output: str | os.PathLike[str] | int,
     settings: DubSettings | None = None,
     *,
     models: OpenModels | None = None,
@@ -34,7 +49,7 @@ def dub(
     inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> DubResult:
     """Make ``video`` of the model's person say ``speech``: an mp4 at ``output`` and its
-    timeline JSON beside it.
+    timeline JSON beside it; or a fragmented MP4 on a file descriptor.
 
     Parameters
     ----------
@@ -43,8 +58,9 @@ def dub(
         constant frame rate.
     speech : str or Recorded
         Typed text (Festival speaks it), or a recording and what it says.
-    output : path-like
-        The ``.mp4`` to write (``NAME.json`` beside it).
+    output : path-like or int
+        The ``.mp4`` to write (``NAME.json`` beside it); an int: a file descriptor to write
+        a fragmented MP4 on as it is made (``miketalk dub ... -o -``).
     settings : DubSettings, optional
         The model (built from clips of the person; None, with no ``$MIKETALK_MODEL``: one
         built from ``video`` itself, kept in a cache by its checksum,
@@ -68,11 +84,6 @@ def dub(
         then a video whose frames do not show the model's person, or whose frames were not
         taken at a constant rate.
     """
-    from miketalk.composite.for_model import video_background
-    from miketalk.lipsync.settings import check_fps
-    from miketalk.media.decode import video_info
-    from miketalk.media.timing import check_constant_rate
-
     settings = settings if settings is not None else DubSettings()
     if not Path(video).is_file():
         raise MiketalkError(f"video file not found: {video}")
@@ -81,22 +92,81 @@ def dub(
 
         settings = with_video_model(video, speech, output, settings, inputs=tuple(inputs),
                                     progress=progress)  # fmt: skip
-    plan = checked(speech, output, settings, inputs=(*inputs, video), dub=True)
+    plan = None
+    if not isinstance(output, int):
+        plan = checked(speech, output, settings, inputs=(*inputs, video), dub=True)
+    found: dict = {}
+    stream = _dub_stream(video, speech, settings, models, progress, plan, found)
+    spoken = write(stream, output, plan)
+    background = found["background"]
+    return DubResult(
+        spoken, spoken.timeline.fps, settings.sampling, settings.step_limit,
+        **voice_of(speech, settings), source=Path(video), size=tuple(background.size),
+        source_frames=len(background), blinks=tuple(background.blinks),
+    )  # fmt: skip
+
+
+def dub_stream(
+    video: str | os.PathLike[str],
+    speech: Speech,
+    settings: DubSettings | None = None,
+    *,
+    models: OpenModels | None = None,
+    progress: bool = False,
+) -> Stream:
+    """``video`` of the model's person saying ``speech``, as a stream of timed chunks (as
+    :func:`~miketalk.api.say.say_stream`; the video is registered before the first frame).
+
+    Raises
+    ------
+    MiketalkError
+        At once: no such video, and :func:`~miketalk.api.say.check`'s; the rest (a video
+        that cannot be read or does not show the person) to the stream's reader.
+    """
+    settings = settings if settings is not None else DubSettings()
+    return _dub_stream(video, speech, settings, models, progress, None, {})
+
+
+def _dub_stream(
+    video: str | os.PathLike[str],
+    speech: Speech,
+    settings: DubSettings,
+    models: OpenModels | None,
+    progress: bool,
+    plan: Checked | None,
+    found: dict,
+) -> Stream:
+    """:func:`dub_stream`, its checks made (``plan``) or made here; ``found`` gets the
+    registered ``background``."""
+    from miketalk.lipsync.settings import check_fps
+    from miketalk.media.decode import video_info
+    from miketalk.talk.stream import Stream
+
+    if not Path(video).is_file():
+        raise MiketalkError(f"video file not found: {video}")
+    if plan is None:
+        model_dir, chosen = check(settings, recorded=isinstance(speech, Recorded), dub=True)
+    else:
+        model_dir, chosen = plan.model_dir, plan.lipsync_model
     _, _, fps = video_info(video)
     try:
         check_fps(fps)
     except MiketalkError as err:
         raise MiketalkError(f"{video}: its frame rate: {err}") from None
-    lipsync = settings.lipsync(fps, plan.lipsync_model)
-    with started(speech, settings) as said:  # Festival works while the video registers
-        with opened(plan.model_dir, models, background="still") as (model, _):
-            background = video_background(
-                model, video, progress=progress, check_person=settings.check_person
-            )
-            check_constant_rate(video, fps, len(background))  # shown when they were taken
-            spoken = draw(said, plan, lipsync, model, background, progress=progress)
-    return DubResult(
-        spoken, fps, settings.sampling, settings.step_limit, **voice_of(speech, settings),
-        source=Path(video), size=tuple(background.size), source_frames=len(background),
-        blinks=tuple(background.blinks),
-    )  # fmt: skip
+    lipsync = settings.lipsync(fps, chosen)
+
+    def produce(emitter: Emitter) -> Uttered:
+        from miketalk.composite.for_model import video_background
+        from miketalk.media.timing import check_constant_rate
+
+        with started(speech, settings) as said:  # Festival works while the video registers
+            with opened(model_dir, models, background="still") as (model, _):
+                background = video_background(
+                    model, video, progress=progress, check_person=settings.check_person
+                )
+                emitter.check()
+                check_constant_rate(video, fps, len(background))  # shown when they were taken
+                found["background"] = background
+                return engine(said, lipsync, model, background, progress=progress)(emitter)
+
+    return Stream(produce, name="dub")

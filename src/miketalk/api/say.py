@@ -4,8 +4,8 @@
 settings against the speech and the model's small files) and settles the lip-sync model;
 :func:`say` makes it, then starts Festival (it analyses the text while the model opens),
 opens the model and its background, settles the frame rate and draws the utterance
-(:func:`miketalk.talk.say.say`). The live-speech issue makes the drawing a stream of timed
-chunks (audio and frames); :func:`say` writes that stream to the mp4.
+as a stream of timed chunks (:func:`say_stream`: a frame and its sound at a time, a
+bounded queue, cancellable); :func:`say` writes that stream to the mp4 pair or a pipe.
 """
 
 from __future__ import annotations
@@ -29,8 +29,11 @@ from miketalk.talk.speech import Recorded, Speech
 
 if TYPE_CHECKING:
     from miketalk.speech.backend import PendingSpeech
+    from miketalk.talk.frames import Uttered
+    from miketalk.talk.stream import Emitter, Stream
+    from miketalk.talk.utterance import Spoken
 
-__all__ = ["Recorded", "Speech", "check", "say"]
+__all__ = ["Recorded", "Speech", "check", "say", "say_stream", "write_fragmented"]
 
 log = logging.getLogger("miketalk")
 
@@ -122,29 +125,34 @@ def started(speech: Speech, settings: SpeechSettings) -> Iterator[Recorded | Pen
         return
     from miketalk.speech import get_backend
 
-    with get_backend("festival", voice=settings.voice or DEFAULT_VOICE).start(speech) as pending:
+    backend = get_backend("festival", voice=settings.voice or DEFAULT_VOICE)
+    with backend.start_sentences(speech) as pending:
         log.info("Festival started (%s voice)", settings.voice or DEFAULT_VOICE)
         yield pending
 
 
 def say(
     speech: Speech,
-    output: str | os.PathLike[str],
+    output: str | os.PathLike[str] | int,
     settings: SaySettings | None = None,
     *,
     models: OpenModels | None = None,
     progress: bool = False,
     inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> SayResult:
-    """Make the model's face say ``speech``: an mp4 at ``output``, its timeline JSON beside it.
+    """Make the model's face say ``speech``: an mp4 at ``output``, its timeline JSON beside it;
+    or a fragmented MP4 on a file descriptor.
+
+    :func:`say_stream` read by a writer (:mod:`miketalk.talk.publish`).
 
     Parameters
     ----------
     speech : str or Recorded
         Typed text (Festival speaks it), or a recording and what it says.
-    output : path-like
+    output : path-like or int
         The ``.mp4`` to write (``NAME.json`` beside it); the two replace an older pair
-        together or not at all.
+        together or not at all. An int: a file descriptor (a pipe) the utterance is written
+        on as a fragmented MP4 as it is made (no JSON; ``miketalk say ... -o -``).
     settings : SaySettings, optional
         The model, how its mouth moves, the frame rate, the voice, the background.
     models : OpenModels, optional
@@ -164,17 +172,95 @@ def say(
         In one line, before the work where it can be (:func:`check`, the output).
     """
     settings = settings if settings is not None else SaySettings()
+    if isinstance(output, int):
+        stream = say_stream(speech, settings, models=models, progress=progress)
+        return said_result(speech, settings, write(stream, output))
     plan = checked(speech, output, settings, inputs=inputs)
-    with started(speech, settings) as said:
-        with opened(
-            plan.model_dir, models, background=settings.background, progress=progress,
-            check_person=settings.check_person,
-        ) as (model, background):  # fmt: skip
-            fps = settings.fps if settings.fps is not None else own_fps(model, background)
-            spoken = draw(said, plan, settings.lipsync(fps, plan.lipsync_model), model,
-                          background, progress=progress)  # fmt: skip
+    stream = _stream(speech, settings, plan.model_dir, plan.lipsync_model, models, progress)
+    return said_result(speech, settings, write(stream, plan.output, plan))
+
+
+def say_stream(
+    speech: Speech,
+    settings: SaySettings | None = None,
+    *,
+    models: OpenModels | None = None,
+    progress: bool = False,
+) -> Stream:
+    """The model's face saying ``speech``, as a stream of timed chunks (docs/api.md).
+
+    The stream (:class:`~miketalk.talk.stream.Stream`) starts when it is entered or read:
+    ``stream.info()`` gives the frame rate and the sound's sample rate, iterating it gives
+    each frame with the samples played while it shows, in order; the engine waits while
+    the reader is behind (at most :data:`~miketalk.talk.stream.QUEUE_CHUNKS` frames held),
+    and ``stream.cancel()``, from any thread, ends the work and every process it started.
+
+    Raises
+    ------
+    MiketalkError
+        In one line, at once: :func:`check`'s. The engine's (nothing speakable, a failing
+        Festival) are raised to the stream's reader.
+    """
+    settings = settings if settings is not None else SaySettings()
+    model_dir, chosen = check(settings, recorded=isinstance(speech, Recorded))
+    return _stream(speech, settings, model_dir, chosen, models, progress)
+
+
+def _stream(
+    speech: Speech,
+    settings: SaySettings,
+    model_dir: Path,
+    lipsync_model: LipsyncModel,
+    models: OpenModels | None,
+    progress: bool,
+) -> Stream:
+    """:func:`say_stream` once checked."""
+    from miketalk.talk.stream import Stream
+
+    def produce(emitter: Emitter) -> Uttered:
+        with started(speech, settings) as said:
+            with opened(
+                model_dir, models, background=settings.background, progress=progress,
+                check_person=settings.check_person,
+            ) as (model, background):  # fmt: skip
+                emitter.check()
+                fps = settings.fps if settings.fps is not None else own_fps(model, background)
+                return engine(said, settings.lipsync(fps, lipsync_model), model, background,
+                              progress=progress)(emitter)  # fmt: skip
+
+    return Stream(produce, name="say")
+
+
+def write(stream: Stream, output: Path | int, plan: Checked | None = None) -> Spoken:
+    """``stream`` written: to the file pair ``plan`` checked, or on the descriptor
+    ``output`` (:func:`~miketalk.talk.publish.pipe_out`)."""
+    from miketalk.talk.publish import pipe_out, publish
+
+    if plan is None:
+        if not isinstance(output, int):
+            raise TypeError("a file output is written once checked")
+        return pipe_out(stream, output)
+    return publish(stream, plan.output, overwrite=plan.overwrite, inputs=plan.inputs)
+
+
+def write_fragmented(stream: Stream, fd: int) -> Spoken:
+    """Write a :func:`say_stream` (or :func:`~miketalk.api.dub.dub_stream`) on the file
+    descriptor ``fd`` as a fragmented MP4, as it is made (what ``say -o -`` does); a
+    ``stream.cancel()`` from another thread stops it, and this raises
+    :class:`~miketalk.talk.stream.Cancelled`.
+
+    Returns
+    -------
+    Spoken
+        The timeline and the motion of what was written (no files: ``video`` is None).
+    """
+    return write(stream, fd)
+
+
+def said_result(speech: Speech, settings: SaySettings, spoken: Spoken) -> SayResult:
+    """The :class:`SayResult` of ``spoken``."""
     return SayResult(
-        spoken, fps, settings.sampling, settings.step_limit,
+        spoken, spoken.timeline.fps, settings.sampling, settings.step_limit,
         max_slowdown=settings.max_slowdown, **voice_of(speech, settings),
     )  # fmt: skip
 
@@ -187,14 +273,12 @@ def own_fps(model: Any, background: Any) -> float:
     return background.fps if in_crop else defaults.FPS
 
 
-def draw(speech, plan: Checked, lipsync, model, background, *, progress: bool):
-    """The utterance drawn and written (:func:`miketalk.talk.say.say`)."""
-    from miketalk.talk.say import say as say_utterance
+def engine(speech, lipsync, model, background, *, progress: bool):
+    """The engine's work on ``speech`` (:func:`miketalk.talk.say.producer`)."""
+    from miketalk.talk.say import producer
 
-    return say_utterance(
-        speech, plan.output, model=model, settings=lipsync, progress=progress,
-        overwrite=plan.overwrite, background=background, inputs=plan.inputs,
-    )  # fmt: skip
+    return producer(speech, model=model, settings=lipsync, progress=progress,
+                    background=background)  # fmt: skip
 
 
 def voice_of(speech: Speech, settings: SpeechSettings | DubSettings) -> dict:

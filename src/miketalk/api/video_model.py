@@ -74,7 +74,7 @@ def video_model(video: str | os.PathLike[str], *, progress: bool = False) -> tup
 def with_video_model(
     video: str | os.PathLike[str],
     speech: object,
-    output: str | os.PathLike[str],
+    output: str | os.PathLike[str] | int,
     settings,
     *,
     inputs: tuple = (),
@@ -93,6 +93,7 @@ def with_video_model(
     if recorded:
         check_recorded_speech(settings)
     heard = (speech.audio, speech.timings) if recorded else ()
-    check_output(output, overwrite=settings.overwrite, inputs=(*inputs, video, *heard))
+    if not isinstance(output, int):  # an int: a pipe (``-o -``), nothing to check
+        check_output(output, overwrite=settings.overwrite, inputs=(*inputs, video, *heard))
     folder, _built = video_model(video, progress=progress)
     return replace(settings, model=folder)

@@ -34,5 +34,35 @@ def has_text(args: argparse.Namespace) -> bool:
     )
 
 
+def output_of(args: argparse.Namespace) -> str | int:
+    """``-o``: the mp4 to write, or with ``-o -`` the descriptor of the real stdout (a
+    fragmented MP4 is written on it as it is made).
+
+    Raises
+    ------
+    MiketalkError
+        ``-o -`` with stdout a terminal.
+    """
+    import os
+
+    if args.output != "-":
+        return args.output
+    fd = args.out.fileno()
+    if os.isatty(fd):
+        raise MiketalkError(
+            "-o - writes the video on stdout: pipe it into a player (| ffplay -) or a file, "
+            "not a terminal"
+        )
+    args.out.flush()
+    return fd
+
+
+def result_out(args: argparse.Namespace):
+    """Where the command's result line goes: stdout, or stderr when the video does."""
+    import sys
+
+    return sys.stderr if args.output == "-" else args.out
+
+
 def seconds_since(started: float) -> float:
     return time.perf_counter() - started

@@ -34,7 +34,7 @@ __all__ = ["add_dub_parser", "cmd_dub"]
 
 def cmd_dub(args: argparse.Namespace) -> int:
     """Make a video of the model's person say new speech (see the module docstring)."""
-    from miketalk.cli.common import seconds_since
+    from miketalk.cli.common import output_of, result_out, seconds_since
     from miketalk.cli.say import cli_inputs, speech_of
 
     started = time.perf_counter()
@@ -48,14 +48,14 @@ def cmd_dub(args: argparse.Namespace) -> int:
         check_person=not args.force,
     )  # fmt: skip
     dubbed = api.dub(
-        args.video, speech, args.output, settings,
+        args.video, speech, output_of(args), settings,
         progress=args.progress or sys.stderr.isatty(), inputs=cli_inputs(args),
     )  # fmt: skip
     motion, seconds, trajectory = dubbed.motion, dubbed.seconds, dubbed.trajectory
     if args.json:
         doc = {
-            "video": str(dubbed.video),
-            "timeline": str(dubbed.timeline_json),
+            "video": str(dubbed.video or "-"),
+            "timeline": None if dubbed.timeline_json is None else str(dubbed.timeline_json),
             "source": str(args.video),
             "fps": dubbed.fps,
             "size": list(dubbed.size),
@@ -65,16 +65,17 @@ def cmd_dub(args: argparse.Namespace) -> int:
             "audio_seconds": seconds,  # as played: whole frames
             "lipsync_model": dubbed.lipsync_model,
         } | ({"trajectory": trajectory} if trajectory else {})
-        print(json.dumps(doc, indent=1, allow_nan=False), file=args.out)
+        print(json.dumps(doc, indent=1, allow_nan=False), file=result_out(args))
     else:
         loops = "looped" if dubbed.looped else "cut to the speech"
         drawn = f", {trajectory} trajectory" if trajectory else ""
+        where = f"; timeline in {dubbed.timeline_json}" if dubbed.timeline_json else ""
         print(
-            f"{dubbed.video}: {motion.frames} frames at {dubbed.fps:g} fps, {dubbed.size[1]}x"
-            f"{dubbed.size[0]}, {seconds:.2f} s of speech over {dubbed.source_frames} frames "
-            f"of {args.video} ({loops}, {dubbed.lipsync_model} lip-sync{drawn}); timeline in "
-            f"{dubbed.timeline_json}",
-            file=args.out,
+            f"{dubbed.video or '-'}: {motion.frames} frames at {dubbed.fps:g} fps, "
+            f"{dubbed.size[1]}x{dubbed.size[0]}, {seconds:.2f} s of speech over "
+            f"{dubbed.source_frames} frames of {args.video} ({loops}, {dubbed.lipsync_model} "
+            f"lip-sync{drawn}){where}",
+            file=result_out(args),
         )
     import logging
 
@@ -110,7 +111,12 @@ def add_dub_parser(sub) -> None:
     )
     dub.add_argument("--timings", help="with --audio: its word timings (.align or .TextGrid)")
     phones_option(dub)
-    dub.add_argument("-o", "--output", required=True, help="the .mp4 to write (and its .json)")
+    dub.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="the .mp4 to write (and its .json); - : a fragmented MP4 on stdout, as it is made",
+    )
     dub.add_argument(
         "--model",
         help="a model built from clips of the person in the video (default: $MIKETALK_MODEL, "

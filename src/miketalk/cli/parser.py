@@ -85,7 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
         "-o",
         "--output",
         required=True,
-        help="the .mp4 to write (its .json is written beside it)",
+        help="the .mp4 to write (its .json is written beside it); - : a fragmented MP4 on "
+        "stdout as it is made (| ffplay -)",
     )
     say.add_argument("--model", help="model directory (default: the one `make run` builds)")
     say.add_argument(

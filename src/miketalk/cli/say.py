@@ -10,7 +10,7 @@ import time
 
 from miketalk import api
 from miketalk.api import MiketalkError, Recorded, SayResult, SaySettings
-from miketalk.cli.common import has_text, log, read_text, seconds_since
+from miketalk.cli.common import has_text, log, output_of, read_text, result_out, seconds_since
 
 
 def sampling_options(args: argparse.Namespace) -> str:
@@ -63,11 +63,12 @@ def cmd_say(args: argparse.Namespace) -> int:
     speech = speech_of(args)
     long_text = isinstance(speech, str) and len(speech.split()) > 40
     progress = args.progress or (long_text and sys.stderr.isatty())
-    said = api.say(speech, args.output, settings, progress=progress, inputs=cli_inputs(args))
+    output = output_of(args)
+    said = api.say(speech, output, settings, progress=progress, inputs=cli_inputs(args))
     if args.json:
-        print(json.dumps(_doc(said), indent=1, allow_nan=False), file=args.out)
+        print(json.dumps(_doc(said), indent=1, allow_nan=False), file=result_out(args))
     else:
-        print(_summary(said), file=args.out)
+        print(_summary(said), file=result_out(args))
         if said.trajectory == "heard":
             log.info(
                 "the mouth heard the recording (the heard trajectory): for a voice other than "
@@ -79,7 +80,8 @@ def cmd_say(args: argparse.Namespace) -> int:
 
 def _doc(said: SayResult) -> dict:
     """``say --json``'s document."""
-    where = {"video": str(said.video), "timeline": str(said.timeline_json)}
+    timeline = None if said.timeline_json is None else str(said.timeline_json)
+    where = {"video": str(said.video or "-"), "timeline": timeline}
     drawn = {"fps": said.fps, "sampling": said.sampling.value,
              "max_px_per_frame": said.max_px_per_frame}  # fmt: skip
     if said.recorded:
@@ -111,16 +113,16 @@ def _summary(said: SayResult) -> str:
     if said.recorded:
         drawn = f", {said.trajectory} trajectory" if said.trajectory else ""
         return (
-            f"{said.video}: {motion.frames} frames at {said.fps:g} fps, "
+            f"{said.video or '-'}: {motion.frames} frames at {said.fps:g} fps, "
             f"{recorded_words(said.spoken.duration, motion.frames, said.fps)}, "
             f"{drawn_words(motion)} "
             f"({said.sampling}, {said.lipsync_model} lip-sync{drawn})"
         )
+    where = f"; timeline in {said.timeline_json}" if said.timeline_json else ""
     return (
-        f"{said.video}: {motion.frames} frames at {said.fps:g} fps, "
+        f"{said.video or '-'}: {motion.frames} frames at {said.fps:g} fps, "
         f"{motion.duration:.2f} s of audio ({motion.duration_ratio:.2f} x its own duration), "
-        f"{drawn_words(motion)} ({said.sampling}, {said.lipsync_model} lip-sync); "
-        f"timeline in {said.timeline_json}"
+        f"{drawn_words(motion)} ({said.sampling}, {said.lipsync_model} lip-sync){where}"
     )
 
 

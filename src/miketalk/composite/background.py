@@ -129,6 +129,7 @@ def composited(
     rest: np.ndarray | None = None,
     i420: bool = False,
     placements: Sequence | None = None,
+    start: int = 0,
 ) -> Iterator[np.ndarray | I420Frame]:
     """Each render (reference coordinates) blended into its background frame.
 
@@ -154,13 +155,16 @@ def composited(
     placements : sequence, optional
         Each background frame's :meth:`Compositor.place`, made before (None: made for each
         output frame).
+    start : int
+        The output frame the first render is (a sentence after others: the background
+        goes on from there).
     """
     offset = None
     if rest is not None and background.steady is not None:
         offset = compositor.colour_field(rest, background.steady)
     by_shot: dict[int, np.ndarray] = {}
     planes = background.i420 if i420 else None
-    for k, render in enumerate(renders):
+    for k, render in enumerate(renders, start):
         i = background.index(k, fps)
         if background.shown is not None and not background.shown[i]:
             if planes is not None:

@@ -218,10 +218,11 @@ class MouthCompositing:
                 self.region = (x0, y0, x1, y1)
 
     def frames(
-        self, renders: Iterable[np.ndarray], *, fps: float, i420: bool = False
+        self, renders: Iterable[np.ndarray], *, fps: float, i420: bool = False, start: int = 0
     ) -> Iterator[np.ndarray | I420Frame]:
-        """Each render blended into its background frame (:func:`composited`)."""
+        """Each render blended into its background frame (:func:`composited`; ``start``:
+        the output frame the first render is)."""
         return composited(
             renders, self.background, self.compositor, fps=fps, rest=self.rest, i420=i420,
-            placements=self.placements,
+            placements=self.placements, start=start,
         )  # fmt: skip

@@ -5,7 +5,7 @@ Each entry of :data:`DRAWERS` opens its :class:`Drawing` from the parts the mode
 (:class:`miketalk.model.face.Model`: its coarticulation, its trained face);
 :func:`open_drawing` settles which lip-sync model an utterance uses (the one asked for,
 else the model's own) and asks the registry for it, and
-:func:`miketalk.talk.utterance.write_utterance` asks the drawing for the frames. What
+:func:`miketalk.talk.frames.draw_utterance` asks the drawing for the frames. What
 differs between the lip-sync models lives in their drawings, not in a choice made
 elsewhere.
 """

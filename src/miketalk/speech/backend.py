@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING
 
 from miketalk.errors import MiketalkError
@@ -37,6 +37,11 @@ class PendingSpeech:
         See :meth:`SpeechBackend.synthesize_retimed`.
         """
         return self.backend.synthesize_retimed(self.text, retime)
+
+    def sentences(self) -> Iterator[PendingSpeech]:
+        """The text's sentences, each to be finished in order (an engine that speaks a
+        sentence while its caller uses the one before overrides it); here, the whole."""
+        yield self
 
     def close(self) -> None:
         """Stop the engine if it still runs and remove its files (idempotent)."""
@@ -92,6 +97,11 @@ class SpeechBackend(ABC):
             from :meth:`PendingSpeech.finish`).
         """
         return PendingSpeech(self, text)
+
+    def start_sentences(self, text: str) -> PendingSpeech:
+        """Start speaking ``text`` sentence by sentence (:meth:`PendingSpeech.sentences`);
+        this default: :meth:`start`, the whole as one."""
+        return self.start(text)
 
     def synthesize_retimed(self, text: str, retime: Retime) -> Utterance:
         """Speak ``text`` with the phone durations ``retime`` dictates.

@@ -152,10 +152,9 @@ def check_word_lengths(text: str) -> None:
 
 
 #: The most words one text is spoken with (some 60 minutes of speech). The work of each
-#: sentence is bounded (:func:`split_chunks`: at most ``max_words`` words a chunk, however
-#: long the line); the whole utterance is held while its frames are drawn (its sound, its
-#: phones and frames for the timeline): 9,600 words held 941 MB, and the largest file read
-#: (:data:`MAX_TEXT_BYTES`, one line of some 170,000 words) needed more than 7.7 GB.
+#: sentence is bounded (:func:`split_sentences`: at most ``max_words`` words, however long
+#: the line), and the frames stream (:mod:`miketalk.talk.stream`); what is kept of the whole
+#: is its timeline and sound for the JSON and the measures of its motion.
 MAX_SPOKEN_WORDS = 10_000
 
 
@@ -193,6 +192,28 @@ def split_chunks(text: str, *, max_words: int = 40) -> list[str]:
     max_words : int
         The most words in one chunk.
     """
+    chunks: list[str] = []
+    current: list[str] = []
+    for piece in split_sentences(text, max_words=max_words):
+        n = len(piece.split())
+        if current and sum(len(c.split()) for c in current) + n > max_words:
+            chunks.append(" ".join(current))
+            current = []
+        current.append(piece)
+    if current:
+        chunks.append(" ".join(current))
+    return chunks
+
+
+def split_sentences(text: str, *, max_words: int = 40) -> list[str]:
+    """Split normalized text into its sentences, each speakable: the pieces
+    :func:`split_chunks` packs into chunks, one by one (the face draws a sentence while
+    Festival speaks the next).
+
+    Sentences end with ``. ! ? ; :`` or a blank line; one longer than ``max_words`` words
+    is cut at commas, then between words. Pieces with nothing speakable (stray
+    punctuation) are left out, since Festival crashes on them.
+    """
     pieces: list[str] = []
     for sentence in _SENTENCE_END.split(text):
         words = sentence.split()
@@ -206,14 +227,4 @@ def split_chunks(text: str, *, max_words: int = 40) -> list[str]:
                 pieces.append(" ".join(part))
                 part = []
         pieces.append(" ".join(part))
-    chunks: list[str] = []
-    current: list[str] = []
-    for piece in (p for p in pieces if _SPEAKABLE.search(p)):
-        n = len(piece.split())
-        if current and sum(len(c.split()) for c in current) + n > max_words:
-            chunks.append(" ".join(current))
-            current = []
-        current.append(piece)
-    if current:
-        chunks.append(" ".join(current))
-    return chunks
+    return [p for p in pieces if _SPEAKABLE.search(p)]

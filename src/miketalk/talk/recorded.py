@@ -31,7 +31,8 @@ from miketalk.lipsync.timeline import plan
 from miketalk.model.face import Model
 from miketalk.speech.types import Phone
 from miketalk.talk.speech import Recorded
-from miketalk.talk.utterance import Spoken, own_frames_doc
+from miketalk.talk.stream import Emitter, StreamInfo
+from miketalk.talk.utterance import own_frames_doc
 from miketalk.visemes import VisemeTable
 
 if TYPE_CHECKING:
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
     from miketalk.draw.registry import Drawing
     from miketalk.speech.coverage import SpeechCoverage
     from miketalk.speech.recognize import Heard
+    from miketalk.talk.frames import Uttered
 
 log = logging.getLogger(__name__)
 
@@ -264,22 +266,21 @@ def warn_unexplained(audio: object, coverage: SpeechCoverage, words: Sequence[st
 
 
 def say_recording(
+    emitter: Emitter,
     recorded: Recorded,
-    output: Path,
     *,
     model: Model,
     settings: LipsyncSettings,
     drawing: Drawing,
     table: VisemeTable,
     progress: bool = False,
-    overwrite: bool = False,
     background: Background | None = None,
-    inputs: Sequence[str | os.PathLike[str] | None] = (),
-) -> Spoken:
-    """:func:`miketalk.talk.say.say` of a recording, once its settings and output are checked:
-    the recording aligned to what it says, the frames drawn along its phones at its own
-    timing (motion blur keeps the steps under ``max_px_per_frame``; the paper's
-    lengthening cannot apply), with its own sound.
+) -> Uttered:
+    """The stream of :func:`miketalk.talk.say.say` of a recording, once its settings are
+    checked: the recording aligned to what it says, the frames drawn along its phones at its
+    own timing (motion blur keeps the steps under ``max_px_per_frame``; the paper's
+    lengthening cannot apply), with its own sound (:attr:`StreamInfo.sound`; the chunks carry
+    it mono at :data:`RATE`).
 
     Raises
     ------
@@ -288,13 +289,15 @@ def say_recording(
     """
     from miketalk.composite.background import background_doc
     from miketalk.corpus.sound_lag import led, model_sound_lag
+    from miketalk.lipsync.motion import JerkMeter
     from miketalk.speech.acoustic import Recording
-    from miketalk.talk.utterance import write_utterance
+    from miketalk.talk.frames import Uttered, draw_utterance, measured, mouth_compositing
 
     max_px_per_frame = settings.max_px_per_frame
     aligned = align_recording(
         recorded.audio, text=recorded.text, timings=recorded.timings, phones=recorded.phones
     )
+    emitter.check()
     lead = model_sound_lag(model.directory)  # his mouth leads his sound that much
     phones, heard = led(aligned.phones, aligned.samples, aligned.rate, lead, aligned.duration)
     timeline = plan(phones, table, fps=settings.fps, duration=aligned.duration)
@@ -302,37 +305,47 @@ def say_recording(
         timeline = motion_blur(
             timeline, displacement=model.displacement, max_px_per_frame=max_px_per_frame
         )
-    motion = write_utterance(
-        output,
+    emitter.info(
+        StreamInfo(
+            fps=timeline.fps,
+            rate=aligned.rate,
+            sound=Path(recorded.audio),
+            frames=len(timeline.frames),
+        )
+    )
+    compositing = mouth_compositing(model, background)
+    jerk = JerkMeter(compositing.region if compositing is not None else None)
+    weights, states = draw_utterance(
+        emitter,
         model=model,
         timeline=timeline,
         samples=aligned.samples,
         rate=aligned.rate,
-        natural_duration=aligned.duration,
-        extra={
-            "text": " ".join(aligned.words),
-            "words_from": "given" if aligned.heard is None else aligned.heard.recognizer,
-            "phones": recorded.phones,
-            "audio": str(recorded.audio),
-            "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
-            "max_px_per_frame": max_px_per_frame,
-            "max_slowdown": None,
-            "lipsync_model": drawing.lipsync_model.value,
-            "sound_lag_s": lead,
-        }
-        | (own_frames_doc(drawing) if drawing.own_frames else {})
-        | background_doc(background),
         drawing=drawing,
         recording=Recording(heard, aligned.rate),
         progress=progress,
-        overwrite=overwrite,
         background=background,
-        inputs=inputs,
         max_px_per_frame=max_px_per_frame,
-        sound=recorded.audio,
+        jerk=jerk,
+        compositing=compositing,
     )
-    return Spoken(
-        timeline, motion, output, output.with_suffix(".json"), words=aligned.words,
-        duration=aligned.duration, lipsync_model=drawing.lipsync_model.value,
-        trajectory=drawing.trajectory,
+    motion = measured(
+        timeline, model, drawing, natural_duration=aligned.duration, jerk=jerk,
+        weights=weights, states=states,
+    )  # fmt: skip
+    extra = {
+        "text": " ".join(aligned.words),
+        "words_from": "given" if aligned.heard is None else aligned.heard.recognizer,
+        "phones": recorded.phones,
+        "audio": str(recorded.audio),
+        "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
+        "max_px_per_frame": max_px_per_frame,
+        "max_slowdown": None,
+        "lipsync_model": drawing.lipsync_model.value,
+        "sound_lag_s": lead,
+    }
+    extra |= (own_frames_doc(drawing) if drawing.own_frames else {}) | background_doc(background)
+    return Uttered(
+        timeline, motion, extra, words=aligned.words, duration=aligned.duration,
+        lipsync_model=drawing.lipsync_model.value, trajectory=drawing.trajectory,
     )  # fmt: skip

@@ -13,13 +13,13 @@ work (:func:`check_output`), and so are the settings.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from itertools import pairwise
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from miketalk.draw.registry import Drawing
@@ -29,14 +29,18 @@ from miketalk.lipsync.settings import LipsyncSettings, Sampling
 from miketalk.lipsync.timeline import keyframes
 from miketalk.model.face import Model, open_model
 from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
-from miketalk.speech.types import Phone
+from miketalk.speech.types import Phone, Utterance
+from miketalk.talk.frames import Uttered, draw_utterance, measured, mouth_compositing
 from miketalk.talk.output import check_output
 from miketalk.talk.recorded import Recorded, say_recording
-from miketalk.talk.utterance import Spoken, own_frames_doc, write_utterance
+from miketalk.talk.sentences import Joined, ahead, in_context
+from miketalk.talk.stream import Emitter, Stream, StreamInfo
+from miketalk.talk.utterance import Spoken, own_frames_doc
 from miketalk.visemes import VisemeTable, default_table
 
 if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
     from miketalk.composite.background import Background
+    from miketalk.lipsync.timeline import Timeline
 
 
 log = logging.getLogger(__name__)
@@ -56,6 +60,8 @@ def say(
     inputs: Sequence[str | os.PathLike[str] | None] = (),
 ) -> Spoken:
     """Make the face say ``speech``: an mp4 at ``output``, its timeline JSON beside it.
+
+    :func:`stream` of it read by :func:`miketalk.talk.publish.publish`.
 
     The JSON (``output`` with suffix ``.json``) is :meth:`Timeline.to_dict`
     plus ``format`` (:data:`~miketalk.talk.output.TIMELINE_FORMAT`), ``text``,
@@ -110,9 +116,48 @@ def say(
         A bad setting or output (before anything runs), a model without the lip-sync
         model asked for, nothing speakable, a failing engine, aligner or model.
     """
+    from miketalk.talk.publish import publish
+
+    if isinstance(speech, Recorded):
+        inputs = (*inputs, speech.audio, speech.timings)
+    try:
+        output = check_output(output, overwrite=overwrite, inputs=inputs)
+    except BaseException:
+        if isinstance(speech, PendingSpeech):
+            speech.close()
+        raise
+    utterance = Stream(
+        producer(
+            speech, model=model, settings=settings, backend=backend, table=table,
+            progress=progress, background=background,
+        )
+    )  # fmt: skip
+    return publish(utterance, output, overwrite=overwrite, inputs=inputs)
+
+
+def producer(
+    speech: str | PendingSpeech | Recorded,
+    *,
+    model: Model,
+    settings: LipsyncSettings | None = None,
+    backend: SpeechBackend | None = None,
+    table: VisemeTable | None = None,
+    progress: bool = False,
+    background: Background | None = None,
+) -> Callable[[Emitter], Uttered]:
+    """The work of the face saying ``speech``, for a :class:`~miketalk.talk.stream.Stream`
+    of timed chunks (``Stream(producer(...))``). The parameters are :func:`say`'s.
+
+    Raises
+    ------
+    MiketalkError
+        At once: the paper's sampling with a recording, a model without the lip-sync model
+        asked for (a started ``speech`` is then closed). The rest (nothing speakable, a
+        failing engine or aligner) is raised to the stream's reader.
+    """
     settings = settings if settings is not None else LipsyncSettings()
     recorded = isinstance(speech, Recorded)
-    pending: PendingSpeech | None = speech if isinstance(speech, PendingSpeech) else None
+    table = table or default_table()
     try:
         if recorded and settings.sampling == Sampling.PAPER:
             raise MiketalkError(
@@ -120,57 +165,59 @@ def say(
                 "use blur (the default) or none"
             )
         drawing = model.drawing(settings.model, trajectory=settings.trajectory, recorded=recorded)
-        inputs = (*inputs, *((speech.audio, speech.timings) if recorded else ()))
-        output = check_output(output, overwrite=overwrite, inputs=inputs)
-        if recorded:
-            return say_recording(
-                speech, output, model=model, settings=settings, drawing=drawing,
-                table=table or default_table(), progress=progress, overwrite=overwrite,
-                background=background, inputs=inputs,
-            )  # fmt: skip
-        if pending is None:
-            pending = (backend or get_backend("festival")).start(str(speech))
     except BaseException:
-        if pending is not None:
-            pending.close()
+        if isinstance(speech, PendingSpeech):
+            speech.close()
         raise
-    return _say_text(
-        pending, output, model=model, settings=settings, drawing=drawing,
-        table=table or default_table(), progress=progress, overwrite=overwrite,
-        background=background, inputs=inputs,
-    )  # fmt: skip
+    common = {"model": model, "settings": settings, "drawing": drawing, "table": table,
+              "progress": progress, "background": background}  # fmt: skip
+
+    def produce(emitter: Emitter) -> Uttered:
+        if isinstance(speech, Recorded):
+            return say_recording(emitter, speech, **common)
+        pending = speech
+        if not isinstance(pending, PendingSpeech):
+            pending = (backend or get_backend("festival")).start_sentences(str(speech))
+        return _say_text(emitter, pending, **common)
+
+    return produce
 
 
 def _say_text(
+    emitter: Emitter,
     speech: PendingSpeech,
-    output: Path,
     *,
     model: Model,
     settings: LipsyncSettings,
     drawing: Drawing,
     table: VisemeTable,
     progress: bool,
-    overwrite: bool,
     background: Background | None,
-    inputs: Sequence[str | os.PathLike[str] | None],
-) -> Spoken:
-    """:func:`say` of synthesized speech, once its settings and output are checked."""
+) -> Uttered:
+    """The stream of synthesized speech, once its settings are checked: sentence by
+    sentence (:meth:`PendingSpeech.sentences`), the next spoken (:func:`ahead`) while the
+    face draws this one, the sentences then joined (:class:`Joined`)."""
     from miketalk.composite.background import background_doc
+    from miketalk.lipsync.motion import JerkMeter
 
     started = time.perf_counter()
-    planned: list[tuple[Phone, ...]] = []
     max_px_per_frame = settings.max_px_per_frame
+    # A voice that sets its own durations (HTS) speaks other times than it planned:
+    # unless the paper's mode dictated them, the phones as spoken are the natural ones.
+    lengthened = settings.sampling == Sampling.PAPER and max_px_per_frame is not None
 
-    def on_planned(phones: tuple[Phone, ...]) -> None:
-        # retiming changes when visemes are shown, never which: the flows the
-        # render needs are read while the engine makes the wave
-        planned.append(phones)
-        keys = keyframes(phones, table)
-        model.prefetch((a.viseme, b.viseme) for a, b in pairwise(keys))
+    def spoken(sentence: PendingSpeech) -> tuple[Utterance, Timeline, tuple[Phone, ...]]:
+        planned: list[tuple[Phone, ...]] = []
 
-    with speech:
+        def on_planned(phones: tuple[Phone, ...]) -> None:
+            # retiming changes when visemes are shown, never which: the flows the
+            # render needs are read while the engine makes the wave
+            planned.append(phones)
+            keys = keyframes(phones, table)
+            model.prefetch((a.viseme, b.viseme) for a, b in pairwise(keys))
+
         utterance, timeline = speak_in_sync(
-            speech,
+            sentence,
             table,
             fps=settings.fps,
             displacement=model.displacement,
@@ -179,49 +226,65 @@ def _say_text(
             max_slowdown=settings.max_slowdown,
             on_planned=on_planned,
         )
-    # A voice that sets its own durations (HTS) speaks other times than it planned:
-    # unless the paper's mode dictated them, the phones as spoken are the natural ones.
-    lengthened = settings.sampling == Sampling.PAPER and max_px_per_frame is not None
-    planned_phones = planned[-1] if planned and lengthened else utterance.phones
-    planned_duration = round(planned_phones[-1].end * utterance.rate) / utterance.rate
+        return utterance, timeline, planned[-1] if planned and lengthened else utterance.phones
+
+    joined = Joined(settings.fps)
+    compositing = mouth_compositing(model, background)  # once: each frame's placement
+    jerk = JerkMeter(compositing.region if compositing is not None else None)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(desc=f"rendering ({len(speech.texts)} sentences)"
+                   if hasattr(speech, "texts") else "rendering", unit="frame")  # fmt: skip
+    with speech, contextlib.closing(bar) if bar is not None else contextlib.nullcontext():
+        said = ahead(spoken(s) for s in speech.sentences())
+        before, now = None, next(said, None)
+        while now is not None:
+            after = next(said, None)  # Festival made it while the face drew the one before
+            utterance, timeline, planned = now
+            if before is None:
+                emitter.info(StreamInfo(fps=timeline.fps, rate=utterance.rate))
+            weights, states = draw_utterance(
+                emitter, model=model, timeline=in_context(timeline, before, after),
+                samples=utterance.samples, rate=utterance.rate, drawing=drawing,
+                progress=progress, background=background, max_px_per_frame=max_px_per_frame,
+                first=joined.frames, jerk=jerk, bar=bar, compositing=compositing,
+            )  # fmt: skip
+            joined.add(utterance, timeline, planned, weights, states)
+            before, now = now, after
+    timeline, utterance = joined.timeline(), joined.utterance(speech.text)
+    planned_duration = (
+        joined.planned_duration if not joined.one
+        else round(planned[-1].end * utterance.rate) / utterance.rate
+    )  # fmt: skip
+    planned_phones = planned if joined.one else tuple(joined.planned)
     log.info(
-        "speech: %.2f s (%.2f s at its own timing), %d phones; %d frames, %d morphs",
-        utterance.duration, planned_duration, len(utterance.phones), len(timeline.frames),
-        timeline.morph_count,
+        "speech: %.2f s (%.2f s at its own timing), %d sentences, %d phones; %d frames, "
+        "%d morphs", utterance.duration, planned_duration, len(joined.chunks),
+        len(utterance.phones), len(timeline.frames), timeline.morph_count,
     )  # fmt: skip
-    motion = write_utterance(
-        output,
-        model=model,
-        timeline=timeline,
-        samples=utterance.samples,
-        rate=utterance.rate,
-        natural_duration=planned_duration,
-        extra={
-            "text": utterance.text,
-            "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
-            "max_px_per_frame": max_px_per_frame,
-            "max_slowdown": settings.max_slowdown,
-            "lipsync_model": drawing.lipsync_model.value,
-            "planned_phones": [asdict(p) for p in planned_phones],
-            # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
-            "planned_duration": planned_duration,
-        }
-        | (own_frames_doc(drawing) if drawing.own_frames else {})
-        | background_doc(background),
-        drawing=drawing,
-        progress=progress,
-        overwrite=overwrite,
-        background=background,
-        inputs=inputs,
-        max_px_per_frame=max_px_per_frame,
-    )
+    motion = measured(
+        timeline, model, drawing, natural_duration=planned_duration, jerk=jerk,
+        weights=joined.weights, states=joined.states,
+    )  # fmt: skip
+    extra = {
+        "text": utterance.text,
+        "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
+        "max_px_per_frame": max_px_per_frame,
+        "max_slowdown": settings.max_slowdown,
+        "lipsync_model": drawing.lipsync_model.value,
+        "planned_phones": [asdict(p) for p in planned_phones],
+        # the wav ends on the sample nearest the last phone's end (Utterance's invariant)
+        "planned_duration": planned_duration,
+    }
+    extra |= (own_frames_doc(drawing) if drawing.own_frames else {}) | background_doc(background)
     log.info("say took %.2f s", time.perf_counter() - started)
-    return Spoken(
-        timeline, motion, output, output.with_suffix(".json"),
-        words=tuple(utterance.text.split()), duration=utterance.duration,
-        lipsync_model=drawing.lipsync_model.value, trajectory=drawing.trajectory,
-        utterance=utterance,
+    return Uttered(
+        timeline, motion, extra, words=tuple(utterance.text.split()),
+        duration=utterance.duration, lipsync_model=drawing.lipsync_model.value,
+        trajectory=drawing.trajectory, utterance=utterance,
     )  # fmt: skip
 
 
-__all__ = ["Recorded", "Spoken", "open_model", "say"]
+__all__ = ["Recorded", "Spoken", "open_model", "producer", "say"]

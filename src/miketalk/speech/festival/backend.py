@@ -44,7 +44,7 @@ from miketalk.speech.text import check_spoken_length, normalize_text, split_chun
 from miketalk.speech.types import Utterance
 
 if TYPE_CHECKING:
-    pass
+    from miketalk.speech.festival.steps import FestivalSteps
 
 
 @register
@@ -204,6 +204,20 @@ class FestivalBackend(SpeechBackend):
             Nothing speakable in ``text``, or Festival missing.
         """
         return FestivalRun(self, text)
+
+    def start_sentences(self, text: str) -> FestivalSteps:
+        """Start Festival on ``text`` now, to speak it sentence by sentence
+        (:class:`~miketalk.speech.festival.steps.FestivalSteps`): the caller draws a
+        sentence while Festival speaks the next.
+
+        Raises
+        ------
+        MiketalkError
+            Nothing speakable in ``text``, or Festival missing.
+        """
+        from miketalk.speech.festival.steps import FestivalSteps
+
+        return FestivalSteps(self, text)
 
     @contextmanager
     def _workspace(self, texts: list[str]) -> Iterator[tuple[Path, dict[str, str], list[str]]]:

@@ -21,6 +21,11 @@
 ;;;                      any I.ends files it wants in MIKETALK_OUT); each chunk
 ;;;                      then gets those ends (if its I.ends exists) and is spoken.
 ;;;                      One Festival run instead of a synthesis and a re-synthesis.
+;;;   MIKETALK_STEPS     optional: chunk by chunk instead (a sentence at a time): chunk I
+;;;                      is planned (I.plan), "miketalk: planned I" printed on stderr,
+;;;                      one datum read from stdin (`go`, once any I.ends is written),
+;;;                      the chunk spoken (I.wav, I.phones) and "miketalk: spoken I"
+;;;                      printed; then chunk I + 1 is planned while the caller uses I.
 
 (define (miketalk-env name)
   (let ((v (getenv name)))
@@ -137,11 +142,32 @@
         (begin (format stderr "miketalk: not told to go\n") (exit 5)))
     (miketalk-speak-planned utts 0)))
 
+;;; MIKETALK_STEPS: chunk I planned, told to go, spoken; then I + 1 (see the top)
+(define (miketalk-step i fd)
+  (let ((utt (miketalk-plan-chunk i)) (go nil) (ends-file (miketalk-out-path i "ends")))
+    (format stderr "miketalk: planned %d\n" i)
+    (set! go (readfp fd))
+    (if (not (equal? go 'go))
+        (begin (format stderr "miketalk: not told to go\n") (exit 5)))
+    (if (probe_file ends-file)
+        (miketalk-set-ends utt (miketalk-read-ends ends-file)))
+    (miketalk-save (miketalk-wave utt) i)
+    (format stderr "miketalk: spoken %d\n" i)))
+
+(define (miketalk-steps n fd)
+  (let ((i 0))
+    (while (< i n)
+      (miketalk-step i fd)
+      (set! i (+ i 1)))))
+
 (define (miketalk-chunks i n)
   (if (< i n)
       (begin (miketalk-chunk i) (miketalk-chunks (+ i 1) n))))
 
 (miketalk-voice)
-(if (miketalk-env "MIKETALK_PLAN")
-    (miketalk-planned (parse-number (miketalk-env "MIKETALK_CHUNKS")))
-    (miketalk-chunks 0 (parse-number (miketalk-env "MIKETALK_CHUNKS"))))
+(cond
+ ((miketalk-env "MIKETALK_STEPS")
+  (miketalk-steps (parse-number (miketalk-env "MIKETALK_CHUNKS")) (fopen "/dev/stdin" "r")))
+ ((miketalk-env "MIKETALK_PLAN")
+  (miketalk-planned (parse-number (miketalk-env "MIKETALK_CHUNKS"))))
+ (t (miketalk-chunks 0 (parse-number (miketalk-env "MIKETALK_CHUNKS")))))
