@@ -79,8 +79,11 @@ class Chunk:
     ----------
     index : int
         The frame's number, from 0.
-    frame : numpy.ndarray
-        ``(H, W, 3)`` RGB uint8 (every frame of a stream has one shape).
+    frame : numpy.ndarray or I420Frame
+        ``(H, W, 3)`` RGB uint8; or, composited into video of the person, an
+        :class:`~miketalk.media.yuv.I420Frame` (the encoder's own colours: only the mouth's
+        box was converted). :attr:`rgb` gives RGB either way. Every frame of a stream has
+        one size.
     audio : numpy.ndarray
         Mono int16 samples at :attr:`StreamInfo.rate`, from ``index / fps`` to
         ``(index + 1) / fps`` (sample ``round(index * rate / fps)`` up to
@@ -93,6 +96,11 @@ class Chunk:
     frame: np.ndarray
     audio: np.ndarray
     fps: float
+
+    @property
+    def rgb(self) -> np.ndarray:
+        """The frame as ``(H, W, 3)`` uint8 RGB (what a player shows)."""
+        return self.frame.rgb() if hasattr(self.frame, "planes") else self.frame
 
     @property
     def time(self) -> float:
