@@ -235,8 +235,7 @@ def _say_text(
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(desc=f"rendering ({len(speech.texts)} sentences)"
-                   if hasattr(speech, "texts") else "rendering", unit="frame")  # fmt: skip
+        bar = tqdm(desc="rendering", total=0, unit="frame")  # its total grows by sentence
     with speech, contextlib.closing(bar) if bar is not None else contextlib.nullcontext():
         said = ahead(spoken(s) for s in speech.sentences())
         before, now = None, next(said, None)
@@ -245,6 +244,9 @@ def _say_text(
             utterance, timeline, planned = now
             if before is None:
                 emitter.info(StreamInfo(fps=timeline.fps, rate=utterance.rate))
+            if bar is not None:
+                bar.total += len(timeline.frames)
+                bar.refresh()
             weights, states = draw_utterance(
                 emitter, model=model, timeline=in_context(timeline, before, after),
                 samples=utterance.samples, rate=utterance.rate, drawing=drawing,
