@@ -86,3 +86,72 @@ def test_registration_stabilizes_a_chunk_at_a_time_with_the_whole_videos_result(
     assert found.blinks == find_blinks(whole, stabilizer.mouth_box)
     some = np.linspace(0, len(frames) - 1, 100).round().astype(int)
     np.testing.assert_array_equal(found.steady, np.median(whole[some], axis=0).astype(np.uint8))
+
+
+class _Readings:
+    """Frames made again at each reading, as :class:`StreamedCrops` are: ``len()`` and
+    iteration only (indexing fails), the readings counted and how far each went."""
+
+    def __init__(self, frames: np.ndarray) -> None:
+        self.frames, self.read = frames, []
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __iter__(self):
+        self.read.append(0)
+        for frame in self.frames:
+            self.read[-1] += 1
+            yield frame.copy()
+
+
+def test_registration_reads_frames_made_again_in_order_with_the_arrays_result(person):
+    """Issue 50: a face-crop model's dub held every 256-px crop (0.2 MB a frame) while it
+    registered them. Registration now reads its frames in order: once up to the first usable
+    frame, once to register, once to stabilize, with the result of the held array."""
+    from miketalk.composite.registration import register_video
+
+    frames, _ = _clip(120)
+    stabilizer = Model(person).stabilizer()
+    usable = np.ones(len(frames), bool)
+    usable[:3] = False  # the first usable frame is read up to, not indexed
+    held = register_video(frames, 25.0, stabilizer, usable=usable, refine=True, shots=None)
+    readings = _Readings(frames)
+    streamed = register_video(readings, 25.0, stabilizer, usable=usable, refine=True)
+    assert readings.read == [4, len(frames), len(frames)]
+    np.testing.assert_array_equal(streamed.transforms, held.transforms)
+    np.testing.assert_array_equal(streamed.field, held.field)
+    assert streamed.blinks == held.blinks
+    np.testing.assert_array_equal(streamed.steady, held.steady)
+
+
+def test_a_face_crop_videos_crops_made_again_are_the_held_crops_byte_for_byte() -> None:
+    from miketalk.track.crop import FaceCropSettings
+    from miketalk.track.video_crops import StreamedCrops, crop_video
+
+    clip = Path(__file__).parents[2] / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
+    settings = FaceCropSettings()
+    held = crop_video(clip, crop=settings, frames=30)
+    streamed = crop_video(clip, crop=settings, frames=30, hold=False)
+    assert isinstance(streamed.crops, StreamedCrops) and len(streamed) == 30
+    assert streamed.crops.shape == held.crops.shape
+    for _ in range(2):  # each reading decodes the video again, to the same bytes
+        np.testing.assert_array_equal(np.stack(list(streamed.crops)), held.crops)
+    np.testing.assert_array_equal(streamed.to_crop, held.to_crop)
+
+
+def test_the_eye_bands_are_held_in_half_the_bytes_with_the_same_blinks() -> None:
+    """The eye band of every frame is what registration still holds for the whole video:
+    as the exact sum of the three channels (uint16), the band times 3, with the blinks of
+    the band in float."""
+    from miketalk.composite.registration import _blinks_of, _blinks_of_sums, _eye_sums, eye_band
+
+    rng = np.random.default_rng(0)
+    box = (92, 164, 72, 28)
+    for n in (8, 130):
+        frames = rng.integers(100, 140, (n, 256, 256, 3), dtype=np.uint8)
+        frames[n // 3 : n // 3 + 2, 60:110] = 10  # eyes closed in two frames
+        band, sums = eye_band(frames, box), _eye_sums(frames, box)
+        assert sums.dtype == np.uint16
+        np.testing.assert_array_equal(sums.astype(np.float32) / 3, band)
+        assert _blinks_of_sums(sums) == _blinks_of(band) == (n // 3, n // 3 + 1)

@@ -7,12 +7,18 @@ model's person), then all of them in chunks, each starting from the last registe
 frame; frames that do not register take the nearest registered frame's transform, and
 the transforms are smoothed in time. It finds the blinks and the light (the median of
 the registered frames), and refuses a video whose mouth and chin do not land on the
-model's, or whose face's colour the model's mouth cannot match.
+model's, or whose face's colour the model's mouth cannot match. It reads the frames in
+order, twice (to register them, then to stabilize them for the blinks and the light),
+and holds a chunk of them and an evenly spread sample: frames made again at each reading
+(:class:`~miketalk.track.video_crops.StreamedCrops`) keep its memory independent of the
+video's length.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from itertools import islice
 
 import numpy as np
 
@@ -84,9 +90,10 @@ def register_video(
 
     Parameters
     ----------
-    frames : numpy.ndarray
+    frames : numpy.ndarray or re-iterable
         ``(N, h, w, 3)`` uint8 RGB at the reference's size (a video's frames scaled to
-        it, or its face crops).
+        it, or its face crops): an array, or frames made again at each reading (``len()``
+        and iteration, :class:`~miketalk.track.video_crops.StreamedCrops`).
     fps : float
     stabilizer : miketalk.stabilize.Stabilizer
         The model's.
@@ -125,7 +132,8 @@ def register_video(
     start = int(np.flatnonzero(usable)[0])
     from miketalk.track.refine import refine_crops
 
-    first = stabilizer.register(frames[start : start + 1], clip=source, on_failure="nan")
+    first_frame = _frame(frames, start)
+    first = stabilizer.register(first_frame[None], clip=source, on_failure="nan")
     if refine:
         first = refine_crops(first, usable[start : start + 1], stabilizer)[0]
     if not np.isfinite(first).all():
@@ -146,13 +154,16 @@ def register_video(
     # a tracker's crops show one face (its detector counted the faces in the whole frame,
     # and left out the frames with several); in a crop, the face's own shifted copy
     # matches the reference at 0.44 to 0.62 (the weekly addresses): no second face
-    peaks = [] if refine else face_matches(frames[start], stabilizer, first[0])
+    peaks = [] if refine else face_matches(first_frame, stabilizer, first[0])
     if len(peaks) > 1 and peaks[1] >= SECOND_FACE:
         raise MiketalkError(
             f"{source}: its first frame shows the model's face twice (a second place matches "
             f"it at {peaks[1]:.2f}, at least {SECOND_FACE} counts): give a video of one person"
         )
-    transforms = _register(stabilizer, frames, first[0], source=source, progress=progress)
+    some = _spread(len(frames), _SAMPLE)  # the field and the light from at most _SAMPLE frames
+    transforms, sample = _register(
+        stabilizer, frames, first[0], source=source, progress=progress, keep=some
+    )
     if refine:
         transforms = refine_crops(transforms, usable, stabilizer)[0]
     transforms[~usable] = np.nan
@@ -162,8 +173,7 @@ def register_video(
             f"{source}: only {int(ok.sum())} of its {len(ok)} frames show the model's person "
             "(register to its reference): give a frontal video of the same person"
         )
-    some = _spread(len(frames), _SAMPLE)  # the field and the light from at most _SAMPLE frames
-    field = stabilizer.conform(frames[some], transforms[some], clip=source)
+    field = stabilizer.conform(sample, transforms[some], clip=source)
     transforms = _fill(transforms)
     if smooth > 0 and len(transforms) > 1:
         transforms = smooth_in_time(transforms, smooth * fps)
@@ -172,10 +182,9 @@ def register_video(
         for shot in np.unique(shots[shots >= 0]):
             frames_of = np.flatnonzero(shots == shot)
             picked[int(shot)] = frames_of[_spread(len(frames_of), _SAMPLE)]
-    kept = np.unique(np.concatenate([some, *picked.values()]))
-    band, steady = _stabilized(stabilizer, frames, transforms, field, kept)
-    blinks = _blinks_of(band)
-    median = np.median(steady[np.searchsorted(kept, some)], axis=0).astype(np.uint8)
+    sums, medians = _stabilized(stabilizer, frames, transforms, field, {-1: some, **picked})
+    blinks = _blinks_of_sums(sums)
+    median = medians.pop(-1)
     score = lower_face_correlation(median, stabilizer.reference, stabilizer.mouth_box)
     # tracked crops: the landmarks put the mouth in place; another session's light and
     # shadows are not another face (the weekly addresses' shots score -0.21 to 0.9)
@@ -186,12 +195,8 @@ def register_video(
             "give a frontal video of the same person"
         )
     _check_colour(median, stabilizer, source)
-    by_shot = None
-    if shots is not None:  # each shot's own light (the addresses' differ from shot to shot)
-        by_shot = {
-            shot: np.median(steady[np.searchsorted(kept, at)], axis=0).astype(np.uint8)
-            for shot, at in picked.items()
-        }
+    # each shot's own light (the addresses' differ from shot to shot)
+    by_shot = medians if shots is not None else None
     return Registration(transforms, field, blinks, median, by_shot)
 
 
@@ -201,18 +206,26 @@ def register_video(
 _CHUNK = 50
 
 
-def _stabilized(stabilizer, frames, transforms, field, kept: np.ndarray):
-    """Every frame's eye band (:func:`eye_band`) on the reference, and the frames ``kept``
-    (sorted indices) stabilized whole, the frames stabilized :data:`_CHUNK` at a time."""
-    bands, whole = [], []
-    for start in range(0, len(frames), _CHUNK):
-        part = stabilizer.apply(
-            frames[start : start + _CHUNK], transforms[start : start + _CHUNK], field=field
-        )
-        bands.append(eye_band(part, stabilizer.mouth_box))
-        here = kept[(kept >= start) & (kept < start + len(part))]
-        whole.append(part[here - start])
-    return np.concatenate(bands), np.concatenate(whole)
+def _stabilized(
+    stabilizer, frames, transforms, field, picked: dict[int, np.ndarray]
+) -> tuple[np.ndarray, dict[int, np.ndarray]]:
+    """Every frame's eye band on the reference (:func:`_eye_sums`), and for each key of
+    ``picked`` the median of its frames (sorted indices) stabilized; the frames stabilized
+    :data:`_CHUNK` at a time, each set's frames let go once its median is taken (a shot's
+    frames lie within the shot), so that what is held is the bands (2 bytes a pixel of the
+    band a frame) and at most two sets' frames."""
+    sums, held, medians = [], {key: [] for key in picked}, {}
+    for start, chunk in _chunks(frames, _CHUNK):
+        part = stabilizer.apply(chunk, transforms[start : start + len(chunk)], field=field)
+        sums.append(_eye_sums(part, stabilizer.mouth_box))
+        stop = start + len(part)
+        for key, at in picked.items():
+            if key in medians:
+                continue
+            held[key].extend(part[at[(at >= start) & (at < stop)] - start])
+            if len(at) and at[-1] < stop:  # its last frame read: its median, and let go
+                medians[key] = np.median(np.stack(held.pop(key)), axis=0).astype(np.uint8)
+    return np.concatenate(sums), medians
 
 
 def lower_face_correlation(
@@ -267,6 +280,31 @@ def eye_band(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np
     return stabilized[:, top:bottom, left:right].astype(np.float32).mean(axis=3)
 
 
+def _eye_sums(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np.ndarray:
+    """``(N, h, w)`` uint16: :func:`eye_band` times 3, exactly (the sum of each pixel's three
+    channels, half the bytes of the band)."""
+    x, y, w, _ = mouth_box
+    top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
+    left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
+    return stabilized[:, top:bottom, left:right].sum(axis=3, dtype=np.uint16)
+
+
+def _blinks_of_sums(sums: np.ndarray, *, factor: float = BLINK_FACTOR) -> tuple[int, ...]:
+    """:func:`_blinks_of` of the bands whose :func:`_eye_sums` are ``sums``, the same
+    result, without the whole band in float (its median taken a few rows at a time)."""
+    rows = max(1, (4 << 20) // (4 * sums.shape[0] * sums.shape[2]))  # about 4 MB in float
+    median = np.concatenate(
+        [np.median(sums[:, r : r + rows].astype(np.float32) / 3, axis=0)
+         for r in range(0, sums.shape[1], rows)]
+    )  # fmt: skip
+    change = np.concatenate(
+        [np.abs(sums[i : i + _CHUNK].astype(np.float32) / 3 - median).mean(axis=(1, 2))
+         for i in range(0, len(sums), _CHUNK)]
+    )  # fmt: skip
+    threshold = max(factor * float(np.median(change)), 3.0)
+    return tuple(int(i) for i in np.flatnonzero(change > threshold))
+
+
 def _blinks_of(band: np.ndarray, *, factor: float = BLINK_FACTOR) -> tuple[int, ...]:
     """The frames whose eye band (:func:`eye_band`) differs from the usual (see
     :func:`find_blinks`)."""
@@ -304,23 +342,58 @@ def _check_colour(median: np.ndarray, stabilizer, source: str) -> None:
         )
 
 
-def _register(stabilizer, frames: np.ndarray, init: np.ndarray, *, source: str, progress: bool):
-    """:meth:`Stabilizer.register` in chunks, each starting from the last registered frame."""
-    chunk = 50
+def _register(
+    stabilizer, frames, init: np.ndarray, *, source: str, progress: bool, keep: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`Stabilizer.register` in chunks, each starting from the last registered frame;
+    with the frames ``keep`` (sorted indices) read on the way."""
     out = np.empty((len(frames), 2, 3))
+    kept = []
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=len(frames), desc="registering", unit="frame")
     start = init
-    for i in range(0, len(frames), chunk):
-        part = stabilizer.register(frames[i : i + chunk], clip=source, init=start, on_failure="nan")
-        out[i : i + chunk] = part
+    for i, chunk in _chunks(frames, 50):
+        part = stabilizer.register(chunk, clip=source, init=start, on_failure="nan")
+        out[i : i + len(chunk)] = part
+        kept.append(chunk[keep[(keep >= i) & (keep < i + len(chunk))] - i])
         ok = np.flatnonzero(np.isfinite(part[:, 0, 0]))
         start = part[ok[-1]] if len(ok) else None
         if bar is not None:
             bar.update(len(part))
     if bar is not None:
         bar.close()
-    return out
+    return out, np.concatenate(kept)
+
+
+def _chunks(frames, size: int) -> Iterator[tuple[int, np.ndarray]]:
+    """``(start, frames[start : start + size])`` in order, over an array (its slices) or one
+    reading of frames made again at each reading."""
+    if isinstance(frames, np.ndarray):
+        for start in range(0, len(frames), size):
+            yield start, frames[start : start + size]
+        return
+    batch: list[np.ndarray] = []
+    start = 0
+    for frame in frames:
+        batch.append(frame)
+        if len(batch) == size:
+            yield start, np.stack(batch)
+            start, batch = start + size, []
+    if batch:
+        yield start, np.stack(batch)
+
+
+def _frame(frames, index: int) -> np.ndarray:
+    """Frame ``index`` of an array, or of frames made again at each reading (read up to it)."""
+    if isinstance(frames, np.ndarray):
+        return frames[index]
+    reading = iter(frames)
+    try:
+        return next(islice(reading, index, None))
+    finally:
+        close = getattr(reading, "close", None)
+        if close is not None:
+            close()

@@ -13,8 +13,10 @@ frame-to-crop map. The compositor (:class:`~miketalk.composite.compositor.Compos
 carries the mouth through it into the frame at the video's own resolution, touching the
 mouth's pixels only.
 
-The frames themselves are not held: :class:`~miketalk.media.frame_source.VideoFrames`
-decodes them as the output is written. Frames where the tracker found no one frontal
+Neither the frames nor their crops are held: the crops are made again at each of the
+registration's two readings (:class:`~miketalk.track.video_crops.StreamedCrops`), and
+:class:`~miketalk.media.frame_source.VideoFrames` decodes the frames as the output is
+written; memory does not grow with the video's length. Frames where the tracker found no one frontal
 face (the face out of the picture, turned away, two faces, another shot) are named in a
 warning and play as they are, without a new mouth (:attr:`Background.shown`): a mouth is
 never put where no face was found.
@@ -88,7 +90,7 @@ def tracked_background(
     from miketalk.track.video_crops import crop_video
 
     source = source or str(path)
-    cropped = crop_video(path, crop=crop, start=start, frames=frames, source=source)
+    cropped = crop_video(path, crop=crop, start=start, frames=frames, source=source, hold=False)
     fps, n = cropped.fps, len(cropped)
     if n / fps < shortest:
         raise MiketalkError(

@@ -11,7 +11,10 @@ conversion of every pixel to RGB was most of the build's cost that grew with the
 (12 ms of a 1080p frame's 15, the decoding 3 ms; read twice). With the ``accurate``
 conversion the crops are the ones the whole RGB frames give, byte for byte. Memory holds
 one frame at a time and the crops (``size``\\ :sup:`2` x 3 bytes a frame: 196 KB at
-256 px, a minute at 30 fps is 350 MB), whatever the video's resolution.
+256 px, a minute at 30 fps is 350 MB), whatever the video's resolution; with
+``hold=False`` not even the crops: they are made again at each reading
+(:class:`StreamedCrops`, what a background registered through its crops reads twice), and
+memory does not grow with the video's length.
 
 A frame the tracker left out (no frontal face, several, landmarks that do not fit) is
 cropped with its nearest tracked neighbour's transform, so that the crops stay one per
@@ -23,6 +26,7 @@ a background takes its neighbours' registration) and never treats them as the fa
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,7 +38,14 @@ from miketalk.track.result import Track
 from miketalk.track.similarity import compose_affine, invert_affine
 from miketalk.track.track import TrackerSettings, track_frames
 
-__all__ = ["CroppedVideo", "crop_region", "crop_video", "crops_of", "nearest_tracked"]
+__all__ = [
+    "CroppedVideo",
+    "StreamedCrops",
+    "crop_region",
+    "crop_video",
+    "crops_of",
+    "nearest_tracked",
+]
 
 #: Pixels kept around the crops' windows in the decoded region: ffmpeg's RGB of an even
 #: region's pixels 3 or more from its edges is the whole frame's (the 4:2:0 chroma's
@@ -48,8 +59,9 @@ class CroppedVideo:
 
     Attributes
     ----------
-    crops : numpy.ndarray
-        ``(N, size, size, 3)`` uint8 RGB: frame ``i``'s face crop.
+    crops : numpy.ndarray or StreamedCrops
+        ``(N, size, size, 3)`` uint8 RGB: frame ``i``'s face crop (held, or made again at
+        each reading).
     to_crop : numpy.ndarray
         ``(N, 2, 3)`` float64: frame ``i``'s pixels to its crop's pixels (a frame left
         out has its nearest tracked neighbour's).
@@ -63,7 +75,7 @@ class CroppedVideo:
         The video's ``(width, height)``.
     """
 
-    crops: np.ndarray
+    crops: np.ndarray | StreamedCrops
     to_crop: np.ndarray
     tracked: np.ndarray
     track: Track
@@ -163,17 +175,81 @@ def crops_of(frames, to_crop: np.ndarray, settings: FaceCropSettings, count: int
     """
     n = settings.size
     crops = np.empty((count, n, n, 3), np.uint8)
+    for k, crop in enumerate(_warped(frames, to_crop, settings, count)):
+        crops[k] = crop
+    return crops
+
+
+def _warped(
+    frames: Iterable[np.ndarray], to_crop: np.ndarray, settings: FaceCropSettings, count: int
+) -> Iterator[np.ndarray]:
+    """Each of ``count`` frames warped into its crop, in order (:func:`crops_of`)."""
     k = 0
     for frame in frames:
         if k == count:
             break
-        crops[k] = warp_to_crop(frame, to_crop[k], settings)
+        yield warp_to_crop(frame, to_crop[k], settings)
         k += 1
     if k < count:
         raise MiketalkError(
             f"the video gave {k} frames on its second reading, {count} on its first"
         )
-    return crops
+
+
+class StreamedCrops:
+    """A video's face crops, made again at each reading and never all held: ``len()`` and
+    iteration (each a new reading of the video through ffmpeg, the bytes of
+    :func:`crops_of`). Memory holds one frame and one crop, whatever the video's length.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The video.
+    to_crop : numpy.ndarray
+        ``(N, 2, 3)`` the decoded frames' pixels to the crops' (the region's, with
+        ``region``).
+    settings : FaceCropSettings
+        The crop.
+    start : float, optional
+        Seconds from the beginning.
+    region : tuple of int, optional
+        The part of the frames decoded (:func:`crop_region`).
+    conversion : str
+        ffmpeg's RGB conversion (:func:`~miketalk.track.crop.chosen_conversion`).
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        to_crop: np.ndarray,
+        settings: FaceCropSettings,
+        *,
+        start: float | None = None,
+        region: tuple[int, int, int, int] | None = None,
+        conversion: str = "accurate",
+    ) -> None:
+        self.path, self.to_crop, self.settings = path, to_crop, settings
+        self.start, self.region, self.conversion = start, region, conversion
+
+    def __len__(self) -> int:
+        return len(self.to_crop)
+
+    @property
+    def shape(self) -> tuple[int, int, int, int]:
+        """``(N, size, size, 3)``."""
+        return (len(self), self.settings.size, self.settings.size, 3)
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        from miketalk.media.decode import iter_video_frames
+
+        frames = iter_video_frames(
+            self.path, start=self.start, frames=len(self), region=self.region,
+            conversion=self.conversion,
+        )  # fmt: skip
+        try:
+            yield from _warped(frames, self.to_crop, self.settings, len(self))
+        finally:
+            frames.close()
 
 
 def crop_video(
@@ -184,6 +260,7 @@ def crop_video(
     start: float | None = None,
     frames: int | None = None,
     source: str | None = None,
+    hold: bool = True,
 ) -> CroppedVideo:
     """Track the face through a video (or ``frames`` of it from ``start``) and crop it.
 
@@ -201,6 +278,9 @@ def crop_video(
         At most this many frames.
     source : str, optional
         What to call the video in errors (its path by default).
+    hold : bool
+        Hold the crops (an array); False: make them again at each reading
+        (:class:`StreamedCrops`), for what reads them a few times in order.
 
     Returns
     -------
@@ -237,9 +317,14 @@ def crop_video(
         shift = np.array([[1.0, 0.0, region[0]], [0.0, 1.0, region[1]]])
         from_region = np.stack([compose_affine(t, shift) for t in to_crop])
     pixels = region[2] * region[3] if region is not None else width * height
-    frames_rgb = iter_video_frames(
-        path, start=start, frames=len(track), region=region,
-        conversion=chosen_conversion(crop, pixels),
-    )  # fmt: skip
-    crops = crops_of(frames_rgb, from_region, crop, len(track))
+    conversion = chosen_conversion(crop, pixels)
+    if hold:
+        frames_rgb = iter_video_frames(
+            path, start=start, frames=len(track), region=region, conversion=conversion
+        )
+        crops = crops_of(frames_rgb, from_region, crop, len(track))
+    else:
+        crops = StreamedCrops(
+            path, from_region, crop, start=start, region=region, conversion=conversion
+        )
     return CroppedVideo(crops, to_crop, tracked, track, float(fps), (int(width), int(height)))
