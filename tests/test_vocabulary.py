@@ -89,14 +89,14 @@ def test_schema_flow_vocabularies_are_the_library_s() -> None:
 
 
 def test_the_frames_a_face_is_built_in_are_the_library_s(parser: argparse.ArgumentParser) -> None:
-    from miketalk.building.frame import CROP, FRAMES, FULL
+    from miketalk.building.frame import DEFAULT_FRAME, FRAMES
 
     face = _schema("faces")["additionalProperties"]["properties"]
-    assert face["frame"]["enum"] == list(FRAMES)
-    assert face["frame"]["default"] == FULL  # the workflow's faces: their video's own pixels
+    assert face["frame"]["enum"] == [*FRAMES, None]
+    assert face["frame"]["default"] is None  # the face's own: DEFAULT_FRAME for a person's
     assert face["crop_size"]["default"] is None  # the crop's own size
     assert tuple(_choices(parser, "build", "--frame").choices) == FRAMES
-    assert _choices(parser, "build", "--frame").default == CROP  # miketalk build: the crop
+    assert _choices(parser, "build", "--frame").default == DEFAULT_FRAME
 
 
 def test_command_line_choices_and_defaults_are_the_library_s(
@@ -187,16 +187,15 @@ def test_the_background_s_names_and_default_are_the_library_s() -> None:
 
 def test_the_use_cases_settings_defaults_are_the_schema_s() -> None:
     """The workflow's face and lipsync settings and the public API's settings objects
-    (:mod:`miketalk.api.settings`) agree on each default they share; the frame differs on
-    purpose (``miketalk build``: any video of one person, tracked; the workflow: GRID's still
-    heads, in their own pixels), and its rules are one class's (``FrameSettings``)."""
+    (:mod:`miketalk.api.settings`) agree on each default they share; the frame's rules are one
+    class's (``FrameSettings``), its default one constant (``DEFAULT_FRAME``, test_workflow_settings
+    follows it into the workflow's faces)."""
     from miketalk.api import BuildSettings, DubSettings, SaySettings
 
     face = _schema("faces")["additionalProperties"]["properties"]
     build = BuildSettings()
     assert face["crop_size"]["default"] == build.crop_size
-    assert set(face["frame"]["enum"]) == {"crop", "full"} and build.frame == "crop"
-    assert face["frame"]["default"] == "full"
+    assert set(face["frame"]["enum"]) == {"crop", "full", None} and build.frame == "crop"
     corpus = face["corpus"]["properties"]
     assert corpus["heldout_seconds"]["default"] == build.heldout_seconds
     for settings in (SaySettings(), DubSettings()):

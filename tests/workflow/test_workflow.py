@@ -58,6 +58,7 @@ def with_video_face(workdir: Path, joined) -> None:
             "subtitles": str(joined.subtitles),
             "heldout_seconds": 6,
         },
+        "frame": "full",
         "lipsync": {"model": "learned"},
     }
     (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))

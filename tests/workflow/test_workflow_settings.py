@@ -42,10 +42,12 @@ def experiment(config: dict | None = None) -> Experiment:
 
 
 def with_video_face(config: dict, **corpus: object) -> dict:
-    """``config`` with a face ``v`` from one video of any speech, one second held out."""
+    """``config`` with a face ``v`` from one video of any speech, one second held out, in
+    the video's own pixels."""
     config["faces"]["v"] = {
         "corpus": {"source": "video", "media": JOINED, "transcript": TRANSCRIPT,
-                   "heldout_seconds": 1, **corpus}
+                   "heldout_seconds": 1, **corpus},
+        "frame": "full",
     }  # fmt: skip
     return config
 
@@ -213,6 +215,30 @@ def test_a_faces_frame_is_its_videos_pixels_unless_its_crop_is_configured() -> N
     assert exp.frame_settings("s1-n2").crop == crop  # the training-clips sweep's face too
 
 
+def test_one_default_frame_for_the_command_line_and_the_workflow() -> None:
+    """Issue 49: ``miketalk build`` defaulted to the crop, the workflow's schema to the
+    video's own pixels. Now one constant: a face of a person (clips, one video) that names no
+    frame is built in the crop, as ``miketalk build`` builds; the synthetic face and a
+    recording of the corpus words have no other frame than their own pixels."""
+    from miketalk.api import BuildSettings
+    from miketalk.building.frame import CROP, DEFAULT_FRAME, FULL
+
+    assert BuildSettings().frame == DEFAULT_FRAME == CROP
+    config = with_video_face(dot_test())
+    for face in ("s1", "v"):
+        del config["faces"][face]["frame"]
+    config["faces"]["recorded"] = {"corpus": {"source": "video", "video": JOINED}}
+    config["sweeps"]["training_clips"] = [2]  # its face s1-n2 takes s1's frame
+    exp = experiment(config)
+    assert exp.faces["s1"]["frame"] is None  # the schema's default: the face's own
+    for face in ("s1", "v", "s1-n2"):
+        assert exp.frame_settings(face).frame == DEFAULT_FRAME, face
+        assert exp.frame_settings(face).crop is not None
+    for face in ("synthetic", "recorded"):
+        assert exp.frame_settings(face).frame == FULL and exp.frame_settings(face).crop is None
+    assert experiment(dot_test()).frame_settings("s1").frame == FULL  # named in .test's config
+
+
 @pytest.mark.parametrize(
     ("face", "change", "problem"),
     [
@@ -222,7 +248,8 @@ def test_a_faces_frame_is_its_videos_pixels_unless_its_crop_is_configured() -> N
          "faces.v: frame crop needs a face from clips or from one video of any speech"),
         ("s1", {"frame": "crop", "crop_size": 8},
          "config: faces.s1.crop_size: 8 is less than the minimum of 16"),
-        ("s1", {"frame": "face"}, "config: faces.s1.frame: 'face' is not one of ['crop', 'full']"),
+        ("s1", {"frame": "face"},
+         "config: faces.s1.frame: 'face' is not one of ['crop', 'full', None]"),
     ],
     ids=["size-without-crop", "synthetic", "corpus-words-video", "too-small", "unknown"],
 )  # fmt: skip

@@ -16,7 +16,7 @@ import os
 from dataclasses import dataclass
 
 from miketalk import defaults
-from miketalk.building.frame import CROP, FrameSettings
+from miketalk.building.frame import DEFAULT_FRAME, FrameSettings
 from miketalk.errors import SettingError
 from miketalk.lipsync.settings import (
     LipsyncModel,
@@ -158,7 +158,8 @@ class BuildSettings:
     Attributes
     ----------
     frame : str
-        ``crop`` (default: the face tracked and the model made in its fixed-size crop, the
+        ``crop`` (the default, :data:`~miketalk.building.frame.DEFAULT_FRAME`, the
+        workflow's too: the face tracked and the model made in its fixed-size crop, the
         output at the video's own resolution; any video of one person) or ``full`` (the
         video's own pixels: a still head before a plain backdrop).
     crop_size : int or None
@@ -179,7 +180,7 @@ class BuildSettings:
         How many frames the mixed flow strategy searches for its intermediate frame.
     """
 
-    frame: str = CROP
+    frame: str = DEFAULT_FRAME
     crop_size: int | None = None
     crop_conversion: str | None = None
     heldout_seconds: float = defaults.HELDOUT_SECONDS

@@ -18,7 +18,7 @@ from miketalk.errors import SettingError
 if TYPE_CHECKING:  # the command line's parser reads FRAMES without the tracker's imports
     from miketalk.track.crop import FaceCropSettings
 
-__all__ = ["CONVERSIONS", "CROP", "FRAMES", "FULL", "FrameSettings"]
+__all__ = ["CONVERSIONS", "CROP", "DEFAULT_FRAME", "FRAMES", "FULL", "FrameSettings", "own_frame"]
 
 #: Tracked, in the face's canonical crop (:mod:`miketalk.track.crop`).
 CROP = "crop"
@@ -26,6 +26,11 @@ CROP = "crop"
 FULL = "full"
 #: The frames a face can be built in.
 FRAMES = (CROP, FULL)
+#: The frame a face from video of a person is built in unless told, by ``miketalk build``
+#: and the workflow alike: the crop, which takes any video of one person (a moving head,
+#: any backdrop, any resolution, at the crop's cost per frame); the video's own pixels need
+#: a still head before a plain backdrop (GRID's), and the configs that want them say so.
+DEFAULT_FRAME = CROP
 #: The crop pixels' colour conversions (:attr:`miketalk.track.crop.FaceCropSettings.
 #: conversion`'s values, here without its imports for the command line's parser).
 CONVERSIONS = ("auto", "fast", "accurate")
@@ -75,3 +80,13 @@ class FrameSettings:
             eye_distance=default.eye_distance * size / default.size,
             conversion=self.crop_conversion or default.conversion,
         )
+
+
+def own_frame(frame: str | None, *, of_person: bool) -> str:
+    """The frame named (``frame``), else the face's own: :data:`DEFAULT_FRAME` for a face
+    from video of a person (``of_person``: clips or one video of any speech, what
+    ``miketalk build`` takes), :data:`FULL` for one drawn in its own pixels (the synthetic
+    face, a recording of the corpus words)."""
+    if frame is not None:
+        return frame
+    return DEFAULT_FRAME if of_person else FULL

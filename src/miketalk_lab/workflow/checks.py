@@ -91,14 +91,15 @@ def check_flow_methods(methods: Mapping[str, Mapping]) -> None:
 
 def check_frame(face: str, settings: Mapping, *, from_clips: bool) -> None:
     """A face's frame (:class:`miketalk.building.frame.FrameSettings`): the crop frame for a
-    face from clips (or from one video of any speech) only, a crop size with it only.
+    face from clips (or from one video of any speech) only, a crop size with it only; no
+    frame named is the face's own (:func:`~miketalk.building.frame.own_frame`).
 
     Raises
     ------
     ConfigError
         Naming the face and the key.
     """
-    from miketalk.building.frame import CROP, FrameSettings
+    from miketalk.building.frame import CROP, FrameSettings, own_frame
 
     frame, size = settings["frame"], settings["crop_size"]
     if frame == CROP and not from_clips:
@@ -107,7 +108,8 @@ def check_frame(face: str, settings: Mapping, *, from_clips: bool) -> None:
             f"(corpus source clips, or video with media), not source {settings['corpus']['source']}"
         )
     try:
-        FrameSettings(frame, size)  # its rules, the command line's: named as the config's keys
+        # its rules, the command line's: named as the config's keys
+        FrameSettings(own_frame(frame, of_person=from_clips), size)
     except MiketalkError as err:
         raise ConfigError(f"faces.{face}: {err}") from None
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from miketalk.building.frame import FrameSettings
+from miketalk.building.frame import FrameSettings, own_frame
 from miketalk.composite.for_model import BACKGROUND_CHOICES
 from miketalk_lab.workflow import checks, faces, paths, sweeps
 from miketalk_lab.workflow.config import SCHEMA, canonical, project_path, validate_config
@@ -192,10 +192,12 @@ class Experiment:
         return canonical(corpus)
 
     def frame_settings(self, face: str) -> FrameSettings:
-        """The frame a face is built in: its ``frame`` and ``crop_size`` (the schema's
-        defaults: the video's own pixels)."""
+        """The frame a face is built in: its ``frame`` (null: the face's own,
+        :func:`miketalk.building.frame.own_frame`: the crop for a face from clips or one
+        video, as ``miketalk build``'s) and ``crop_size``."""
         settings = self.faces[face]
-        return FrameSettings(settings["frame"], settings["crop_size"])
+        frame = own_frame(settings["frame"], of_person=face in self.clip_faces)
+        return FrameSettings(frame, settings["crop_size"])
 
     def corpus_build_settings(self, face: str) -> dict:
         """A face's corpus settings as its corpus rule takes them (:meth:`corpus_settings`),
