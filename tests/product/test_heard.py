@@ -146,3 +146,19 @@ def test_festival_speaks_a_clip_at_the_persons_timing(tmp_path) -> None:
     assert abs(len(x) / RATE - 1.3) < 0.02
     lead, spoken = x[: int(0.5 * RATE)], x[int(0.62 * RATE) : int(0.93 * RATE)]
     assert np.abs(spoken).mean() > 10 * np.abs(lead).mean()
+
+
+def test_mel_energies_in_blocks_are_the_whole_grids_bytes(monkeypatch) -> None:
+    """Issue 50: a 12-minute recording's standardization grid (71,000 windows) was analysed at
+    once, 1.5 GB of segments and spectra; now :data:`BLOCK` windows at a time, the same bytes
+    whatever the block."""
+    from miketalk.speech import acoustic
+
+    rng = np.random.default_rng(3)
+    samples = rng.normal(size=RATE * 90).astype(np.float32)
+    times = np.arange(-0.05, 90.05, 0.01)  # past both ends: the zeros outside
+    whole = acoustic.mel_energies(samples, times)
+    assert whole.shape == (len(times), acoustic.BANDS) and len(times) > acoustic.BLOCK
+    for block in (37, 10**6):  # short blocks; all at once
+        monkeypatch.setattr(acoustic, "BLOCK", block)
+        np.testing.assert_array_equal(acoustic.mel_energies(samples, times), whole)

@@ -479,3 +479,23 @@ def test_a_trained_utterance_reports_the_persons_frames_not_the_visemes_morphs()
     assert own.largest_step_px is None and own.largest_frame_motion_px is None
     assert drawn_words(own).startswith(f"{own.frames} of the person's own frames (the step limit")
     json.dumps(own.to_dict(), allow_nan=False)
+
+
+def test_selection_in_blocks_of_output_frames_chooses_as_all_at_once(monkeypatch) -> None:
+    """Issue 50: the target costs of a 12-minute recording's 17,900 frames against every
+    training frame were held at once (with their temporaries, most of say --audio's 2 GB);
+    they are now one array, computed in place, and partitioned a block of output frames at a
+    time, with the same path."""
+    from miketalk.draw.trained import selection
+
+    rng = np.random.default_rng(7)
+    coords = rng.normal(size=(300, 16))
+    frames = _frames(coords, np.repeat([0, 1, 2], 100))
+    target = coords[rng.integers(0, 300, 230)] + rng.normal(scale=0.4, size=(230, 16))
+    shown, recorded = rng.integers(0, 5, 230), rng.integers(0, 5, 300)
+    for settings in (SelectionSettings(), SelectionSettings(viseme=2.0, candidates=7)):
+        whole = select(frames, target, settings, visemes=(shown, recorded))
+        monkeypatch.setattr(selection, "_BLOCK", 17)  # 14 blocks, the last short
+        assert np.array_equal(select(frames, target, settings, visemes=(shown, recorded)), whole)
+        assert len(set(whole.tolist())) > 50  # not one frame throughout
+        monkeypatch.setattr(selection, "_BLOCK", 1024)

@@ -27,6 +27,9 @@ BANDS = 24
 FMIN, FMAX = 60.0, 7600.0
 #: The grid (s) the standardization is measured on.
 GRID = 0.01
+#: Windows whose spectra are computed at a time (:func:`mel_energies`): a 12-minute
+#: recording's grid of 71,000 windows at once held 1.5 GB of segments and spectra.
+BLOCK = 4096
 
 
 @dataclass(frozen=True)
@@ -72,16 +75,26 @@ def _n_fft() -> int:
 
 def mel_energies(samples: np.ndarray, times: np.ndarray) -> np.ndarray:
     """``(len(times), BANDS)`` mel band energies of ``samples`` (at :data:`RATE`) in a Hann
-    window centred at each time (zeros outside the recording)."""
+    window centred at each time (zeros outside the recording).
+
+    The power spectra are computed :data:`BLOCK` windows at a time (each window's the same
+    bytes in any block) into one array, 2 KB a window (12 MB a minute on the 10-ms grid),
+    and projected on the mel bank at once: BLAS rounds a row of a product differently in
+    another block, and the bytes stay those of the whole."""
     width = round(WINDOW * RATE)
-    centres = np.round(np.asarray(times, float) * RATE).astype(np.int64)
-    index = centres[:, None] + (np.arange(width) - width // 2)[None, :]
-    inside = (index >= 0) & (index < len(samples))
-    if len(samples):
-        segments = np.where(inside, samples[np.clip(index, 0, len(samples) - 1)], 0.0)
-    else:
-        segments = np.zeros(index.shape)
-    spectrum = np.abs(np.fft.rfft(segments * np.hanning(width), _n_fft(), axis=1)) ** 2
+    times = np.asarray(times, float)
+    window = np.hanning(width)
+    spectrum = np.empty((len(times), _n_fft() // 2 + 1))
+    for start in range(0, len(times), BLOCK):
+        centres = np.round(times[start : start + BLOCK] * RATE).astype(np.int64)
+        index = centres[:, None] + (np.arange(width) - width // 2)[None, :]
+        inside = (index >= 0) & (index < len(samples))
+        if len(samples):
+            segments = np.where(inside, samples[np.clip(index, 0, len(samples) - 1)], 0.0)
+        else:
+            segments = np.zeros(index.shape)
+        block = np.abs(np.fft.rfft(segments * window, _n_fft(), axis=1)) ** 2
+        spectrum[start : start + len(block)] = block
     return spectrum @ mel_bank().T
 
 
