@@ -289,3 +289,30 @@ def test_a_check_passed_in_one_run_is_not_repeated_by_the_next_and_a_change_is_f
     monkeypatch.setattr(manifest, "_CHECKED", {})
     with pytest.raises(MiketalkError, match=r"aa\.png does not match its checksum"):
         Model(directory)
+
+
+def test_a_models_flows_are_kept_decoded_for_the_next_run_and_give_the_same_frames(
+    model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The flows a model reads are kept decoded in the user's cache, named by their file's
+    size and SHA-256 in the manifest: the next run reads no flow file, and morphs the same
+    bytes; another file (another checksum) is read from itself."""
+    from miketalk.flow import FlowDatabase
+
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    read: list[tuple[str, str]] = []
+    flow = FlowDatabase.flow
+    monkeypatch.setattr(FlowDatabase, "flow", lambda s, a, b: read.append((a, b)) or flow(s, a, b))
+    with Model(model_dir) as first:
+        drawn = [first.frame("p", "aa", alpha) for alpha in (0.25, 0.5)]
+        assert first.flow_identity("p", "aa") is not None
+    assert read
+    read.clear()
+    with Model(model_dir) as again:
+        again_drawn = [again.frame("p", "aa", alpha) for alpha in (0.25, 0.5)]
+    assert all(np.array_equal(a, b) for a, b in zip(again_drawn, drawn, strict=True))
+    assert read == []  # nothing read from the flow file
+    monkeypatch.setattr(Model, "flow_identity", lambda self, a, b: ("another", a, b))
+    with Model(model_dir) as other:
+        other.frame("p", "aa", 0.5)
+    assert read

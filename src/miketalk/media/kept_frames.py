@@ -34,7 +34,7 @@ from miketalk.media.atomic import atomic_paths
 from miketalk.media.frame_source import ImageFrames
 from miketalk.media.user_cache import cache_dir, entry_name
 
-__all__ = ["KIND", "KeptFrames", "kept_frames"]
+__all__ = ["KIND", "KeptFrames", "kept_arrays", "kept_frames"]
 
 log = logging.getLogger(__name__)
 
@@ -166,3 +166,29 @@ class _Unreadable(Exception):
     def __init__(self, error: MiketalkError) -> None:
         super().__init__(str(error))
         self.error = error
+
+
+def kept_arrays(kind: str, identity: object, make) -> tuple[np.ndarray, ...] | None:
+    """Arrays made once by ``make()`` (a tuple of arrays) and kept in the user's cache
+    under ``kind``, named by ``identity`` (what they are made from: a file's size and
+    SHA-256 in a model's manifest); the next run reads them back instead of making them
+    (a model's flows: an OpenEXR file's parsing and checks, 4 ms a flow of s1, against a
+    raw read). Each array is read whole (writable, not mapped). None: ``make()``'s arrays
+    could not be kept nor read (no cache); the caller makes them itself.
+    """
+    where = cache_dir(kind)
+    if where is None:
+        return None
+    path = where / f"{entry_name(kind + '/1', str(identity))}.npz"
+    try:
+        with np.load(path) as found:
+            return tuple(found[f"arr_{i}"] for i in range(len(found.files)))
+    except (OSError, ValueError, KeyError):
+        pass
+    arrays = tuple(make())
+    try:
+        with atomic_paths([path], suffixes=[".npz"]) as (tmp,), open(tmp, "wb") as f:
+            np.savez(f, *arrays)
+    except (OSError, MiketalkError) as err:
+        log.debug("%s not kept (%s)", kind, err)
+    return arrays

@@ -117,6 +117,14 @@ class Model(Morphs):
         )
         self._kept = KeptBackground(self.directory, manifest.get("files"))
 
+    def flow_identity(self, a: str, b: str) -> object | None:
+        """The size and SHA-256 the manifest records of the file of the flows between ``a``
+        and ``b`` (checked when the model was opened; None: not listed): their decoded
+        arrays are kept under it (:meth:`~miketalk.model.morphs.Morphs._read_pair`)."""
+        relative = self.flows.path_for(a, b).relative_to(self.directory).as_posix()
+        entry = self.manifest.get("files", {}).get(relative)
+        return None if entry is None else (entry["size"], entry["sha256"])
+
     def changed_on_disk(self) -> bool:
         """Whether a file the manifest lists was replaced, resized or touched since the
         model was opened and checked (its size, mtime or inode; a server keeping the model

@@ -148,8 +148,27 @@ class Morphs:
             return self._reads[key]
 
     def _read_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
-        """Flows ``a -> b`` and ``b -> a`` (the reading thread)."""
+        """Flows ``a -> b`` and ``b -> a`` (the reading thread): kept decoded in the user's
+        cache when :meth:`flow_identity` names the pair's file
+        (:func:`~miketalk.media.kept_frames.kept_arrays`), else read from it."""
+        identity = self.flow_identity(a, b)
+        if identity is not None:
+            from miketalk.media.kept_frames import kept_arrays
+
+            kept = kept_arrays(
+                "flows", (identity, a, b), lambda: (self.flows.flow(a, b), self.flows.flow(b, a))
+            )
+            if kept is not None:
+                for flow in kept:
+                    flow.flags.writeable = False  # as the database's own
+                return kept[0], kept[1]
         return self.flows.flow(a, b), self.flows.flow(b, a)
+
+    def flow_identity(self, a: str, b: str) -> object | None:
+        """What the file of the flows between ``a`` and ``b`` is (a
+        :class:`~miketalk.model.face.Model`: its size and SHA-256, checked when the model
+        was opened); None here: unknown, never kept."""
+        return None
 
     def flow_pair(self, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
         """Flows ``a -> b`` and ``b -> a`` (float32) through the model's one reading thread.
