@@ -175,3 +175,29 @@ def test_a_face_crop_model_says_and_dubs_the_same_from_both(s1_joined, tmp_path:
         _cli(tmp_path, "dub", str(clip), "--text", TEXT, "--model", str(model.model)),
         _page(tmp_path, model.model, text=TEXT, video=clip),
     )
+
+
+def test_the_workflows_say_is_the_public_calls_with_its_morph_and_grouping(
+    synthetic: Path, tmp_path: Path
+) -> None:
+    """Issue 49: the workflow's utterance rule called ``talk.say`` with its face's morph
+    settings and viseme grouping; it now calls :func:`miketalk.api.say`
+    (``SaySettings.grouping``, ``OpenModels(morph=...)``), with the bytes of the old call."""
+    from miketalk import api
+    from miketalk.lipsync.settings import LipsyncSettings
+    from miketalk.model.face import open_model
+    from miketalk.talk.say import say
+    from miketalk.visemes import VisemeTable
+
+    text, grouping, morph = "Think of this thin thing.", {"th": "f"}, {"median": False}
+    with open_model(synthetic, morph_options=morph) as model:
+        say(text, tmp_path / "old.mp4", model=model, table=VisemeTable(grouping=grouping),
+            settings=LipsyncSettings(fps=30, max_px_per_frame=2.5, sampling="blur"))  # fmt: skip
+    models = api.OpenModels(1, morph=morph)
+    settings = api.SaySettings(model=synthetic, fps=30, max_px_per_frame=2.5, grouping=grouping)
+    api.say(text, tmp_path / "new.mp4", settings, models=models)
+    models.close()
+    _same((tmp_path / "old.mp4").read_bytes(), (tmp_path / "new.mp4").read_bytes())
+    plain = api.SaySettings(model=synthetic, fps=30, max_px_per_frame=2.5)
+    api.say(text, tmp_path / "plain.mp4", plain, models=api.OpenModels(1, morph=morph))
+    assert (tmp_path / "plain.mp4").read_bytes() != (tmp_path / "new.mp4").read_bytes()

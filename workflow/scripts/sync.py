@@ -7,7 +7,7 @@ def main() -> None:
     import json
 
     from miketalk.media.atomic import write_text_atomic
-    from miketalk.talk.say import open_model
+    from miketalk.model.face import open_model
     from miketalk.talk.utterance import read_said
     from miketalk.visemes import VisemeTable
     from miketalk_lab.evaluation.sync import sync_table

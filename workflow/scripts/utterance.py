@@ -1,32 +1,32 @@
-"""Rules utterance and sweep_utterance: one text as an mp4 and its timeline JSON."""
+"""Rules utterance and sweep_utterance: one text as an mp4 and its timeline JSON, through the
+public API's ``say`` (:func:`miketalk.api.say`, the command line's and the page's call)."""
 
 from miketalk.stage import run_stage
 
 
 def main() -> None:
-    from miketalk.composite.for_model import resolve_background
-    from miketalk.lipsync.settings import LipsyncSettings
-    from miketalk.talk.say import open_model, say
-    from miketalk.visemes import VisemeTable
+    from miketalk import api
 
     p = snakemake.params
-    model = open_model(snakemake.input.model, morph_options=p.morph)
-    settings = LipsyncSettings(
-        fps=p.fps,
-        max_px_per_frame=p.max_px,
-        sampling=p.lipsync["sampling"],
-        max_slowdown=p.lipsync["max_slowdown"],
-        model=p.lipsync["model"],
+    sampling, max_px = p.lipsync["sampling"], p.max_px
+    if max_px is None or sampling == "none":  # the config's null: one morph a frame, no limit
+        sampling, max_px = "none", None
+    settings = api.SaySettings(
+        model=snakemake.input.model,
+        lipsync_model=p.lipsync["model"],
         trajectory=p.lipsync["trajectory"],
+        sampling=sampling,
+        max_px_per_frame=max_px,
+        fps=p.fps,
+        max_slowdown=p.lipsync["max_slowdown"],
+        background=p.get("background", "still"),
+        grouping=p.grouping or None,
     )
-    say(
-        p.text,
-        snakemake.output.video,
-        model=model,
-        settings=settings,
-        table=VisemeTable(grouping=p.grouping),
-        background=resolve_background(p.get("background", "still"), model),
-    )
+    models = api.OpenModels(1, morph=p.morph)  # the face's own morph settings
+    try:
+        api.say(p.text, snakemake.output.video, settings, models=models)
+    finally:
+        models.close()
 
 
 run_stage(snakemake, main)

@@ -28,10 +28,15 @@ class OpenModels:
     ----------
     keep : int
         How many models to keep open.
+    morph : dict, optional
+        The morph's settings the models are opened with
+        (:class:`~miketalk.render.morph_settings.MorphSettings`' fields; None: each model's
+        own): the workflow's faces' ``morph``.
     """
 
-    def __init__(self, keep: int = 2) -> None:
+    def __init__(self, keep: int = 2, *, morph: dict | None = None) -> None:
         self.keep = keep
+        self.morph = morph
         self._open: dict[tuple[str, float], tuple[Any, Any]] = {}
 
     def get(self, model_dir: str | os.PathLike[str]) -> tuple[Any, Any]:
@@ -53,7 +58,8 @@ class OpenModels:
         if key in self._open and self._open[key][0].changed_on_disk():
             self._open.pop(key)[0].close()
         if key not in self._open:
-            model = open_model(model_dir)
+            options = {} if self.morph is None else {"morph_options": self.morph}
+            model = open_model(model_dir, **options)
             try:
                 background = resolve_background("auto", model)
             except BaseException:

@@ -226,7 +226,7 @@ def _stream(
                 emitter.check()
                 fps = settings.fps if settings.fps is not None else own_fps(model, background)
                 return engine(said, settings.lipsync(fps, lipsync_model), model, background,
-                              progress=progress)(emitter)  # fmt: skip
+                              progress=progress, table=settings.table())(emitter)  # fmt: skip
 
     return Stream(produce, name="say")
 
@@ -273,12 +273,13 @@ def own_fps(model: Any, background: Any) -> float:
     return background.fps if in_crop else defaults.FPS
 
 
-def engine(speech, lipsync, model, background, *, progress: bool):
-    """The engine's work on ``speech`` (:func:`miketalk.talk.say.producer`)."""
+def engine(speech, lipsync, model, background, *, progress: bool, table=None):
+    """The engine's work on ``speech`` (:func:`miketalk.talk.say.producer`; ``table``: the
+    phone-to-viseme table, None: the paper's)."""
     from miketalk.talk.say import producer
 
     return producer(speech, model=model, settings=lipsync, progress=progress,
-                    background=background)  # fmt: skip
+                    background=background, table=table)  # fmt: skip
 
 
 def voice_of(speech: Speech, settings: SpeechSettings | DubSettings) -> dict:

@@ -123,11 +123,24 @@ class SaySettings(SpeechSettings):
     background : str or None
         ``auto`` (the model's own video of the person if it keeps one, else its still face),
         ``still``, or a video of the model's person (None: ``auto``).
+    grouping : dict or None
+        Corpus targets shown as another viseme than the paper's
+        (:class:`~miketalk.visemes.VisemeTable`'s ``grouping``: the workflow's
+        ``visemes.grouping``; None: the paper's 16 visemes).
     """
 
     fps: float | None = None
     max_slowdown: float | None = None
     background: str | None = None
+    grouping: dict | None = None
+
+    def table(self):
+        """The phone-to-viseme table (None: the paper's, :func:`miketalk.visemes.default_table`)."""
+        if not self.grouping:
+            return None
+        from miketalk.visemes import VisemeTable
+
+        return VisemeTable(grouping=self.grouping)
 
     def __post_init__(self) -> None:
         if self.fps is not None:
