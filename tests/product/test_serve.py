@@ -154,18 +154,22 @@ def _choose(page, label: str) -> None:
 
 
 def _say(page, label: str, text: str) -> dict:
-    """Type ``text`` for the face ``label`` and click Speak; when it plays, what the page
-    and the server say of it."""
+    """Type ``text`` for the face ``label`` and click Speak; once its first frame is on the
+    screen (played as it is made) and the whole has been played in, what the page and the
+    server say of it."""
     page.bring_to_front()  # a page behind another has its animation frames throttled
     page.click("#tab-say")
     _choose(page, label)
     page.fill("#say-form textarea[name=text]", text)
-    page.evaluate("delete document.getElementById('player').dataset.sinceClick")
+    page.evaluate("delete document.getElementById('player').dataset.firstFrame")
     page.click("#say-form button[type=submit]")
-    page.wait_for_selector("#player[data-since-click]", state="attached", timeout=30_000)
+    page.wait_for_selector("#player[data-first-frame]", state="attached", timeout=60_000)
+    page.wait_for_selector("#player[data-live-ended]", state="attached", timeout=120_000)
+    page.wait_for_selector("#result[data-job]", state="attached", timeout=60_000)
     seen = page.evaluate(
         """() => { const v = document.getElementById('player');
-        return {duration: v.duration, since: Number(v.dataset.sinceClick), job: v.dataset.job,
+        return {duration: v.duration, since: Number(v.dataset.firstFrame), job: v.dataset.job,
+                stalls: Number(v.dataset.stalls),
                 cues: document.querySelectorAll('#cues .cue').length,
                 mp4: document.getElementById('get-mp4').href}; }"""
     )
@@ -391,7 +395,7 @@ def test_refusals_are_one_line(server) -> None:
 
 def test_the_build_ends_with_its_stages_and_a_face_that_speaks(building, server) -> None:
     models = server.app.config.models
-    _build_status(building, "done", 150)
+    _build_status(building, "done", 600)
     stages = server.app.settings()["build_stages"]
     assert _stages(building, "li.done") == stages
     assert building.locator("#build-progress .fill").evaluate("e => e.style.width") == "100%"
@@ -630,11 +634,11 @@ def test_the_text_limit_is_stated_and_a_longer_text_refused_before_any_work(
     page, url: str, server
 ) -> None:
     _open(page, url)
-    limit = server.app.settings()["max_text_chars"]
+    words = server.app.settings()["max_text_words"]
     stated = page.inner_text("#say-limit")
-    assert f"{limit:,}" in stated and "never cut" in stated  # before any work
+    assert f"{words:,} words" in stated and "never cut" in stated  # before any work
     before = len(server.app.board.listing())
-    text = "Bin blue at F two now. " * (limit // 23 + 1)
+    text = "Bin blue at F two now. " * (words // 6 + 1)
     page.fill("#say-form textarea[name=text]", text)
     assert page.input_value("#say-form textarea[name=text]") == text  # pasted whole
     assert "too many" in page.inner_text("#say-limit")
@@ -642,7 +646,7 @@ def test_the_text_limit_is_stated_and_a_longer_text_refused_before_any_work(
     error = page.locator("#say-form .error")
     error.wait_for(state="visible")
     assert error.inner_text() == (
-        f"error: the text is {len(text):,} characters long: at most {limit:,}; nothing was "
+        f"error: the text has {6 * (words // 6 + 1):,} words: at most {words:,}; nothing was "
         "sent or cut"
     )
     assert len(server.app.board.listing()) == before  # no job
@@ -689,3 +693,34 @@ def test_the_queue_shows_each_jobs_place_and_cancels_a_queued_one(
                 break
             time.sleep(0.1)
         assert server.app.board.public(job_id)["status"] == "done"
+
+
+def test_speak_plays_as_it_is_made_and_stop_ends_it(page, url: str, server) -> None:
+    """A long text: its first frame plays while the rest is made (the stream has not ended),
+    the viewer's stalls are counted, Stop pauses the video and ends the job, which keeps
+    nothing; the times are make bench's (:mod:`miketalk_lab.bench.live_page`)."""
+    from test_cli import LONG_TEXT
+
+    _open(page, url)
+    page.click("#tab-say")
+    _choose(page, "model")
+    page.fill("#say-form textarea[name=text]", LONG_TEXT * 4)
+    page.click("#say-form button[type=submit]")
+    page.wait_for_selector("#player[data-first-frame]", state="attached", timeout=60_000)
+    job_id = page.get_attribute("#player", "data-job")
+    assert server.app.board.public(job_id)["status"] == "running"  # played while made
+    assert page.is_visible("#stop") and page.evaluate("document.activeElement.id") == "stop"
+    for _ in range(600):  # (the page's CSP forbids Playwright's evaluated wait_for_function)
+        if page.evaluate("() => document.getElementById('player').currentTime > 0.5"):
+            break
+        time.sleep(0.05)
+    shot(page, "live")
+    page.click("#stop")
+    page.wait_for_selector("#player[data-stop-seconds]", state="attached", timeout=30_000)
+    assert page.evaluate("document.getElementById('player').paused")
+    job = server.app.board.public(job_id)
+    assert job["status"] == "cancelled" and job["stopped_in"] is not None
+    assert sorted(p.name for p in _job_folder(server, job_id).iterdir()) == ["job.json"]
+    assert page.inner_text("#live-state") == "Stopped: nothing of it was kept."
+    assert page.is_hidden("#stop")
+    shot(page, "stopped")

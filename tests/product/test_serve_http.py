@@ -6,6 +6,7 @@ page's messages naming an upload as it was sent, not as the server keeps it.
 
 from __future__ import annotations
 
+import contextlib
 import http.client
 import json
 import os
@@ -210,3 +211,119 @@ def test_a_message_names_the_upload_as_it_was_sent(server, tmp_path: Path) -> No
         "none of the 9 words can be aligned to the sound of holiday clip.mp4: it has no "
         "speech; see what anna says.txt (not myvideo.mp4 nor video.mp4s)"
     )
+
+
+def _live_job(server, text: str, model: str = "model") -> dict:
+    body = json.dumps({"kind": "say", "model": model, "text": text, "live": True}).encode()
+    status, _, raw = _ask(server, "POST", "/api/jobs", body, X_Miketalk="1")
+    assert status == 201, raw
+    job = json.loads(raw)
+    assert job["live"] == f"/api/jobs/{job['id']}/live"
+    return job
+
+
+def _until(server, job_id: str, statuses: set[str], within: float = 120.0) -> dict:
+    deadline = time.monotonic() + within
+    while (job := json.loads(_ask(server, "GET", f"/api/jobs/{job_id}")[2]))["status"] not in (
+        statuses
+    ):
+        if time.monotonic() > deadline:
+            pytest.fail(f"job {job_id} still {job['status']} after {within} s")
+        time.sleep(0.05)
+    return job
+
+
+def test_a_live_say_streams_the_frames_its_file_holds(server, tmp_path: Path) -> None:
+    """The fragmented MP4 the page plays (read here as it comes, from the job's start) holds
+    the very frames of the mp4 the job leaves for download."""
+    if not FestivalBackend().is_available():
+        pytest.skip("Festival not installed")
+    from test_stream import decoded
+
+    job = _live_job(server, "Bin blue at F two now. Place red by G nine soon.")
+    host, port = server.server_address[:2]
+    connection = http.client.HTTPConnection(host, port, timeout=120)
+    connection.request("GET", job["live"], headers={"Host": f"{host}:{port}"})
+    response = connection.getresponse()
+    assert response.status == 200 and response.getheader("content-type") == "video/mp4"
+    pieces = []
+    while piece := response.read1(1 << 16):
+        pieces.append(piece)
+    connection.close()
+    assert len(pieces) > 1  # it came in pieces, as made
+    (tmp_path / "live.mp4").write_bytes(b"".join(pieces))
+    done = _until(server, job["id"], {"done", "failed"})
+    assert done["status"] == "done", done
+    folder = server.app.config.results / job["id"]
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "cues.json", "cues.tsv", "job.json", "say.json", "say.mp4",
+    ]  # fmt: skip
+    frames = decoded(folder / "say.mp4", "v")
+    assert len(frames) == done["result"]["frames"] > 30 and len(set(frames)) > 5
+    assert decoded(tmp_path / "live.mp4", "v") == frames
+    timeline = json.loads((folder / "say.json").read_text())
+    assert len(timeline["frames"]) == len(frames)
+    cues = json.loads((folder / "cues.json").read_text())
+    assert cues["mouthCues"][-1]["end"] == pytest.approx(done["result"]["duration"], abs=0.02)
+    # once ended, a late reader gets nothing more: the job's file is its download
+    assert _ask(server, "GET", job["live"])[2] == b""
+
+
+def test_a_stop_ends_a_running_live_say_and_its_processes(server) -> None:
+    if not FestivalBackend().is_available():
+        pytest.skip("Festival not installed")
+    from test_cli import LONG_TEXT
+    from test_stream import descendants
+
+    def tools() -> set[int]:
+        names = {}
+        for pid in descendants():
+            with contextlib.suppress(OSError):
+                names[pid] = Path(f"/proc/{pid}/comm").read_text().strip()
+        return {p for p, n in names.items() if n.startswith(("ffmpeg", "festival"))}
+
+    before = tools()
+    job = _live_job(server, LONG_TEXT * 4)
+    host, port = server.server_address[:2]
+    connection = http.client.HTTPConnection(host, port, timeout=120)
+    connection.request("GET", job["live"], headers={"Host": f"{host}:{port}"})
+    response = connection.getresponse()
+    assert response.read1(1 << 16)  # playing: its first fragment came
+    working = tools() - before
+    assert working, "no ffmpeg or Festival seen at work"
+    status, _, raw = _ask(server, "POST", f"/api/jobs/{job['id']}/cancel", X_Miketalk="1")
+    assert status == 200, raw
+    while response.read1(1 << 16):  # the stream ends
+        pass
+    connection.close()
+    ended = _until(server, job["id"], {"cancelled", "done", "failed"}, within=30)
+    assert ended["status"] == "cancelled", ended
+    assert ended["message"] == "stopped: nothing of it was kept"
+    assert isinstance(ended["stopped_in"], float)  # its time: make bench (live_page)
+    assert not (working & tools())  # every process of its work ended
+    folder = server.app.config.results / job["id"]
+    assert sorted(p.name for p in folder.iterdir()) == ["job.json"]
+    # the server goes on: the next live say plays whole
+    assert _until(server, _live_job(server, "One.")["id"], {"done", "failed"})["status"] == "done"
+
+
+def test_the_text_limit_is_the_librarys() -> None:
+    from miketalk.serve.config import MAX_TEXT_WORDS
+    from miketalk.speech.text import MAX_SPOKEN_WORDS
+
+    assert MAX_TEXT_WORDS == MAX_SPOKEN_WORDS
+
+
+def test_a_text_over_the_word_limit_is_refused_before_it_is_queued(server) -> None:
+    from miketalk.serve.config import MAX_TEXT_WORDS
+
+    before = len(server.app.board.listing())
+    text = "word " * (MAX_TEXT_WORDS + 1)
+    body = json.dumps({"kind": "say", "model": "model", "text": text, "live": True}).encode()
+    status, _, raw = _ask(server, "POST", "/api/jobs", body, X_Miketalk="1")
+    assert status == 400
+    assert json.loads(raw)["error"] == (
+        f"the text has {MAX_TEXT_WORDS + 1:,} words: at most {MAX_TEXT_WORDS:,} (some 60 "
+        "minutes of speech); split it"
+    )
+    assert len(server.app.board.listing()) == before

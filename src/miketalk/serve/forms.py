@@ -10,6 +10,7 @@ here too, so their line comes at once.
 
 from __future__ import annotations
 
+import re
 import shutil
 from collections.abc import Mapping
 from pathlib import Path
@@ -19,8 +20,9 @@ from miketalk import api
 from miketalk.api import DubSettings, MiketalkError, SaySettings, SettingError
 from miketalk.api.vocabulary import DEFAULT_VOICE, LIPSYNC_MODELS, VOICES
 from miketalk.serve.catalog import Catalog, Entry
-from miketalk.serve.config import MAX_TEXT_CHARS
+from miketalk.serve.config import MAX_TEXT_CHARS, MAX_TEXT_WORDS
 from miketalk.serve.jobs import Board
+from miketalk.serve.live import LIVE_FILE, LiveFile
 from miketalk.serve.records import Job, plainly
 from miketalk.serve.uploads import Upload, Uploads
 
@@ -28,6 +30,8 @@ from miketalk.serve.uploads import Upload, Uploads
 KINDS = ("say", "dub", "build")
 #: The longest name of a model built on the page, characters.
 MAX_LABEL_CHARS = 80
+#: A word, as the library counts them for its limit.
+_WORDS = re.compile(r"[A-Za-z0-9']+")
 #: The page's name of each setting a job sets (:class:`~miketalk.errors.SettingError`'s names).
 FIELDS = {"lipsync_model": "lipsync", "audio": "recording"}
 
@@ -39,7 +43,12 @@ def _text(body: Mapping[str, Any], key: str = "text", limit: int = MAX_TEXT_CHAR
     if not isinstance(value, str):
         raise MiketalkError(f"the {key} must be text")
     if len(value) > limit:
-        raise MiketalkError(f"the {key} is {len(value)} characters long: at most {limit}")
+        raise MiketalkError(f"the {key} is {len(value):,} characters long: at most {limit:,}")
+    if key == "text" and (words := len(_WORDS.findall(value))) > MAX_TEXT_WORDS:
+        raise MiketalkError(
+            f"the text has {words:,} words: at most {MAX_TEXT_WORDS:,} (some 60 minutes of "
+            "speech); split it"
+        )
     return value.strip()
 
 
@@ -112,6 +121,8 @@ def make_job(body: object, *, board: Board, catalog: Catalog, uploads: Uploads) 
             "voice": None if recorded else settings["voice"],
         }
         job.aliases.append((str(entry.path), entry.label))
+        if body.get("live"):  # played as it is made (miketalk.serve.live)
+            job.live = LiveFile(job.folder / LIVE_FILE)
     except BaseException:
         shutil.rmtree(job.folder, ignore_errors=True)
         raise

@@ -26,10 +26,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from miketalk.api import MiketalkError, OpenModels, load_engine
+from miketalk.api import Cancelled, MiketalkError, OpenModels, Stream, load_engine
 from miketalk.serve.build import BUILD_STAGES, BuildRun
 from miketalk.serve.catalog import Catalog
 from miketalk.serve.config import ServeConfig
+from miketalk.serve.live import speak_live
 from miketalk.serve.records import FINAL, RECORD, STOPPED, Job, earlier_jobs
 from miketalk.serve.work import Outcome, one_line, speak, warnings_of, write_text
 
@@ -151,20 +152,30 @@ class Board:
                 job.position = place
 
     def cancel(self, job_id: object) -> dict[str, Any]:
-        """Cancel a queued job, or stop a running build (its thread terminates the child).
+        """Cancel a queued job, stop a running live ``say`` or ``dub`` (its stream cancelled:
+        the work and its processes end at once), or a running build (its thread terminates
+        the child).
 
         Raises
         ------
         MiketalkError
-            A job that has ended, or a ``say`` or ``dub`` already running.
+            A job that has ended, or a ``say`` or ``dub`` running that is not live.
         """
         job = self.get(job_id)
         with self._lock:
             if job.status == "queued":
+                if job.live is not None:
+                    job.live.ended = True  # its followers end: nothing will come
                 self._end(job, "cancelled", "cancelled before it started")
             elif job.status == "running" and job.kind == "build":
                 job.cancel_asked = True
                 job.stage = "cancelling"
+            elif job.status == "running" and job.live is not None:
+                if not job.cancel_asked:
+                    job.cancel_asked, job.stop_asked = True, time.monotonic()
+                    job.stage = "stopping"
+                    if job.stream is not None:
+                        job.stream.cancel()
             elif job.status == "running":
                 raise MiketalkError(f"a {job.kind} cannot be stopped once it runs; it will end")
             else:
@@ -179,11 +190,19 @@ class Board:
             for job in self._jobs.values():
                 if job.kind == "build" and job.status == "running":
                     job.cancel_asked = True
-            speaking = any(j.kind != "build" and j.status == "running" for j in self._jobs.values())
+            speaking = [
+                j for j in self._jobs.values() if j.kind != "build" and j.status == "running"
+            ]
+            for job in speaking:
+                if job.live is not None:
+                    job.live.ended = True
+                if job.stream is not None:
+                    job.stream.cancel()  # the work and its processes end at once
         self._speech.put(None)
         self._builds.put(None)
         speech = self._threads[0]
         if speaking:
+            speech.join(timeout=0.5 if speaking[0].stream is not None else 0)
             interrupt(speech)
             speech.join(timeout=SPEECH_STOP_SECONDS)
         for thread in self._threads:
@@ -227,10 +246,18 @@ class Board:
                     continue
                 try:
                     with warnings_of(lambda line, job=job: self.warn(job, line, logged=True)):
-                        outcome = speak(job.folder, **job.params, warm=warm)
+                        outcome = self._speak(job, warm)
                 except ServerStopping:
                     self._end(job, "interrupted", STOPPED)
                     return
+                except Cancelled:
+                    with self._lock:
+                        if job.stop_asked is not None:
+                            job.stopped_in = round(time.monotonic() - job.stop_asked, 3)
+                    if job.cancel_asked:
+                        self._end(job, "cancelled", "stopped: nothing of it was kept")
+                    else:
+                        self._end(job, "interrupted", STOPPED)
                 except Exception as err:
                     if self._closing.is_set():  # e.g. its ffmpeg killed by the stopping signal
                         self._end(job, "interrupted", STOPPED)
@@ -243,6 +270,25 @@ class Board:
                 self._end(job, "interrupted", STOPPED)
         finally:
             warm.close()
+
+    def _speak(self, job: Job, warm: OpenModels) -> Outcome:
+        """The work of a ``say`` or ``dub``: live (:func:`~miketalk.serve.live.speak_live`)
+        or written to its mp4 (:func:`~miketalk.serve.work.speak`)."""
+        if job.live is None:
+            return speak(job.folder, **job.params, warm=warm)
+
+        def started(stream: Stream) -> None:
+            with self._lock:
+                job.stream = stream
+                if job.cancel_asked or self._closing.is_set():
+                    stream.cancel()
+
+        try:
+            return speak_live(job.folder, **job.params, warm=warm, live=job.live, started=started)
+        finally:
+            with self._lock:
+                job.stream = None
+                job.live.ended = True
 
     def _build_loop(self) -> None:
         while (job := self._builds.get()) is not None:

@@ -64,6 +64,10 @@ class Job:
     cancel_asked: bool = False
     warnings: list[str] = field(default_factory=list)
     position: int | None = None
+    live: Any = field(default=None, repr=False)  # LiveFile: its stream as it is written
+    stream: Any = field(default=None, repr=False)  # the library's Stream, while it runs
+    stop_asked: float | None = None  # time.monotonic() of the Stop
+    stopped_in: float | None = None  # seconds from the Stop to the work's end
 
     def public(self) -> dict[str, Any]:
         """What the page sees: no server path."""
@@ -89,8 +93,10 @@ class Job:
             },
             "warnings": list(self.warnings),
             "position": self.position if self.status == "queued" else None,
+            "live": f"/api/jobs/{self.id}/live" if self.live is not None else None,
+            "stopped_in": self.stopped_in,
             "cancellable": self.status == "queued"
-            or (self.kind == "build" and self.status == "running"),
+            or (self.status == "running" and (self.kind == "build" or self.live is not None)),
         }
 
     def plainly(self, line: str) -> str:

@@ -9,7 +9,8 @@ Routes (``GET`` unless said)::
     POST /api/upload?kind=K         a file as the raw body (K: video, audio, script) -> its id
     POST /api/jobs                  a job as JSON (say, dub, build) -> the job
     /api/jobs, /api/jobs/<id>       the jobs, one job
-    POST /api/jobs/<id>/cancel      cancel a queued job or a running build
+    POST /api/jobs/<id>/cancel      cancel a queued job, stop a running live one or a build
+    /api/jobs/<id>/live             a live job's fragmented MP4 from its start, as it is made
     /files/<job>/<name>             a file the job made (byte ranges; ``?download``: as a
                                     download named after the job)
 
@@ -34,7 +35,7 @@ from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 from starlette.requests import Request
-from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.responses import FileResponse, JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
 from miketalk.api import MiketalkError
@@ -42,7 +43,8 @@ from miketalk.serve.bodies import ClientLeft, Stalled, pieces, read_json
 from miketalk.serve.config import MAX_JSON_BYTES
 from miketalk.serve.forms import make_job
 from miketalk.serve.guard import Guard, allowed_hosts, error
-from miketalk.serve.records import download_name
+from miketalk.serve.live import follow
+from miketalk.serve.records import FINAL, download_name
 from miketalk.serve.state import App
 from miketalk.serve.uploads import UploadRefused
 
@@ -52,6 +54,7 @@ log = logging.getLogger(__name__)
 STATIC = {
     "page.html": "text/html; charset=utf-8",
     "page.js": "text/javascript; charset=utf-8",
+    "live.js": "text/javascript; charset=utf-8",
     "page.css": "text/css; charset=utf-8",
     "icon.svg": "image/svg+xml",
 }
@@ -220,6 +223,20 @@ async def cancel(request: Request) -> Response:
 
 
 @_answered
+async def live(request: Request) -> Response:
+    try:
+        found = _app(request).board.get(request.path_params["job_id"])
+    except MiketalkError:
+        raise NotFound from None
+    if found.live is None:
+        raise NotFound
+    return StreamingResponse(
+        follow(found.live, until=lambda: found.status in FINAL),
+        media_type="video/mp4", headers={"cache-control": "no-store"},
+    )  # fmt: skip
+
+
+@_answered
 async def job_file(request: Request) -> Response:
     app = _app(request)
     try:
@@ -261,6 +278,7 @@ def asgi(app: App, host: str, port: int) -> Guard:
         Route("/api/jobs", jobs, methods=["GET", "POST"]),
         Route("/api/jobs/{job_id}", job),
         Route("/api/jobs/{job_id}/cancel", cancel, methods=["POST"]),
+        Route("/api/jobs/{job_id}/live", live),
         Route("/files/{job_id}/{name}", job_file),
     ]
     star = Starlette(routes=routes, exception_handlers={HTTPException: _not_found})

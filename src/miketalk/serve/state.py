@@ -8,7 +8,7 @@ from miketalk import __version__
 from miketalk.api.vocabulary import DEFAULT_VOICE, LIPSYNC_MODELS, VOICES
 from miketalk.serve.build import BUILD_STAGES
 from miketalk.serve.catalog import Catalog
-from miketalk.serve.config import MAX_TEXT_CHARS, ServeConfig
+from miketalk.serve.config import MAX_TEXT_CHARS, MAX_TEXT_WORDS, ServeConfig
 from miketalk.serve.jobs import Board
 from miketalk.serve.uploads import Uploads
 
@@ -33,6 +33,7 @@ class App:
             "version": __version__,
             "max_upload_bytes": self.config.max_upload_bytes,
             "max_text_chars": MAX_TEXT_CHARS,
+            "max_text_words": MAX_TEXT_WORDS,
             "voices": [{"name": v.name, "description": v.description} for v in VOICES.values()],
             "default_voice": DEFAULT_VOICE,
             "lipsync_models": list(LIPSYNC_MODELS),

@@ -91,15 +91,16 @@ def speak(
         output = folder / "say.mp4"
         said = api.say(speech, output, SaySettings(**options), models=warm)
         extra = {}
-    return _outcome(said, output, extra)
+    return outcome(said, output, said.timeline_json, extra)
 
 
-def _outcome(said: SayResult, output: Path, extra: dict) -> Outcome:
-    """The result of a say or dub: the files, the summary and the mouth cues."""
+def outcome(said: SayResult, output: Path, timeline: Path, extra: dict) -> Outcome:
+    """The result of a say or dub written to ``output`` and its ``timeline``: the files,
+    the summary and the mouth cues (written beside them)."""
     spoken = said.spoken
     duration = spoken.duration
     cues = said.cues()
-    files = {output.name: output, spoken.timeline_json.name: spoken.timeline_json}
+    files = {output.name: output, timeline.name: timeline}
     for name, text in (
         ("cues.json", said.cues_text("json", sound_file=output.name)),
         ("cues.tsv", said.cues_text("tsv")),
@@ -110,7 +111,7 @@ def _outcome(said: SayResult, output: Path, extra: dict) -> Outcome:
     drawn = f", {spoken.trajectory} trajectory" if spoken.trajectory else ""
     result = {
         "video": output.name,
-        "timeline": spoken.timeline_json.name,
+        "timeline": timeline.name,
         "cues_json": "cues.json",
         "cues_tsv": "cues.tsv",
         "duration": duration,

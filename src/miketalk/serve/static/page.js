@@ -167,39 +167,52 @@ function showError(form, message) {
   line.hidden = !message;
 }
 
-// The text's limit, stated in the page before any work, and the count of what is typed.
+// The text's limits (words, as the library counts them, and characters), stated in the page
+// before any work, with the count of what is typed. Returns the line refusing it, or null.
 function showCount(form) {
   const text = $("textarea[name=text]", form).value;
-  const max = state.config ? state.config.max_text_chars : 0;
   const line = $(".limit", form);
-  if (!line || !max) return true;
-  $(".max", line).textContent = max.toLocaleString("en");
-  const over = text.length > max;
+  if (!line || !state.config) return null;
+  const chars = state.config.max_text_chars;
+  const words = state.config.max_text_words;
+  const n = (text.match(/[A-Za-z0-9']+/g) || []).length;
+  const en = (x) => x.toLocaleString("en");
+  $(".max", line).textContent = en(chars);
+  $(".max-words", line).textContent = en(words);
+  let refusal = null;
+  if (n > words) refusal = `the text has ${en(n)} words: at most ${en(words)}`;
+  else if (text.length > chars) refusal = `the text is ${en(text.length)} characters long: at most ${en(chars)}`;
   $(".count", line).textContent = text.length ?
-    `(${text.length.toLocaleString("en")} now${over ? `: ${(text.length - max).toLocaleString("en")} too many` : ""})` : "";
-  line.classList.toggle("over", over);
-  return !over;
+    `(${en(n)} words, ${en(text.length)} characters now${refusal ? ": too many" : ""})` : "";
+  line.classList.toggle("over", Boolean(refusal));
+  return refusal;
 }
 
+// What the page saw of the live playback (read by the tests and the bench).
+function noteLive(key, value) {
+  $("#player").dataset[key] = String(value);
+}
+
+// Speak (or Dub): the job is queued, and played as it is made (live.js); Stop ends it.
 async function submitSpeech(form, kind) {
   showError(form, null);
   if (!state.model) { showError(form, "choose a face in the list first"); return; }
-  if (!showCount(form)) {
-    const max = state.config.max_text_chars.toLocaleString("en");
-    showError(form, `the text is ${$("textarea[name=text]", form).value.length.toLocaleString("en")} ` +
-      `characters long: at most ${max}; nothing was sent or cut`);
-    return;
-  }
+  const refusal = showCount(form);
+  if (refusal) { showError(form, `${refusal}; nothing was sent or cut`); return; }
   const clicked = performance.now();
+  stopPlaying();
   state.shown = null;
-  $("#result").hidden = true;  // until this job's result
-  $("#player").pause();
-  $("#player").removeAttribute("src");
+  const section = $("#result");
+  section.hidden = true;  // until this job plays
+  delete section.dataset.job;
+  const player = $("#player");
+  for (const key of Object.keys(player.dataset)) delete player.dataset[key];
+  let playing = null;
   try {
     setBusy(form, "starting");
     const body = {
       kind, model: state.model.id, text: $("textarea[name=text]", form).value,
-      lipsync: $("select[name=lipsync]", form).value,
+      lipsync: $("select[name=lipsync]", form).value, live: true,
     };
     const audio = $("input[name=audio]", form).files[0];
     if (audio) body.audio = (await upload(audio, "audio", (t) => setBusy(form, t))).upload;
@@ -210,14 +223,25 @@ async function submitSpeech(form, kind) {
       body.video = (await upload(video, "video", (t) => setBusy(form, t))).upload;
     }
     const job = await post("/api/jobs", body);
+    noteLive("job", job.id);
     refreshJobs();
+    playing = startLive(job, clicked, kind);
     const done = await follow(job.id, (j) => {
       setBusy(form, j.status === "queued" ? `queued: ${ordinal(j.position)} in line` :
         `${j.stage || j.status}${j.elapsed ? ` (${j.elapsed.toFixed(1)} s)` : ""}`);
     }, 150);
-    if (done.status === "done") showResult(done, clicked, true);
-    else showError(form, done.message || done.status);
+    if (done.status === "done") {
+      await playing.done.catch(() => { /* its end is the job's */ });
+      showResult(done, clicked, true, true);
+    } else if (done.status === "cancelled" && state.live && state.live.stopped) {
+      $("#live-state").textContent = "Stopped: nothing of it was kept.";
+    } else {
+      stopPlaying();
+      section.hidden = true;
+      showError(form, done.message || done.status);
+    }
   } catch (err) {
+    stopPlaying();
     showError(form, err.message);
   } finally {
     setBusy(form, null);
@@ -225,6 +249,89 @@ async function submitSpeech(form, kind) {
     // the button was disabled while it worked: the focus goes back to it, not to the body
     if (document.activeElement === document.body) $("button[type=submit]", form).focus();
   }
+}
+
+// The live player of `job`: the result shown at once, the Stop button on, the first frame's
+// time noted.
+function startLive(job, clicked, kind) {
+  const section = $("#result");
+  const player = $("#player");
+  section.hidden = false;
+  $(".summary", section).textContent = "";
+  $(".downloads", section).hidden = true;
+  drawCues([], 1);
+  drawWarnings($(".warnings", section), []);
+  const handle = playLive(player, job.live, {
+    onFirstFrame: (t) => {
+      noteLive("firstFrame", ((t - clicked) / 1000).toFixed(3));
+      noteLive("sinceClick", ((t - clicked) / 1000).toFixed(2));
+      $("#live-state").textContent = "Playing as it is made";
+    },
+  });
+  state.live = { job: job.id, handle, stopped: false };
+  const stop = $("#stop");
+  stop.hidden = false;
+  stop.disabled = false;
+  const live = $("#live-state");
+  live.className = "live-state on";
+  live.textContent = job.status === "queued" && job.position ?
+    `Queued: ${ordinal(job.position)} in line` : "Starting";
+  $("#announce").textContent = `${kind === "dub" ? "Dubbing" : "Speaking"}: the face plays as it is made. Stop ends it.`;
+  stop.focus({ preventScroll: true });
+  section.scrollIntoView({ block: "start", behavior: "instant" });
+  handle.done.then(() => {
+    const { stats } = handle;
+    noteLive("stalls", stats.stalls);
+    noteLive("stalledSeconds", stats.stalledSeconds.toFixed(3));
+    noteLive("liveBytes", stats.bytes);
+    noteLive("liveEnded", "1");
+  }, (err) => {
+    if (!state.live || !state.live.stopped) $("#live-state").textContent = `The stream broke off: ${err.message}`;
+  }).finally(() => {
+    stop.hidden = true;
+    live.className = "live-state";
+    if (live.textContent.startsWith("Playing") || live.textContent === "Starting") live.textContent = "";
+  });
+  // the viewer's waits for data, as they happen (a long text: none expected)
+  player.addEventListener("waiting", () => noteLive("stalls", handle.stats.stalls));
+  return handle;
+}
+
+// Stop: the playback at once, then the job (its work and processes) on the server; the time
+// until the server says it has ended is noted.
+async function stopLive() {
+  const live = state.live;
+  if (!live || live.stopped) return;
+  live.stopped = true;
+  const asked = performance.now();
+  live.handle.stop();
+  $("#stop").disabled = true;
+  $("#live-state").className = "live-state";
+  $("#live-state").textContent = "Stopping";
+  try {
+    await post(`/api/jobs/${encodeURIComponent(live.job)}/cancel`);
+    for (;;) {
+      const job = await api(`/api/jobs/${encodeURIComponent(live.job)}`);
+      if (FINAL.has(job.status)) {
+        noteLive("stopSeconds", ((performance.now() - asked) / 1000).toFixed(3));
+        if (job.stopped_in !== null) noteLive("stoppedIn", job.stopped_in);
+        $("#live-state").textContent = job.status === "cancelled" ?
+          "Stopped: nothing of it was kept." : `It had ended (${job.status}).`;
+        $("#announce").textContent = "Stopped.";
+        break;
+      }
+      await sleep(20);
+    }
+  } catch (err) {
+    $("#live-state").textContent = `error: ${err.message}`;
+  }
+  refreshJobs();
+}
+
+function stopPlaying() {
+  if (state.live && !state.live.stopped) state.live.handle.stop();
+  $("#stop").hidden = true;
+  $("#player").pause();
 }
 
 async function submitBuild(form) {
@@ -328,15 +435,20 @@ function drawWarnings(list, warnings) {
 }
 
 // Speak's result: announced (aria-live), the focus on it and on the screen (a phone's too).
-function showResult(job, clicked, announce) {
+function showResult(job, clicked, announce, live) {
   const result = job.result;
   const section = $("#result");
   section.hidden = false;
   state.shown = job;
   const player = $("#player");
-  player.src = job.files[result.video];
+  if (!live) {  // a live job's stream plays on: the same frames as its file
+    stopPlaying();
+    player.src = job.files[result.video];
+  }
   player.dataset.job = job.id;
-  if (clicked !== undefined) {
+  section.dataset.job = job.id;
+  $(".downloads", section).hidden = false;
+  if (clicked !== undefined && !live) {
     player.addEventListener("playing", () => {
       player.dataset.sinceClick = ((performance.now() - clicked) / 1000).toFixed(2);
     }, { once: true });
@@ -358,8 +470,10 @@ function showResult(job, clicked, announce) {
     const notes = (job.warnings || []).length;
     $("#announce").textContent = `${job.kind === "dub" ? "Dubbed" : "Said"}: ${result.summary}.` +
       (notes ? ` ${notes} note${notes > 1 ? "s" : ""} below.` : "") + " The video plays.";
-    $("#result-title").focus({ preventScroll: true });
-    section.scrollIntoView({ block: "start", behavior: "instant" });
+    if (!live || document.activeElement === document.body || document.activeElement === $("#stop")) {
+      $("#result-title").focus({ preventScroll: true });
+    }
+    if (!live) section.scrollIntoView({ block: "start", behavior: "instant" });
   }
 }
 
@@ -516,6 +630,7 @@ async function start() {
     });
   }
   followPlayer();
+  $("#stop").addEventListener("click", stopLive);
   try {
     state.config = await api("/api/config");
     for (const select of $$("select[name=voice]")) {

@@ -1,0 +1,254 @@
+"""Live Speak in a real browser: what the viewer sees, timed by the page itself.
+
+``python -m miketalk_lab.bench.live_page OUT [--model LABEL=DIR ...] [--repeats N]`` starts
+``miketalk serve`` on a free port of 127.0.0.1 with the models (default: ``make run``'s
+synthetic face and s1), drives Debian's Chromium (Playwright, headless; never ``playwright
+install``) and measures, per model:
+
+- **first frame**: Speak clicked to the first frame of the face on the screen (the page's own
+  ``performance.now()`` at the click and at the video's first ``requestVideoFrameCallback``),
+  a 10-word sentence, the median (min, max) of ``repeats`` runs (target: 0.5 s);
+- **stalls**: a text of about two minutes of speech played to its end: how often, after its
+  first frame, the video waited for data (``waiting`` events) and for how long in all
+  (target: never);
+- **Stop**: Stop clicked one second into the long text's playback, to the server's record of
+  the job as ended (the page's clock), to the stream's work unwound (the server's own
+  ``stopped_in``), and to the last ffmpeg and Festival of the server gone (this process
+  watching ``/proc``) (target: 0.5 s).
+
+It saves a screenshot of each model's live playback (``OUT/shots/LABEL-live.png``) and
+``OUT/live_page.json``; the figures go into make bench's summary. Times depend on the load:
+the load average is recorded with them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+from miketalk import defaults
+from miketalk.errors import MiketalkError
+
+CHROMIUM = pathlib.Path("/usr/bin/chromium")
+#: Chromium's switches as root in a container, without a network of its own.
+FLAGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+]  # fmt: skip
+REPEATS = 5
+#: Ten words (the issue's say of 10 words).
+SENTENCE = "Bin blue at F two now, please say it again soon."
+#: About two minutes of speech (some 300 words), sentence by sentence.
+LONG_TEXT = " ".join(
+    [
+        "Bin blue at F two now.",
+        "Place red by G nine soon.",
+        "Lay green with H four please.",
+        "Set white in J six again.",
+        "The face is drawn while the next sentence is spoken.",
+        "Each phone shows its viseme in full at its middle, and the flow between two",
+        "visemes carries every pixel of one to its place in the other.",
+    ]
+    * 5
+)
+
+
+def _descendants(pid: int) -> dict[int, str]:
+    """Every live process under ``pid`` with its command name."""
+    found: dict[int, str] = {}
+    todo = [pid]
+    while todo:
+        parent = todo.pop()
+        for task in pathlib.Path(f"/proc/{parent}/task").glob("*"):
+            try:
+                children = (task / "children").read_text().split()
+            except OSError:
+                continue
+            for child in map(int, children):
+                try:
+                    stat = pathlib.Path(f"/proc/{child}/stat").read_text()
+                except OSError:
+                    continue
+                if stat.rsplit(")", 1)[1].split()[0] != "Z" and child not in found:
+                    found[child] = stat.split("(", 1)[1].rsplit(")", 1)[0]
+                    todo.append(child)
+    return found
+
+
+def _tools(pid: int) -> set[int]:
+    return {p for p, name in _descendants(pid).items() if name.startswith(("ffmpeg", "festival"))}
+
+
+def _speak(page, label: str, text: str) -> None:
+    page.bring_to_front()
+    page.click("#tab-say")
+    page.locator("#models li", has_text=label).first.click()
+    page.wait_for_selector(f"#models li[aria-checked='true']:has-text('{label}')")
+    page.fill("#say-form textarea[name=text]", text)
+    page.evaluate("delete document.getElementById('player').dataset.firstFrame")
+    page.click("#say-form button[type=submit]")
+    page.wait_for_selector("#player[data-first-frame]", state="attached", timeout=300_000)
+
+
+def _seen(page) -> dict:
+    return page.evaluate("Object.assign({}, document.getElementById('player').dataset)")
+
+
+def _played_whole(page, timeout_s: float) -> dict:
+    page.wait_for_selector("#player[data-live-ended]", state="attached", timeout=timeout_s * 1e3)
+    page.wait_for_selector("#result[data-job]", state="attached", timeout=120_000)
+    _until(page, "document.getElementById('player').ended", timeout_s)
+    return _seen(page)
+
+
+def _until(page, expression: str, timeout_s: float) -> None:
+    """Wait until ``expression`` holds in the page (asked from here: the page's CSP forbids
+    the evaluated strings of Playwright's own ``wait_for_function``)."""
+    deadline = time.monotonic() + timeout_s
+    while not page.evaluate(f"() => Boolean({expression})"):
+        if time.monotonic() > deadline:
+            raise MiketalkError(f"the page never had {expression} within {timeout_s:g} s")
+        time.sleep(0.05)
+
+
+def _spread(runs: list[float]) -> dict[str, float]:
+    return {"median": round(statistics.median(runs), 3), "min": round(min(runs), 3),
+            "max": round(max(runs), 3)}  # fmt: skip
+
+
+def live_figures(
+    models: dict[str, pathlib.Path], out_dir: pathlib.Path, *, repeats: int = REPEATS
+) -> dict[str, float]:
+    """Measure every figure for ``models`` (label -> model folder); see the module docstring."""
+    from playwright.sync_api import sync_playwright
+
+    if not CHROMIUM.is_file():
+        raise MiketalkError("chromium not installed (apt-get install chromium)")
+    for model in models.values():
+        if not (model / "manifest.json").is_file():
+            raise MiketalkError(f"no model at {model}: run `make run` first (make bench does)")
+    shots = out_dir / "shots"
+    shots.mkdir(parents=True, exist_ok=True)
+    figures: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = pathlib.Path(scratch)
+        command = [sys.executable, "-m", "miketalk.cli", "serve", "--port", "0", "--results",
+                   str(tmp / "jobs"), "--models", str(tmp / "models")]  # fmt: skip
+        for model in models.values():
+            command += ["--model", str(model)]
+        server = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
+        )
+        try:
+            address = server.stdout.readline().split("http://")[1].split("/")[0]
+            with sync_playwright() as playwright:
+                browser = playwright.chromium.launch_persistent_context(
+                    str(tmp / "profile"), executable_path=str(CHROMIUM), headless=True,
+                    args=FLAGS, viewport={"width": 1280, "height": 900},
+                )  # fmt: skip
+                try:
+                    page = browser.new_page()
+                    page.goto(f"http://{address}/")
+                    page.wait_for_selector("body[data-ready='1']", timeout=60_000)
+                    for label, model in models.items():
+                        figures |= _one_model(page, label, model.name, server.pid, shots, repeats)
+                finally:
+                    browser.close()
+        finally:
+            server.terminate()
+            server.communicate(timeout=60)
+    figures["load_average_1min"] = round(os.getloadavg()[0], 2)
+    return figures
+
+
+def _one_model(page, label: str, name: str, server_pid: int, shots: pathlib.Path,
+               repeats: int) -> dict[str, float]:  # fmt: skip
+    figures: dict[str, float] = {}
+    first = []
+    for _ in range(repeats):
+        _speak(page, name, SENTENCE)
+        first.append(float(_seen(page)["firstFrame"]))
+        _played_whole(page, 120)
+    for stat, value in _spread(first).items():
+        figures[f"live_first_frame_{stat}_seconds_{label}"] = value
+    # a long text played to its end: the viewer's waits
+    _speak(page, name, LONG_TEXT)
+    figures[f"live_long_first_frame_seconds_{label}"] = float(_seen(page)["firstFrame"])
+    page.wait_for_timeout(1500)
+    page.screenshot(path=str(shots / f"{label}-live.png"))
+    seen = _played_whole(page, 900)
+    figures[f"live_long_stalls_{label}"] = int(seen.get("stalls", 0))
+    figures[f"live_long_stalled_seconds_{label}"] = float(seen.get("stalledSeconds", 0))
+    figures[f"live_long_seconds_{label}"] = round(page.evaluate(
+        "document.getElementById('player').duration"), 2)  # fmt: skip
+    # Stop one second into the long text
+    page_stop, server_stop, gone = [], [], []
+    for _ in range(repeats):
+        _speak(page, name, LONG_TEXT)
+        page.wait_for_timeout(1000)
+        working = _tools(server_pid)
+        asked = time.perf_counter()
+        page.click("#stop")
+        while working & _tools(server_pid):
+            time.sleep(0.005)
+        gone.append(time.perf_counter() - asked)
+        page.wait_for_selector("#player[data-stop-seconds]", state="attached", timeout=30_000)
+        seen = _seen(page)
+        page_stop.append(float(seen["stopSeconds"]))
+        server_stop.append(float(seen.get("stoppedIn", "nan")))
+    for what, runs in (("page", page_stop), ("work", server_stop), ("processes", gone)):
+        for stat, value in _spread(runs).items():
+            figures[f"live_stop_{what}_{stat}_seconds_{label}"] = value
+    page.screenshot(path=str(shots / f"{label}-stopped.png"))
+    return figures
+
+
+def run(out_dir: pathlib.Path) -> dict[str, float]:
+    """make bench's entry: the synthetic face and s1 of ``make run``."""
+    models = {"synthetic": defaults.model_dir("synthetic"), "s1": defaults.model_dir("s1")}
+    return _report(live_figures(models, out_dir), out_dir)
+
+
+def _report(figures: dict[str, float], out_dir: pathlib.Path) -> dict[str, float]:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name, value in figures.items():
+        print(f"{name:52s} {value:8.3f}")
+    (out_dir / "live_page.json").write_text(json.dumps(figures, indent=1, sort_keys=True))
+    return figures
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The command line (see the module docstring)."""
+    parser = argparse.ArgumentParser(prog="python -m miketalk_lab.bench.live_page")
+    parser.add_argument("out", type=pathlib.Path, nargs="?",
+                        default=defaults.RESULTS / "bench" / "live_page")  # fmt: skip
+    parser.add_argument(
+        "--model",
+        action="append",
+        metavar="LABEL=DIR",
+        help="a model to measure (default: make run's synthetic and s1)",
+    )
+    parser.add_argument("--repeats", type=int, default=REPEATS)
+    args = parser.parse_args(argv)
+    models = (
+        dict(m.split("=", 1) for m in args.model)
+        if args.model
+        else {
+            "synthetic": str(defaults.model_dir("synthetic")),
+            "s1": str(defaults.model_dir("s1")),
+        }
+    )
+    paths = {label: pathlib.Path(path) for label, path in models.items()}
+    _report(live_figures(paths, args.out, repeats=args.repeats), args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
