@@ -182,7 +182,8 @@ def _one_model(page, label: str, name: str, server_pid: int, shots: pathlib.Path
     _speak(page, name, LONG_TEXT)
     figures[f"live_long_first_frame_seconds_{label}"] = float(_seen(page)["firstFrame"])
     page.wait_for_timeout(1500)
-    page.screenshot(path=str(shots / f"{label}-live.png"))
+    page.locator("#result").screenshot(path=str(shots / f"{label}-live.png"))
+    page.screenshot(path=str(shots / f"{label}-live-page.png"))
     seen = _played_whole(page, 900)
     figures[f"live_long_stalls_{label}"] = int(seen.get("stalls", 0))
     figures[f"live_long_stalled_seconds_{label}"] = float(seen.get("stalledSeconds", 0))
@@ -206,7 +207,7 @@ def _one_model(page, label: str, name: str, server_pid: int, shots: pathlib.Path
     for what, runs in (("page", page_stop), ("work", server_stop), ("processes", gone)):
         for stat, value in _spread(runs).items():
             figures[f"live_stop_{what}_{stat}_seconds_{label}"] = value
-    page.screenshot(path=str(shots / f"{label}-stopped.png"))
+    page.locator("#result").screenshot(path=str(shots / f"{label}-stopped.png"))
     return figures
 
 

@@ -259,6 +259,8 @@ function startLive(job, clicked, kind) {
   section.hidden = false;
   $(".summary", section).textContent = "";
   $(".downloads", section).hidden = true;
+  $(".cue-now", section).hidden = true;  // the cues come with the whole, at its end
+  $("#cues").hidden = true;
   drawCues([], 1);
   drawWarnings($(".warnings", section), []);
   const handle = playLive(player, job.live, {
@@ -448,6 +450,8 @@ function showResult(job, clicked, announce, live) {
   player.dataset.job = job.id;
   section.dataset.job = job.id;
   $(".downloads", section).hidden = false;
+  $(".cue-now", section).hidden = false;
+  $("#cues").hidden = false;
   if (clicked !== undefined && !live) {
     player.addEventListener("playing", () => {
       player.dataset.sinceClick = ((performance.now() - clicked) / 1000).toFixed(2);
