@@ -30,7 +30,6 @@ from miketalk.api import Cancelled, MiketalkError, OpenModels, Stream, load_engi
 from miketalk.serve.build import BUILD_STAGES, BuildRun
 from miketalk.serve.catalog import Catalog
 from miketalk.serve.config import ServeConfig
-from miketalk.serve.live import speak_live
 from miketalk.serve.records import FINAL, RECORD, STOPPED, Job, earlier_jobs
 from miketalk.serve.work import Outcome, one_line, speak, warnings_of, write_text
 
@@ -272,8 +271,8 @@ class Board:
             warm.close()
 
     def _speak(self, job: Job, warm: OpenModels) -> Outcome:
-        """The work of a ``say`` or ``dub``: live (:func:`~miketalk.serve.live.speak_live`)
-        or written to its mp4 (:func:`~miketalk.serve.work.speak`)."""
+        """The work of a ``say`` or ``dub``: live, its stream kept on the job while it runs
+        (a Stop cancels it), or written to its mp4 (:func:`~miketalk.serve.work.speak`)."""
         if job.live is None:
             return speak(job.folder, **job.params, warm=warm)
 
@@ -284,7 +283,7 @@ class Board:
                     stream.cancel()
 
         try:
-            return speak_live(job.folder, **job.params, warm=warm, live=job.live, started=started)
+            return speak(job.folder, **job.params, warm=warm, live=job.live, started=started)
         finally:
             with self._lock:
                 job.stream = None

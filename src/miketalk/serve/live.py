@@ -9,8 +9,9 @@ start. A slow or gone reader never holds the engine (the file is on disk; the en
 queue holds at most its 16 frames), and memory does not grow with the text's length.
 
 When the stream has ended the fragments are put into one mp4 with its index at the front
-(``say.mp4``: the same H.264 and AAC packets, copied, not encoded again) for the download,
-with the timeline and the mouth cues beside it, as a job that is not live writes them. A Stop
+(``say.mp4``: the same H.264 and AAC packets, copied, not encoded again) for the download
+(:func:`record`); :func:`miketalk.serve.work.speak` writes the timeline and the mouth cues
+beside it, as for a job that is not live. A Stop
 (:meth:`Stream.cancel <miketalk.api.Stream.cancel>`) ends the work and every process it
 started at once; the job ends ``cancelled`` and keeps nothing but its record.
 """
@@ -19,25 +20,15 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import json
 import os
 import subprocess
 import threading
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
+from typing import Any
 
 from miketalk import api
-from miketalk.api import (
-    DubSettings,
-    MiketalkError,
-    OpenModels,
-    Recorded,
-    SayResult,
-    SaySettings,
-    Stream,
-)
-from miketalk.api.vocabulary import DEFAULT_VOICE
-from miketalk.serve.work import Outcome, outcome, write_text
+from miketalk.api import MiketalkError, Stream
 
 #: The name of a live job's fragmented MP4 while it is made.
 LIVE_FILE = "live.mp4"
@@ -100,23 +91,10 @@ async def follow(live: LiveFile, until: Callable[[], bool]) -> AsyncIterator[byt
             await asyncio.sleep(FOLLOW_POLL)
 
 
-def speak_live(
-    folder: Path,
-    model_dir: Path,
-    *,
-    text: str | None,
-    audio: Path | None = None,
-    video: Path | None = None,
-    lipsync: str | None = None,
-    voice: str | None = None,
-    warm: OpenModels | None = None,
-    live: LiveFile,
-    started: Callable[[Stream], None],
-) -> Outcome:
-    """Say ``text`` (or the recording ``audio``) with the model in ``model_dir``, over the
-    frames of ``video`` when given (a dub), as a stream written to ``live`` as it is made;
-    then ``say.mp4`` (``dub.mp4``), its timeline and its cues in ``folder``. ``started(stream)``
-    is told the stream before it starts (a Stop cancels it).
+def record(stream: Stream, live: LiveFile, output: Path) -> Any:
+    """Write ``stream`` as a fragmented MP4 (:func:`miketalk.api.write_fragmented`) into
+    ``live`` as it is made, then the whole into ``output`` (:func:`whole`); ``live``'s file
+    is removed after. Returns what the library says was written (its timeline, its motion).
 
     Raises
     ------
@@ -125,15 +103,6 @@ def speak_live(
     Cancelled
         The stream was stopped.
     """
-    speech = Recorded(audio, text=text or None) if audio is not None else text or ""
-    options = {"model": model_dir, "lipsync_model": lipsync or None, "voice": voice}
-    if video is not None:
-        settings: SaySettings | DubSettings = DubSettings(**options)
-        stream = api.dub_stream(video, speech, settings, models=warm)
-    else:
-        settings = SaySettings(**options)
-        stream = api.say_stream(speech, settings, models=warm)
-    started(stream)
     read_fd, write_fd = os.pipe()
     relay = threading.Thread(target=live.relay, args=(read_fd,), name="miketalk-live", daemon=True)
     relay.start()
@@ -143,24 +112,10 @@ def speak_live(
         finally:
             os.close(write_fd)
             relay.join()
-        said = SayResult(
-            spoken, spoken.timeline.fps, settings.sampling, settings.step_limit,
-            max_slowdown=getattr(settings, "max_slowdown", None),
-            voice=None if audio else voice or DEFAULT_VOICE,
-            audio=audio.name if audio else None,
-        )  # fmt: skip
-        kind = "say" if video is None else "dub"
-        output = folder / f"{kind}.mp4"
         whole(live.path, output)
-        timeline = folder / f"{kind}.json"
-        doc = {"text": text or "", "lipsync_model": spoken.lipsync_model,
-               "trajectory": spoken.trajectory, "duration": spoken.duration,
-               "words": list(spoken.words)} | spoken.timeline.to_dict() | {
-               "motion": spoken.motion.to_dict()}  # fmt: skip
-        write_text(timeline, json.dumps(doc, indent=1, allow_nan=False))
+        return spoken
     finally:
         live.path.unlink(missing_ok=True)
-    return outcome(said, output, timeline, {})
 
 
 def whole(fragments: Path, output: Path) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import logging
 import os
 import threading
@@ -27,7 +28,10 @@ from miketalk.api import (
     Recorded,
     SayResult,
     SaySettings,
+    Stream,
 )
+from miketalk.api.vocabulary import DEFAULT_VOICE
+from miketalk.serve.live import LiveFile, record
 
 log = logging.getLogger(__name__)
 
@@ -66,11 +70,15 @@ def speak(
     lipsync: str | None = None,
     voice: str | None = None,
     warm: OpenModels | None = None,
+    live: LiveFile | None = None,
+    started: Callable[[Stream], None] = lambda stream: None,
 ) -> Outcome:
     """Make the model in ``model_dir`` say ``text`` (Festival, ``voice``) or the recording
     ``audio`` (with what it says, ``text``); over the frames of ``video`` when given (a dub):
     :func:`miketalk.api.say` or :func:`miketalk.api.dub`, as ``miketalk say`` and ``miketalk
-    dub`` call them.
+    dub`` call them; or, ``live``, their streams written to ``live`` as they are made
+    (:func:`miketalk.serve.live.record`), ``started(stream)`` told the stream first (a Stop
+    cancels it).
 
     Writes ``say.mp4`` (``dub.mp4``) and its timeline ``.json``, ``cues.json`` and
     ``cues.tsv`` into ``folder``. ``warm`` keeps the model open for the next one.
@@ -79,9 +87,19 @@ def speak(
     ------
     MiketalkError
         What the library says of the input, in one line.
+    Cancelled
+        A live job's stream was stopped.
     """
     speech = Recorded(audio, text=text or None) if audio is not None else text or ""
     options = {"model": model_dir, "lipsync_model": lipsync or None, "voice": voice}
+    if live is not None:
+        settings = (DubSettings if video is not None else SaySettings)(**options)
+        if video is not None:
+            stream = api.dub_stream(video, speech, settings, models=warm)
+        else:
+            stream = api.say_stream(speech, settings, models=warm)
+        started(stream)
+        return _played(stream, live, folder / ("dub" if video else "say"), settings, speech)
     if video is not None:
         output = folder / "dub.mp4"
         said = api.dub(video, speech, output, DubSettings(**options), models=warm)
@@ -92,6 +110,33 @@ def speak(
         said = api.say(speech, output, SaySettings(**options), models=warm)
         extra = {}
     return outcome(said, output, said.timeline_json, extra)
+
+
+def _played(
+    stream: Stream, live: LiveFile, stem: Path, settings: SaySettings | DubSettings, speech
+) -> Outcome:
+    """A live job's stream recorded (:func:`miketalk.serve.live.record`) into ``stem.mp4``,
+    with its timeline ``stem.json`` and its cues; nothing of it is left if it fails."""
+    output, timeline = stem.with_suffix(".mp4"), stem.with_suffix(".json")
+    recorded = isinstance(speech, Recorded)
+    try:
+        spoken = record(stream, live, output)
+        said = SayResult(
+            spoken, spoken.timeline.fps, settings.sampling, settings.step_limit,
+            max_slowdown=getattr(settings, "max_slowdown", None),
+            voice=None if recorded else settings.voice or DEFAULT_VOICE,
+            audio=Path(speech.audio).name if recorded else None,
+        )  # fmt: skip
+        doc = {"text": speech.text if recorded else speech, "lipsync_model": spoken.lipsync_model,
+               "trajectory": spoken.trajectory, "duration": spoken.duration,
+               "words": list(spoken.words)} | spoken.timeline.to_dict() | {
+               "motion": spoken.motion.to_dict()}  # fmt: skip
+        write_text(timeline, json.dumps(doc, indent=1, allow_nan=False))
+        return outcome(said, output, timeline, {})
+    except BaseException:
+        for path in (output, timeline, stem.with_name("cues.json"), stem.with_name("cues.tsv")):
+            path.unlink(missing_ok=True)
+        raise
 
 
 def outcome(said: SayResult, output: Path, timeline: Path, extra: dict) -> Outcome:

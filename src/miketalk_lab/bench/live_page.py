@@ -28,20 +28,13 @@ import json
 import os
 import pathlib
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
+from miketalk_lab.bench.page_timings import served_page, speak
 
-CHROMIUM = pathlib.Path("/usr/bin/chromium")
-#: Chromium's switches as root in a container, without a network of its own.
-FLAGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-]  # fmt: skip
 REPEATS = 5
 #: Ten words (the issue's say of 10 words).
 SENTENCE = "Bin blue at F two now, please say it again soon."
@@ -87,14 +80,7 @@ def _tools(pid: int) -> set[int]:
 
 
 def _speak(page, label: str, text: str) -> None:
-    page.bring_to_front()
-    page.click("#tab-say")
-    page.locator("#models li", has_text=label).first.click()
-    page.wait_for_selector(f"#models li[aria-checked='true']:has-text('{label}')")
-    page.fill("#say-form textarea[name=text]", text)
-    page.evaluate("delete document.getElementById('player').dataset.firstFrame")
-    page.click("#say-form button[type=submit]")
-    page.wait_for_selector("#player[data-first-frame]", state="attached", timeout=300_000)
+    speak(page, label, text, until="firstFrame", timeout_s=300)
 
 
 def _seen(page) -> dict:
@@ -127,43 +113,17 @@ def live_figures(
     models: dict[str, pathlib.Path], out_dir: pathlib.Path, *, repeats: int = REPEATS
 ) -> dict[str, float]:
     """Measure every figure for ``models`` (label -> model folder); see the module docstring."""
-    from playwright.sync_api import sync_playwright
-
-    if not CHROMIUM.is_file():
-        raise MiketalkError("chromium not installed (apt-get install chromium)")
     for model in models.values():
         if not (model / "manifest.json").is_file():
             raise MiketalkError(f"no model at {model}: run `make run` first (make bench does)")
     shots = out_dir / "shots"
     shots.mkdir(parents=True, exist_ok=True)
     figures: dict[str, float] = {}
-    with tempfile.TemporaryDirectory() as scratch:
-        tmp = pathlib.Path(scratch)
-        command = [sys.executable, "-m", "miketalk.cli", "serve", "--port", "0", "--results",
-                   str(tmp / "jobs"), "--models", str(tmp / "models")]  # fmt: skip
-        for model in models.values():
-            command += ["--model", str(model)]
-        server = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True
-        )
-        try:
-            address = server.stdout.readline().split("http://")[1].split("/")[0]
-            with sync_playwright() as playwright:
-                browser = playwright.chromium.launch_persistent_context(
-                    str(tmp / "profile"), executable_path=str(CHROMIUM), headless=True,
-                    args=FLAGS, viewport={"width": 1280, "height": 900},
-                )  # fmt: skip
-                try:
-                    page = browser.new_page()
-                    page.goto(f"http://{address}/")
-                    page.wait_for_selector("body[data-ready='1']", timeout=60_000)
-                    for label, model in models.items():
-                        figures |= _one_model(page, label, model.name, server.pid, shots, repeats)
-                finally:
-                    browser.close()
-        finally:
-            server.terminate()
-            server.communicate(timeout=60)
+    with served_page(models, height=900) as (page, url, server):
+        page.goto(url)
+        page.wait_for_selector("body[data-ready='1']", timeout=60_000)
+        for label, model in models.items():
+            figures |= _one_model(page, label, model.name, server.pid, shots, repeats)
     figures["load_average_1min"] = round(os.getloadavg()[0], 2)
     return figures
 

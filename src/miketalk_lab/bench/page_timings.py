@@ -10,12 +10,14 @@ what the page must do; this holds how fast it did it.
 
 from __future__ import annotations
 
+import contextlib
 import pathlib
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 
 from miketalk.errors import MiketalkError
 
@@ -27,23 +29,33 @@ FLAGS = [
 ]  # fmt: skip
 
 
-def _speak_seconds(page, label: str, text: str) -> float:
+def speak(
+    page, label: str, text: str, *, until: str = "sinceClick", timeout_s: float = 120
+) -> None:
+    """Choose the face ``label``, type ``text`` and click Speak; return once the player has
+    the mark ``until`` (``sinceClick``: playing; ``firstFrame``: its first frame shown)."""
+    page.bring_to_front()
     page.click("#tab-say")
     page.locator("#models li", has_text=label).first.click()
     page.wait_for_selector(f"#models li[aria-checked='true']:has-text('{label}')")
     page.fill("#say-form textarea[name=text]", text)
-    page.evaluate("delete document.getElementById('player').dataset.sinceClick")
+    page.evaluate(f"delete document.getElementById('player').dataset.{until}")
     page.click("#say-form button[type=submit]")
-    page.wait_for_selector("#player[data-since-click]", state="attached", timeout=120_000)
+    mark = "data-" + "".join(f"-{c.lower()}" if c.isupper() else c for c in until)
+    page.wait_for_selector(f"#player[{mark}]", state="attached", timeout=timeout_s * 1000)
+
+
+def _speak_seconds(page, label: str, text: str) -> float:
+    speak(page, label, text)
     since = page.evaluate("Number(document.getElementById('player').dataset.sinceClick)")
     page.evaluate("document.getElementById('player').pause()")
     return float(since)
 
 
-def page_figures(
-    models: dict[str, pathlib.Path], sentence: str, *, repeats: int = 3
-) -> dict[str, float]:
-    """The page's figures for ``models`` (label -> model folder) speaking ``sentence``."""
+@contextlib.contextmanager
+def served_page(models: dict[str, pathlib.Path], *, height: int = 860) -> Iterator[tuple]:
+    """``miketalk serve`` of ``models`` on a free port of 127.0.0.1 and a new page of Debian's
+    Chromium (headless, a fresh profile): ``(page, url, server)``; both stopped after."""
     from playwright.sync_api import sync_playwright
 
     if not CHROMIUM.is_file():
@@ -59,35 +71,39 @@ def page_figures(
         )
         try:
             address = server.stdout.readline().split("http://")[1].split("/")[0]
-            url = f"http://{address}/"
             with sync_playwright() as playwright:
                 browser = playwright.chromium.launch_persistent_context(
                     str(tmp / "profile"), executable_path=str(CHROMIUM), headless=True,
-                    args=FLAGS, viewport={"width": 1280, "height": 860},
+                    args=FLAGS, viewport={"width": 1280, "height": height},
                 )  # fmt: skip
                 try:
-                    page = browser.new_page()
-                    loads, answers = [], []
-                    for _ in range(repeats):
-                        started = time.perf_counter()
-                        page.goto(url)
-                        page.wait_for_selector("body[data-ready='1']", timeout=60_000)
-                        loads.append(time.perf_counter() - started)
-                        started = time.perf_counter()
-                        page.evaluate("fetch('/api/models').then(r => r.json())")
-                        answers.append(time.perf_counter() - started)
-                    figures = {
-                        "page_load_seconds": round(statistics.median(loads), 3),
-                        "page_api_seconds": round(statistics.median(answers), 4),
-                    }
-                    for label, model in models.items():
-                        runs = [_speak_seconds(page, model.name, sentence) for _ in range(repeats)]
-                        figures[f"page_speak_to_play_seconds_{label}"] = round(
-                            statistics.median(runs), 3
-                        )
+                    yield browser.new_page(), f"http://{address}/", server
                 finally:
                     browser.close()
         finally:
             server.terminate()
-            server.communicate(timeout=30)
+            server.communicate(timeout=60)
+
+
+def page_figures(
+    models: dict[str, pathlib.Path], sentence: str, *, repeats: int = 3
+) -> dict[str, float]:
+    """The page's figures for ``models`` (label -> model folder) speaking ``sentence``."""
+    with served_page(models) as (page, url, _):
+        loads, answers = [], []
+        for _ in range(repeats):
+            started = time.perf_counter()
+            page.goto(url)
+            page.wait_for_selector("body[data-ready='1']", timeout=60_000)
+            loads.append(time.perf_counter() - started)
+            started = time.perf_counter()
+            page.evaluate("fetch('/api/models').then(r => r.json())")
+            answers.append(time.perf_counter() - started)
+        figures = {
+            "page_load_seconds": round(statistics.median(loads), 3),
+            "page_api_seconds": round(statistics.median(answers), 4),
+        }
+        for label, model in models.items():
+            runs = [_speak_seconds(page, model.name, sentence) for _ in range(repeats)]
+            figures[f"page_speak_to_play_seconds_{label}"] = round(statistics.median(runs), 3)
     return figures
