@@ -499,3 +499,40 @@ def test_selection_in_blocks_of_output_frames_chooses_as_all_at_once(monkeypatch
         assert np.array_equal(select(frames, target, settings, visemes=(shown, recorded)), whole)
         assert len(set(whole.tolist())) > 50  # not one frame throughout
         monkeypatch.setattr(selection, "_BLOCK", 1024)
+
+
+def _pause_features_by_table(phones, times, table) -> np.ndarray:
+    """:func:`pause_features` as it was: a (times, phones) table of every gap (2 GB for a
+    12-minute recording), the reference the sorted search must equal."""
+    from miketalk.draw.trained.trajectory import SILENCE
+
+    spoken = [p for p in phones if SILENCE not in table.visemes_of(p.name)]
+    n_bins = len(PAUSE_BINS) + 1
+    out = np.zeros((len(times), 2 * n_bins))
+    if not spoken:
+        return out
+    starts, ends = np.array([p.start for p in spoken]), np.array([p.end for p in spoken])
+    inside = ((times[:, None] >= starts[None, :]) & (times[:, None] < ends[None, :])).any(axis=1)
+    ahead = np.where(starts[None, :] >= times[:, None], starts[None, :] - times[:, None], np.inf)
+    behind = np.where(ends[None, :] <= times[:, None], times[:, None] - ends[None, :], np.inf)
+    rows = np.arange(len(times))
+    for column, gap in ((0, ahead.min(axis=1)), (n_bins, behind.min(axis=1))):
+        ok = ~inside & np.isfinite(gap)
+        out[rows[ok], column + np.searchsorted(PAUSE_BINS, gap[ok])] = 1.0
+    return out
+
+
+def test_pause_features_by_sorted_search_are_the_tables() -> None:
+    rng = np.random.default_rng(0)
+    names = ["pau", "aa", "b", "iy", "s", "t"]
+    times = np.arange(-1.0, 12.0, 0.04)
+    for trial in range(60):
+        n = int(rng.integers(0, 40))
+        starts = rng.uniform(0, 10, n).round(2)
+        if trial % 3:  # in order, as aligned; else unsorted and overlapping
+            starts = np.sort(starts)
+        lengths = rng.uniform(0.01, 0.5, n).round(2)
+        phones = [Phone(str(rng.choice(names)), float(a), float(a + d))
+                  for a, d in zip(starts, lengths, strict=True)]  # fmt: skip
+        expected = _pause_features_by_table(phones, times, default_table())
+        assert np.array_equal(pause_features(phones, times, default_table()), expected), trial

@@ -182,13 +182,23 @@ def pause_features(phones: Sequence[Phone], times: np.ndarray, table: VisemeTabl
     out = np.zeros((len(times), 2 * n_bins))
     if not spoken:
         return out
-    starts = np.array([p.start for p in spoken])
-    ends = np.array([p.end for p in spoken])
-    inside = ((times[:, None] >= starts[None, :]) & (times[:, None] < ends[None, :])).any(axis=1)
-    ahead = np.where(starts[None, :] >= times[:, None], starts[None, :] - times[:, None], np.inf)
-    behind = np.where(ends[None, :] <= times[:, None], times[:, None] - ends[None, :], np.inf)
+    # by sorted starts and ends, not a (times, phones) table: a 12-minute recording's 17,900
+    # frames by its 4,300 phones took 2 GB; the same values (the nearest start after, end
+    # before, and whether the latest start's phones reach past the time)
+    order = np.argsort([p.start for p in spoken], kind="stable")
+    starts = np.array([spoken[i].start for i in order])
+    reach = np.maximum.accumulate(np.array([spoken[i].end for i in order]))
+    ends = np.sort([p.end for p in spoken])
+    latest = np.searchsorted(starts, times, side="right") - 1
+    inside = (latest >= 0) & (reach[np.maximum(latest, 0)] > times)
+    after = np.searchsorted(starts, times, side="left")
+    ahead = np.full(len(times), np.inf)
+    ahead[after < len(starts)] = starts[after[after < len(starts)]] - times[after < len(starts)]
+    before = np.searchsorted(ends, times, side="right") - 1
+    behind = np.full(len(times), np.inf)
+    behind[before >= 0] = times[before >= 0] - ends[before[before >= 0]]
     rows = np.arange(len(times))
-    for column, gap in ((0, ahead.min(axis=1)), (n_bins, behind.min(axis=1))):
+    for column, gap in ((0, ahead), (n_bins, behind)):
         ok = ~inside & np.isfinite(gap)
         bins = np.searchsorted(PAUSE_BINS, gap[ok])
         out[rows[ok], column + bins] = 1.0
