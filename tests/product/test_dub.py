@@ -415,3 +415,6 @@ def test_dub_with_no_model_takes_the_videos_own_from_the_cache(
     other = tmp_path / "other.mkv"
     other.write_bytes(video.read_bytes() + b"\0")  # another file: another model
     assert video_model.video_digest(other) != video_model.video_digest(video)
+    monkeypatch.setenv("MIKETALK_CACHE", "off")  # nowhere to keep it: said, not built
+    line = _error(capsys, "dub", str(video), "--text", "Bin blue.", "-o", str(out))
+    assert "no cache" in line and len(builds) == 1

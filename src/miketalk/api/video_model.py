@@ -5,9 +5,9 @@ is one command, as the tools users compare miketalk with have it: the model is b
 ``VIDEO`` (:func:`miketalk.api.build.build`, nothing held back, its words recognized when it
 comes without a script), kept in the cache under the video's SHA-256, then the dub is made
 with it. A second dub of the same video finds the model there and starts at once. The cache
-is ``$MIKETALK_CACHE``, else ``$XDG_CACHE_HOME/miketalk``, else ``~/.cache/miketalk``
-(:func:`cache_dir`); a model there is a model like any other (delete its folder to build it
-again).
+is the user's miketalk cache (:func:`miketalk.media.user_cache.cache_root`: ``$MIKETALK_CACHE``,
+else ``$XDG_CACHE_HOME/miketalk``, else ``~/.cache/miketalk``), its folder ``video-models``; a
+model there is a model like any other (delete its folder to build it again).
 """
 
 from __future__ import annotations
@@ -18,18 +18,14 @@ import os
 from pathlib import Path
 
 from miketalk.api.settings import BuildSettings
+from miketalk.errors import MiketalkError
 
-__all__ = ["cache_dir", "video_digest", "video_model"]
+__all__ = ["video_digest", "video_model", "with_video_model"]
 
 log = logging.getLogger(__name__)
 
-
-def cache_dir() -> Path:
-    """Where models built from dubbed videos are kept (module docstring): the user's cache,
-    :func:`miketalk.media.user_cache.cache_root`."""
-    from miketalk.media.user_cache import cache_root
-
-    return cache_root()
+#: The folder of the user's cache that keeps them.
+KIND = "video-models"
 
 
 def video_digest(video: str | os.PathLike[str]) -> str:
@@ -53,12 +49,19 @@ def video_model(video: str | os.PathLike[str], *, progress: bool = False) -> tup
     ------
     MiketalkError
         What :func:`miketalk.api.build.build` raises of the video (no face, no speech, too
-        little speech, ...).
+        little speech, ...); no cache to keep the model in.
     """
     from miketalk.api.build import build
+    from miketalk.media.user_cache import CACHE_ENV, cache_dir
     from miketalk.model.parts import is_model
 
-    folder = cache_dir() / "video-models" / video_digest(video)[:32]
+    where = cache_dir(KIND)
+    if where is None:
+        raise MiketalkError(
+            f"no --model given, and no cache to build the video's own model in (${CACHE_ENV} "
+            "is off, or cannot be written): give --model"
+        )
+    folder = where / video_digest(video)[:32]
     if is_model(folder):
         log.info("%s: its model, built before, is %s", video, folder)
         return folder, False
@@ -66,7 +69,6 @@ def video_model(video: str | os.PathLike[str], *, progress: bool = False) -> tup
         "%s: no --model given: building one from the video itself (its words recognized) into "
         "%s; a dub of the same video later starts from it", video, folder,
     )  # fmt: skip
-    folder.parent.mkdir(parents=True, exist_ok=True)
     build(video, folder, BuildSettings(heldout_seconds=0.0), progress=progress)
     return folder, True
 
