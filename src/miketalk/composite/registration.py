@@ -274,19 +274,21 @@ def find_blinks(
 def eye_band(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np.ndarray:
     """``(N, h, w)`` float32 grey: the eyes' band of frames on the reference (0.8 to 1.4 mouth
     widths above the mouth box, two mouth widths about its centre)."""
-    x, y, w, _ = mouth_box
-    top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
-    left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
-    return stabilized[:, top:bottom, left:right].astype(np.float32).mean(axis=3)
+    return stabilized[_eye_rows(mouth_box)].astype(np.float32).mean(axis=3)
 
 
 def _eye_sums(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np.ndarray:
     """``(N, h, w)`` uint16: :func:`eye_band` times 3, exactly (the sum of each pixel's three
     channels, half the bytes of the band)."""
+    return stabilized[_eye_rows(mouth_box)].sum(axis=3, dtype=np.uint16)
+
+
+def _eye_rows(mouth_box: tuple[int, int, int, int]) -> tuple[slice, slice, slice]:
+    """The index of :func:`eye_band`'s band in ``(N, H, W, 3)`` frames."""
     x, y, w, _ = mouth_box
     top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
     left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
-    return stabilized[:, top:bottom, left:right].sum(axis=3, dtype=np.uint16)
+    return slice(None), slice(top, bottom), slice(left, right)
 
 
 def _blinks_of_sums(sums: np.ndarray, *, factor: float = BLINK_FACTOR) -> tuple[int, ...]:
