@@ -38,7 +38,8 @@ log = logging.getLogger(__name__)
 #: The most warnings the page is shown of one job (all are logged).
 MAX_WARNINGS = 20
 #: Seconds :meth:`Board.close` waits for the speech thread once it has been interrupted.
-SPEECH_STOP_SECONDS = 10.0
+SPEECH_STOP_SECONDS = 30.0  # (a say that is not live unwinds its stream's thread too: 10 s
+# ran out at load 40 and left its temporary mp4)
 
 
 class ServerStopping(KeyboardInterrupt):
@@ -204,6 +205,8 @@ class Board:
             speech.join(timeout=0.5 if speaking[0].stream is not None else 0)
             interrupt(speech)
             speech.join(timeout=SPEECH_STOP_SECONDS)
+            if speech.is_alive():
+                log.warning("the running job did not stop within %g s", SPEECH_STOP_SECONDS)
         for thread in self._threads:
             thread.join(timeout=60)
 
