@@ -243,18 +243,22 @@ def write(stream: Stream, output: Path | int, plan: Checked | None = None) -> Sp
     return publish(stream, plan.output, overwrite=plan.overwrite, inputs=plan.inputs)
 
 
-def write_fragmented(stream: Stream, fd: int) -> Spoken:
+def write_fragmented(stream: Stream, fd: int, *, live: bool = False) -> Spoken:
     """Write a :func:`say_stream` (or :func:`~miketalk.api.dub.dub_stream`) on the file
     descriptor ``fd`` as a fragmented MP4, as it is made (what ``say -o -`` does); a
     ``stream.cancel()`` from another thread stops it, and this raises
-    :class:`~miketalk.talk.stream.Cancelled`.
+    :class:`~miketalk.talk.stream.Cancelled`. ``live``: x264's live settings
+    (:data:`~miketalk.media.x264.LIVE_X264`: no look-ahead, a third of the CPU; the frames
+    then differ slightly from the file's), else the file's (``-o -``: the file's frames).
 
     Returns
     -------
     Spoken
         The timeline and the motion of what was written (no files: ``video`` is None).
     """
-    return write(stream, fd)
+    from miketalk.talk.publish import pipe_out
+
+    return pipe_out(stream, fd, live=live)
 
 
 def said_result(speech: Speech, settings: SaySettings, spoken: Spoken) -> SayResult:

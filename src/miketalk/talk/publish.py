@@ -37,15 +37,19 @@ __all__ = ["encode", "pipe_out", "publish"]
 log = logging.getLogger(__name__)
 
 
-def encode(stream: Stream, out: Path | int, work: Path) -> Uttered:
+def encode(stream: Stream, out: Path | int, work: Path, *, live: bool = False) -> Uttered:
     """Read ``stream`` to its end into one ffmpeg (:class:`StreamEncoder`) writing ``out``;
-    return what the engine made. A stop or an error kills ffmpeg and the engine's work."""
+    return what the engine made. A stop or an error kills ffmpeg and the engine's work.
+    ``live``: x264's live settings (:data:`~miketalk.media.x264.LIVE_X264`), else the file's."""
+    from miketalk.media.x264 import FILE_X264, LIVE_X264
+
     with stream:
         info = stream.info()
         try:
             with StreamEncoder(
                 out, fps=info.fps, rate=None if info.sound else info.rate, sound=info.sound,
                 n_frames=info.frames, log_path=work / "video.log", on_start=stream.adopt,
+                x264=LIVE_X264 if live else FILE_X264,
             ) as encoder:  # fmt: skip
                 for chunk in stream:
                     encoder.add(chunk.frame, None if info.sound else chunk.audio)
@@ -125,9 +129,11 @@ def publish(
     return uttered.spoken(output, json_path)
 
 
-def pipe_out(stream: Stream, fd: int) -> Spoken:
+def pipe_out(stream: Stream, fd: int, *, live: bool = False) -> Spoken:
     """Write ``stream`` as a fragmented MP4 on the file descriptor ``fd`` (a pipe, a
-    terminal's redirection, a socket) as it is made; no JSON.
+    terminal's redirection, a socket) as it is made; no JSON. ``live``: x264's live settings
+    (no look-ahead: each frame leaves the encoder at once; its frames then differ slightly
+    from the file's), else the file's (the same frames as the file).
 
     Raises
     ------
@@ -136,7 +142,7 @@ def pipe_out(stream: Stream, fd: int) -> Spoken:
     """
     try:
         with scratch_dir("pipe") as work:
-            uttered = encode(stream, fd, work)
+            uttered = encode(stream, fd, work, live=live)
     finally:
         stream.close()
     return uttered.spoken(None, None)
