@@ -12,7 +12,9 @@ for the workflow's models in an empty folder (``$MIKETALK_RESULTS``), with no
 
 from __future__ import annotations
 
+import functools
 import os
+import pickle
 import shutil
 import signal
 import tempfile
@@ -60,6 +62,30 @@ def pytest_configure(config: pytest.Config) -> None:
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+def made_once(factory: pytest.TempPathFactory, name: str, make) -> Path:
+    """The folder ``name`` that ``make(folder)`` filled, made once for the whole session.
+
+    Under ``pytest -n 2`` each xdist worker has its own session, and a session fixture
+    used by files on both workers was built twice (a model from video: 40 s each). Here the
+    first worker to ask builds into the session's shared temporary folder, under a lock,
+    and marks it done; the other waits on the lock and takes it. A build that failed
+    leaves no mark, and the next to ask builds again. What is made this way is only read.
+    """
+    import fcntl
+
+    base = factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    where, done = shared / name, shared / f"{name}.done"
+    with open(shared / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            shutil.rmtree(where, ignore_errors=True)
+            where.mkdir()
+            make(where)
+            done.touch()
+    return where
+
+
 @pytest.fixture(scope="session")
 def s1_joined(tmp_path_factory: pytest.TempPathFactory):
     """The .test face s1's six clips (four training, two held-out) joined into one 18 s
@@ -68,12 +94,34 @@ def s1_joined(tmp_path_factory: pytest.TempPathFactory):
     from miketalk_lab.bench.joined import join_clips
 
     s1 = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["faces"]["s1"]["corpus"]
-    return join_clips(
-        s1["train"] + s1["test"],
-        tmp_path_factory.mktemp("s1_joined"),
-        media=str(ROOT / s1["media"]),
-        transcripts=ROOT / s1["transcripts"],
-        timings=str(ROOT / s1["timings"]),
+
+    def join(where: Path) -> None:
+        joined = join_clips(
+            s1["train"] + s1["test"],
+            where,
+            media=str(ROOT / s1["media"]),
+            transcripts=ROOT / s1["transcripts"],
+            timings=str(ROOT / s1["timings"]),
+        )
+        (where / "joined.pickle").write_bytes(pickle.dumps(joined))
+
+    where = made_once(tmp_path_factory, "s1_joined", join)
+    return pickle.loads((where / "joined.pickle").read_bytes())
+
+
+def _build_s1(where: Path, *, crop: bool, joined) -> None:
+    from miketalk.building.from_video import build_model_from_video
+
+    config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["flow"]
+    build_model_from_video(
+        joined.video,
+        where / "model",
+        transcript=joined.transcript,
+        heldout_seconds=6,
+        progress=False,
+        flow=config["methods"][config["method"]],
+        mixed_window=config["mixed_window"],
+        **({} if crop else {"keep_corpus": where / "corpus", "crop": None}),
     )
 
 
@@ -82,23 +130,17 @@ def s1_built(s1_joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The model ``miketalk build --frame full`` makes of the joined video with its plain
     transcript, its last 6 s (the two held-out clips) held out, with the .test workflow's flow
     settings (so that it compares with the .test face s1, in the frames' own pixels); its
-    corpus kept beside it (``corpus/``)."""
-    from miketalk.building.from_video import build_model_from_video
+    corpus kept beside it (``corpus/``). Built once for the session (:func:`made_once`)."""
+    build = functools.partial(_build_s1, crop=False, joined=s1_joined)
+    return made_once(tmp_path_factory, "s1_built", build) / "model"
 
-    config = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["flow"]
-    where = tmp_path_factory.mktemp("s1_built")
-    build_model_from_video(
-        s1_joined.video,
-        where / "model",
-        transcript=s1_joined.transcript,
-        heldout_seconds=6,
-        progress=False,
-        flow=config["methods"][config["method"]],
-        mixed_window=config["mixed_window"],
-        keep_corpus=where / "corpus",
-        crop=None,
-    )
-    return where / "model"
+
+@pytest.fixture(scope="session")
+def s1_crop_built(s1_joined, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The model ``miketalk build``'s default (the face crop) makes of the same video with
+    the same settings as :func:`s1_built`. Built once for the session (:func:`made_once`)."""
+    build = functools.partial(_build_s1, crop=True, joined=s1_joined)
+    return made_once(tmp_path_factory, "s1_crop_built", build) / "model"
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

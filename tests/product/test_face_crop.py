@@ -153,24 +153,17 @@ def test_the_jaw_mask_lies_inside_the_face_mask() -> None:
 
 
 @pytest.mark.slow
-def test_a_face_crop_model_speaks_into_the_videos_own_frames(s1_joined, tmp_path: Path) -> None:
+def test_a_face_crop_model_speaks_into_the_videos_own_frames(
+    s1_crop_built: Path, tmp_path: Path
+) -> None:
     """``miketalk build``'s default (the face crop) end to end: the model works in the crop,
     its own background plays at the video's size and rate, and a dub of an HD video of the
     same man, moving, comes out at that video's size with its frames outside the mouth kept."""
     import json
 
-    import yaml
-
     from miketalk import cli
-    from miketalk.building.from_video import build_model_from_video
 
-    root = Path(__file__).parents[2]
-    flow = yaml.safe_load((root / ".test" / "config.yaml").read_text())["flow"]
-    model = tmp_path / "model"
-    build_model_from_video(
-        s1_joined.video, model, transcript=s1_joined.transcript, heldout_seconds=6,
-        progress=False, flow=flow["methods"][flow["method"]], mixed_window=flow["mixed_window"],
-    )  # fmt: skip
+    model = s1_crop_built
     assert json.loads((model / "manifest.json").read_text())["size"] == [256, 256]
     assert json.loads((model / "background" / "background.json").read_text())["crop"]
     said = tmp_path / "said.mp4"

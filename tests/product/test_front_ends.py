@@ -157,23 +157,22 @@ def test_s1_says_and_dubs_the_same_from_both(s1_built: Path, tmp_path: Path) -> 
 
 
 @pytest.mark.slow
-def test_a_face_crop_model_says_and_dubs_the_same_from_both(s1_joined, tmp_path: Path) -> None:
-    """``miketalk build``'s default frame: its say plays into the video's own frames at the
-    video's rate (the page once drew it at the default rate), its dub at the dubbed video's."""
-    from miketalk.api import BuildSettings, build
+def test_a_face_crop_model_says_and_dubs_the_same_from_both(
+    s1_crop_built: Path, tmp_path: Path
+) -> None:
+    """``miketalk build``'s default frame (conftest's ``s1_crop_built``): its say plays into
+    the video's own frames at the video's rate (the page once drew it at the default rate),
+    its dub at the dubbed video's."""
+    from miketalk.api import BuildSettings
 
-    flow = yaml.safe_load((ROOT / ".test" / "config.yaml").read_text())["flow"]
-    settings = BuildSettings(
-        heldout_seconds=6, flow=flow["methods"][flow["method"]], mixed_window=flow["mixed_window"]
-    )
-    model = build(s1_joined.video, tmp_path / "model", settings, transcript=s1_joined.transcript)
-    assert model.model.is_dir() and BuildSettings().frame == "crop"
-    said = _cli(tmp_path, "say", TEXT, "--model", str(model.model))
-    _same(said, _page(tmp_path, model.model, text=TEXT))
+    model = s1_crop_built
+    assert model.is_dir() and BuildSettings().frame == "crop"
+    said = _cli(tmp_path, "say", TEXT, "--model", str(model))
+    _same(said, _page(tmp_path, model, text=TEXT))
     clip = ROOT / "data" / "grid_s1" / "video" / "bbas3a.mpg"
     _same(
-        _cli(tmp_path, "dub", str(clip), "--text", TEXT, "--model", str(model.model)),
-        _page(tmp_path, model.model, text=TEXT, video=clip),
+        _cli(tmp_path, "dub", str(clip), "--text", TEXT, "--model", str(model)),
+        _page(tmp_path, model, text=TEXT, video=clip),
     )
 
 

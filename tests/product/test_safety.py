@@ -948,16 +948,26 @@ def test_long_phones_are_stitched_with_silence_between_chunks() -> None:
     ]  # fmt: skip
 
 
-@pytest.fixture(scope="module")
-def joined_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
-    """The 48 GRID clips' sound joined (2.4 minutes, 44.1 kHz stereo) and its transcript."""
-    where = tmp_path_factory.mktemp("joined")
+def _joined_sound(where: Path, clips: int | None = None) -> tuple[Path, str]:
+    """The first ``clips`` GRID clips' sound joined (44.1 kHz stereo) and its transcript."""
     lines = (ROOT / "data" / "grid_s1" / "transcripts.txt").read_text().split("\n")
-    names = [line.split(None, 1) for line in lines if line.strip()]
+    names = [line.split(None, 1) for line in lines if line.strip()][:clips]
     (where / "list.txt").write_text("".join(f"file '{GRID / n}.mpg'\n" for n, _ in names))
     _ffmpeg("-f", "concat", "-safe", "0", "-i", str(where / "list.txt"), "-vn",
             str(where / "joined.wav"))  # fmt: skip
     return where / "joined.wav", " ".join(text for _, text in names)
+
+
+@pytest.fixture(scope="module")
+def joined_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The 48 GRID clips' sound joined (2.4 minutes) and its transcript."""
+    return _joined_sound(tmp_path_factory.mktemp("joined"))
+
+
+@pytest.fixture(scope="module")
+def first_minute(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The first 20 GRID clips' sound joined (1 minute) and its transcript."""
+    return _joined_sound(tmp_path_factory.mktemp("first_minute"), 20)
 
 
 @pytest.mark.parametrize("signum", [2, 15])
@@ -1108,19 +1118,19 @@ def test_a_full_disk_at_publication_is_exit_one_and_leaves_the_old_pair(
 
 @pytest.mark.parametrize("anchors", [True, False])
 def test_long_audio_is_halved_where_the_words_fit(
-    joined_recording: tuple[Path, str], monkeypatch: pytest.MonkeyPatch, anchors: bool
+    first_minute: tuple[Path, str], monkeypatch: pytest.MonkeyPatch, anchors: bool
 ) -> None:
     """Audio over COARSE_SECONDS is cut at anchors (runs of words a recogniser hears), or
     without them halved at a pause, before the coarse pass (its memory), and the words on
-    either side of the halving cut are settled by the fine aligner: none lost. (2.4 minutes
-    cut as an hour would be, with the limit at 40 s.)"""
+    either side of the halving cut are settled by the fine aligner: none lost. (A minute
+    cut as an hour would be, with the limit at 20 s.)"""
     from miketalk.corpus.script import Cue
     from miketalk.media.decode import read_media_audio
     from miketalk.speech import long_align
 
-    audio, text = joined_recording
+    audio, text = first_minute
     samples = read_media_audio(audio)
-    monkeypatch.setattr(long_align, "COARSE_SECONDS", 40.0)
+    monkeypatch.setattr(long_align, "COARSE_SECONDS", 20.0)
     coarse, anchored = [], []  # what the coarse pass was given (s); the spans cut at anchors
     real_coarse, real_anchored = long_align.coarse_span, long_align.long_anchor.anchored_pass
     monkeypatch.setattr(long_align, "coarse_span", lambda x, rate, lo, hi, said: (
@@ -1132,7 +1142,7 @@ def test_long_audio_is_halved_where_the_words_fit(
         samples, 16000, [Cue(words, start=None, end=None)], anchors=anchors
     )
     # cut before the coarse pass: it never aligned more than its limit at once
-    assert coarse and max(coarse) <= 40.0 < len(samples) / 16000
+    assert coarse and max(coarse) <= 20.0 < len(samples) / 16000
     assert bool(anchored) == anchors  # at anchors, or (without them) halved at pauses
     assert len(found.unaligned) <= len(words) // 100, found.unaligned[:3]
     assert found.phones[0].start == 0.0 and found.phones[-1].end == pytest.approx(
