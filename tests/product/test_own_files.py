@@ -355,7 +355,7 @@ def test_a_full_disk_while_ffmpeg_encodes_is_exit_one_and_one_line(
 ) -> None:
     """Injected: an ffmpeg that fails as the real one does on a full disk (its log, taken
     from a 2 MB tmpfs; docs/safety.md); the disk itself is not filled."""
-    from miketalk.media import video
+    from miketalk.media import encoder, video
 
     fake = tmp_path / "ffmpeg"
     fake.write_text(
@@ -366,7 +366,8 @@ def test_a_full_disk_while_ffmpeg_encodes_is_exit_one_and_one_line(
         "exit 228\n"
     )
     fake.chmod(0o755)
-    monkeypatch.setattr(video, "ffmpeg_exe", lambda: str(fake))
+    for module in (video, encoder):  # the file's writer and the stream's encoder
+        monkeypatch.setattr(module, "ffmpeg_exe", lambda: str(fake))
     out = tmp_path / "out" / "v.mp4"
     assert cli.main(["say", "Hi.", "--model", str(face), "-o", str(out)]) == 1
     _one_line(capsys, "No space left on device", "nothing was written")
