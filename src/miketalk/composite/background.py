@@ -292,11 +292,13 @@ def streamed_background(
 ) -> Background:
     """:func:`background_from_video` of a video file, its frames streamed, never all held.
 
-    The video is decoded once, each frame scaled to the reference's size as it comes (what
-    registration reads); the frames at their own size are decoded again as the output is
-    written (:class:`~miketalk.media.frame_source.VideoFrames`), so memory grows with the
-    video's frames at the reference's size only, not with its pixels (before: the whole
-    video at its own size, twice, and scaled: 3 s of 1080p 1.49 GB, 9 s 4.23 GB).
+    The video's frames are counted (decoded in grey), then decoded twice more, each frame
+    scaled to the reference's size as it comes, for the registration's two readings
+    (:class:`_Fitted`); the frames at their own size are decoded again as the output is
+    written (:class:`~miketalk.media.frame_source.VideoFrames`), so memory grows neither
+    with the video's pixels nor with its length (before: the whole video at its own size,
+    twice, and scaled: 3 s of 1080p 1.49 GB, 9 s 4.23 GB; then its frames at the
+    reference's size, 0.3 MB a frame of s1's 360x288).
 
     Raises
     ------
@@ -308,11 +310,37 @@ def streamed_background(
 
     source = source or str(path)
     width, height, fps = video_info(path)
-    fit = _to_reference((height, width), stabilizer)
-    small = [f if fit is None else fit(f) for f in iter_video_frames(path)]
-    _check_length(path, len(small), fps)
-    video = VideoFrames(path, count=len(small), fps=fps)
-    return _registered(np.stack(small), video, fps, stabilizer, source, progress, smooth)
+    count = sum(1 for _ in iter_video_frames(path, grey=True))
+    _check_length(path, count, fps)
+    video = VideoFrames(path, count=count, fps=fps)
+    small = _Fitted(path, _to_reference((height, width), stabilizer), count)
+    return _registered(small, video, fps, stabilizer, source, progress, smooth)
+
+
+class _Fitted:
+    """A video's ``count`` frames scaled to the reference's size (``fit``; None: as they
+    are), made again at each reading: ``len()`` and iteration, as registration reads them."""
+
+    def __init__(self, path: str | os.PathLike[str], fit, count: int) -> None:
+        self.path, self.fit, self.count = path, fit, count
+
+    def __len__(self) -> int:
+        return self.count
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        from miketalk.media.decode import iter_video_frames
+
+        frames, k = iter_video_frames(self.path, frames=self.count), 0
+        try:
+            for frame in frames:
+                yield frame if self.fit is None else self.fit(frame)
+                k += 1
+        finally:
+            frames.close()
+        if k < self.count:
+            raise MiketalkError(
+                f"{self.path} gave {k} frames on a later reading, {self.count} on its first"
+            )
 
 
 def _to_reference(size: tuple[int, int], stabilizer):
