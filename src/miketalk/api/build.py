@@ -82,8 +82,6 @@ def build(
         words=segments["words"],
         unaligned_words=len(segments["unaligned"]),
         stage_seconds=dict(seconds),
-        sound_lag_s=segments.get("sound_lag_s", 0.0),
-        sound_lag_frames=segments.get("sound_lag", {}).get("peak_frames"),
         recording_lipsync=default_lipsync_model(output, recorded=True),
         trained_cv_r2=trained_predicts(output)[1],
     )

@@ -145,10 +145,6 @@ class BuildResult:
         The transcript's words, and those not aligned.
     stage_seconds : dict of str to float
         Each stage's time.
-    sound_lag_s : float
-        How far the video's sound runs behind the mouth, seconds, as applied (0: not kept).
-    sound_lag_frames : float or None
-        Where the sound's lag behind the mouth peaks, frames, as measured (None: not).
     recording_lipsync : str
         The lip-sync model the model draws a recording with, unless told.
     trained_cv_r2 : float or None
@@ -161,8 +157,6 @@ class BuildResult:
     words: int
     unaligned_words: int
     stage_seconds: dict[str, float]
-    sound_lag_s: float = 0.0
-    sound_lag_frames: float | None = None
     recording_lipsync: str = "paper"
     trained_cv_r2: float | None = None
 

@@ -78,7 +78,6 @@ def build_model_from_video(
         model_stage,
     )
     from miketalk.corpus.one_video import check_video_inputs, segment_video
-    from miketalk.corpus.sound_lag import measure_sound_lag
     from miketalk.corpus.viseme_choice import choose_visemes_stage
     from miketalk.model.write import list_model_files
 
@@ -128,7 +127,6 @@ def build_model_from_video(
                     video, segments, transcript=transcript, subtitles=subtitles,
                     heldout_seconds=heldout_seconds, checked=checked,
                 ),
-                "sound lag": lambda: measure_sound_lag(video, segments),
                 "corpus": lambda: corpus_stage(
                     corpus, settings, segments=segments, workers=workers, crop=crop
                 ),

@@ -57,8 +57,6 @@ def cmd_build(args: argparse.Namespace) -> int:
         "held_out": built.held_out,
         "words": built.words,
         "unaligned_words": built.unaligned_words,
-        "sound_lag_s": built.sound_lag_s,
-        "sound_lag_frames": built.sound_lag_frames,
         "recording_lipsync": built.recording_lipsync,
         "trained_cv_r2": built.trained_cv_r2,
         "seconds": round(total, 1),
@@ -75,12 +73,6 @@ def cmd_build(args: argparse.Namespace) -> int:
             + (
                 f" (the trained face's leave-clip-out R² {summary['trained_cv_r2']:.2f})"
                 if summary["trained_cv_r2"] is not None
-                else ""
-            )
-            + (
-                f"; its sound peaks {summary['sound_lag_frames']:+.1f} frames after the mouth"
-                + ("" if summary["sound_lag_s"] else " (measured, not applied)")
-                if summary["sound_lag_frames"] is not None
                 else ""
             ),
             file=args.out,

@@ -35,7 +35,6 @@ log = logging.getLogger(__name__)
 #: The stages :func:`~miketalk.building.from_video.build_model_from_video` reports, in order.
 BUILD_STAGES = (
     "segment",
-    "sound lag",
     "corpus",
     "visemes",
     "eigenlips",

@@ -6,8 +6,10 @@ For each fold (default :data:`FOLDS`: every address held out once, two at a time
 issue's ``wa06,wa08`` first), the other addresses of ``DIR`` (``video/waNN.mp4``,
 ``transcripts.txt``) are joined with their caption lines
 (:func:`miketalk_lab.bench.bad_input.join_addresses`) and built with ``miketalk build``
-as a user builds; each held-out address is then dubbed with its own recording and caption
-line, ``miketalk dub CLIP --audio CLIP --text LINE --model M``, once per lip-sync model
+as a user builds (the lag of the sound behind the mouth over its training utterances
+measured here, :mod:`miketalk_lab.evaluation.sound_sync`: the product does not measure it);
+each held-out address is then dubbed with its own recording and caption line,
+``miketalk dub CLIP --audio CLIP --text LINE --model M``, once per lip-sync model
 (:data:`RENDERERS`; ``own``: the one the model chooses for a recording), and once with an
 unrelated typed sentence (:data:`UNRELATED`, the row ``unrelated``: what a mouth that
 moves without following the speech scores).
@@ -60,7 +62,7 @@ from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk_lab.evaluation.mouth_follow import lip_colours, pooled_shifts, shifts_table
-from miketalk_lab.evaluation.sound_sync import speech_span
+from miketalk_lab.evaluation.sound_sync import measure_sound_lag, speech_span
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -74,6 +76,8 @@ RENDERERS = {
     "trained": ("--trajectory", "window"),
     "trained_heard": ("--trajectory", "heard"),
 }
+#: What the summary's ``builds`` say of each fold's model.
+BUILD_FIGURES = ("build_seconds", "sound_lag_frames", "sound_lag_r")
 #: The typed sentence of the ``unrelated`` row.
 UNRELATED = "Together we can build a stronger economy for everyone."
 #: The lag searched, frames either way.
@@ -185,7 +189,9 @@ def scores(real: np.ndarray, dub: np.ndarray, speech: slice) -> dict[str, float]
 
 
 def _fold_model(obama: Path, work: Path, held: Sequence[str], ids: Sequence[str]) -> dict:
-    """The fold's model (built when missing) from every address but ``held``."""
+    """The fold's model (built when missing) from every address but ``held``, and how late
+    the sound of its training utterances runs behind the mouth (frames, and r there:
+    :func:`~miketalk_lab.evaluation.sound_sync.measure_sound_lag`)."""
     from miketalk_lab.bench.bad_input import join_addresses
 
     train = [a for a in ids if a not in held]
@@ -206,7 +212,14 @@ def _fold_model(obama: Path, work: Path, held: Sequence[str], ids: Sequence[str]
             ],
             work / f"build_{'_'.join(held)}.log",
         )
-    return {"model": model, "train": train, "build_seconds": seconds}
+    lag = measure_sound_lag(work / f"{stem}.mp4", model / "build" / "segments.json")
+    return {
+        "model": model,
+        "train": train,
+        "build_seconds": seconds,
+        "sound_lag_frames": round(lag.peak_frames, 2),
+        "sound_lag_r": round(lag.peak_r, 2),
+    }
 
 
 def _dubs(
@@ -370,7 +383,7 @@ def _work(args) -> str:
         if unknown:
             raise MiketalkError(f"no address {', '.join(unknown)} in {args.obama}")
         fold = _fold_model(args.obama, work, held, ids)
-        builds.append({"held": ",".join(held), "build_seconds": fold["build_seconds"]})
+        builds.append({"held": ",".join(held), **{k: fold[k] for k in BUILD_FIGURES}})
         for address in held:
             clip = args.obama / "video" / f"{address}.mp4"
             try:
