@@ -196,7 +196,7 @@ class MouthCompositing:
         self.rest = model.image(SILENCE) if SILENCE in model.visemes else None
         h, w = model.size
         low, high = np.array([w, h], np.float64), np.array([-1.0, -1.0])
-        kept = []
+        kept: list | None = []  # let go past KEEP_PLACEMENTS: memory is not the video's length
         for i in range(len(background)):
             placement = None
             if background.shown is None or background.shown[i]:
@@ -206,8 +206,10 @@ class MouthCompositing:
             if placement is not None:
                 for k, grid in enumerate((placement.map_x, placement.map_y)):
                     low[k], high[k] = min(low[k], grid.min()), max(high[k], grid.max())
-            kept.append(placement)
-        self.placements = kept if len(kept) <= KEEP_PLACEMENTS else None
+            if kept is not None:
+                kept.append(placement)
+                kept = kept if len(kept) <= KEEP_PLACEMENTS else None
+        self.placements = kept
         self.region: tuple[int, int, int, int] | None = None
         if high[0] >= 0:
             # remap rounds a position to 1/32 px: up to one pixel on, then the reach
