@@ -50,6 +50,23 @@ APT_PACKAGES = " ".join(["festival", *(v.package for v in VOICES.values())])
 PLANNED = "miketalk: planned"
 
 
+def start_festival(
+    stack: ExitStack, backend: FestivalSession, texts: list[str], mode: str
+) -> tuple[Path, subprocess.Popen]:
+    """Festival started on ``texts`` in a workspace that ``stack`` removes when it closes,
+    with the driver's environment flag ``mode`` (``MIKETALK_PLAN``, ``MIKETALK_STEPS``) set;
+    its standard output goes to the workspace's ``stdout`` file. The workspace and the
+    process."""
+    tmp, env, command = stack.enter_context(backend._workspace(texts))
+    env[mode] = "1"
+    stdout = stack.enter_context((tmp / "stdout").open("w"))
+    proc = subprocess.Popen(
+        command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
+        stderr=subprocess.PIPE,
+    )  # fmt: skip
+    return tmp, proc
+
+
 class FestivalRun(PendingSpeech):
     """One Festival run in plan mode: started at once, finished with dictated durations.
 
@@ -68,14 +85,9 @@ class FestivalRun(PendingSpeech):
         self._stack = ExitStack()
         self._proc: subprocess.Popen | None = None
         try:
-            tmp, env, command = self._stack.enter_context(backend._workspace(self._texts))
-            env["MIKETALK_PLAN"] = "1"
-            self._tmp = tmp
-            stdout = self._stack.enter_context((tmp / "stdout").open("w"))
-            self._proc = subprocess.Popen(
-                command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
-                stderr=subprocess.PIPE,
-            )  # fmt: skip
+            self._tmp, self._proc = start_festival(
+                self._stack, backend, self._texts, "MIKETALK_PLAN"
+            )
         except BaseException:
             self.close()
             raise

@@ -30,7 +30,7 @@ from miketalk.speech.festival.output import (
     split_ends,
     write_ends,
 )
-from miketalk.speech.festival.run import FestivalSession, check_exit
+from miketalk.speech.festival.run import FestivalSession, check_exit, start_festival
 from miketalk.speech.text import check_spoken_length, normalize_text, split_sentences
 from miketalk.speech.types import Utterance
 
@@ -56,14 +56,9 @@ class FestivalSteps(PendingSpeech):
         self._errors = ""
         self._next = 0
         try:
-            tmp, env, command = self._stack.enter_context(backend._workspace(self.texts))
-            env["MIKETALK_STEPS"] = "1"
-            self._tmp = tmp
-            stdout = self._stack.enter_context((tmp / "stdout").open("w"))
-            self._proc = subprocess.Popen(
-                command, env=env, cwd=tmp, stdin=subprocess.PIPE, stdout=stdout,
-                stderr=subprocess.PIPE,
-            )  # fmt: skip
+            self._tmp, self._proc = start_festival(
+                self._stack, backend, self.texts, "MIKETALK_STEPS"
+            )
         except BaseException:
             self.close()
             raise
