@@ -53,7 +53,7 @@ LONG_TEXT = " ".join(
 )
 
 
-def _descendants(pid: int) -> dict[int, str]:
+def descendants(pid: int) -> dict[int, str]:
     """Every live process under ``pid`` with its command name."""
     found: dict[int, str] = {}
     todo = [pid]
@@ -76,7 +76,7 @@ def _descendants(pid: int) -> dict[int, str]:
 
 
 def _tools(pid: int) -> set[int]:
-    return {p for p, name in _descendants(pid).items() if name.startswith(("ffmpeg", "festival"))}
+    return {p for p, name in descendants(pid).items() if name.startswith(("ffmpeg", "festival"))}
 
 
 def _speak(page, label: str, text: str) -> None:
