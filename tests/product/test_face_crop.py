@@ -154,11 +154,12 @@ def test_the_jaw_mask_lies_inside_the_face_mask() -> None:
 
 @pytest.mark.slow
 def test_a_face_crop_model_speaks_into_the_videos_own_frames(
-    s1_crop_built: Path, tmp_path: Path
+    s1_crop_built: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``miketalk build``'s default (the face crop) end to end: the model works in the crop,
     its own background plays at the video's size and rate, and a dub of an HD video of the
-    same man, moving, comes out at that video's size with its frames outside the mouth kept."""
+    same man, moving, comes out at that video's size with its frames outside the mouth kept;
+    a second dub of it reads its registration from the cache."""
     import json
 
     from miketalk import cli
@@ -182,3 +183,15 @@ def test_a_face_crop_model_speaks_into_the_videos_own_frames(
     mouth = apply_affine(hard.truth[20], np.array([[160.0, 221.0]]))[0]  # s1's lips
     assert changed.mean() < 0.02  # the mouth's pixels only
     assert abs(np.median(xs) - mouth[0]) < 30 and abs(np.median(ys) - mouth[1]) < 30
+    # a second dub of the same video with the same model: its registration is read from
+    # the cache (:mod:`miketalk.composite.kept_registration`), not tracked again: the same bytes
+    from miketalk.track import video_crops
+
+    def tracked_again(*args, **kwargs):
+        raise AssertionError("the video was tracked again")
+
+    monkeypatch.setattr(video_crops, "crop_video", tracked_again)
+    again = tmp_path / "again.mp4"
+    args = ["dub", str(hard.path), "--text", "Bin blue.", "--model", str(model), "-o", str(again)]
+    assert cli.main(args) == 0
+    assert again.read_bytes() == dubbed.read_bytes()

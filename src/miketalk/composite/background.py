@@ -90,6 +90,9 @@ class Background:
         (:mod:`miketalk.media.yuv`; a model's own frames, kept decoded,
         :mod:`miketalk.media.kept_frames`), so that :func:`composited` converts only the
         mouth's box of each. None: only RGB.
+    left_out : tuple of str
+        The tracker's ranges of frames without one frontal face, as said in a warning
+        (:mod:`miketalk.composite.tracked`).
 
     The frames may be an array or a sequence read when needed
     (:mod:`miketalk.media.frame_source`): indexed by a whole number, with ``shape``.
@@ -106,6 +109,7 @@ class Background:
     shot: np.ndarray | None = None
     steady_shots: dict[int, np.ndarray] | None = None
     i420: np.ndarray | None = None
+    left_out: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.frames)

@@ -124,6 +124,18 @@ def video_background(
         or another person's, :mod:`miketalk.track.identity`, unless ``check_person`` is
         False: ``--force``).
     """
+    if model.crop is not None:  # kept from a run before, else made (and kept)
+        from miketalk.composite.kept_registration import kept_background
+
+        return kept_background(
+            model, video, lambda: _registered(model, video, progress, check_person),
+            check_person=check_person,
+        )  # fmt: skip
+    return _registered(model, video, progress, check_person)
+
+
+def _registered(model: Any, video, progress: bool, check_person: bool) -> Background:
+    """:func:`video_background`, made now."""
     stabilizer = model.stabilizer()
     crop = model.crop
     if crop is not None:

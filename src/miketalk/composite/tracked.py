@@ -31,6 +31,7 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.composite.background import MIN_SECONDS, Background
+from miketalk.composite.kept_registration import untracked_warning
 from miketalk.errors import MiketalkError
 from miketalk.track.crop import FaceCropSettings
 from miketalk.track.similarity import compose_affine, invert_affine
@@ -98,12 +99,8 @@ def tracked_background(
             f"under the mouth must last at least {shortest:g} s"
         )
     failures = cropped.track.failures()
-    if failures:
-        listed = "; ".join(str(f) for f in failures[:6]) + ("; ..." if len(failures) > 6 else "")
-        log.warning(
-            "%s: %d of its %d frames show no one frontal face and play without a new mouth (%s)",
-            source, int((~cropped.tracked).sum()), n, listed,
-        )  # fmt: skip
+    left_out = tuple(str(f) for f in failures)
+    untracked_warning(source, left_out, int((~cropped.tracked).sum()), n)
     if cropped.tracked.mean() < 0.5:
         raise MiketalkError(
             f"{source}: only {int(cropped.tracked.sum())} of its {n} frames show one frontal "
@@ -122,6 +119,7 @@ def tracked_background(
     return Background(
         video, transforms, found.field, fps, found.blinks, source, found.steady,
         shown=cropped.tracked.copy(), shot=shot, steady_shots=found.steady_shots,
+        left_out=left_out,
     )  # fmt: skip
 
 
