@@ -460,3 +460,16 @@ def test_renders_that_differ_only_outside_the_region_composite_the_same(follow, 
     inside[1][(y0 + y1) // 2, (x0 + x1) // 2] ^= 0xFF
     changed = list(compositing.frames(inside, fps=25.0))
     assert not np.array_equal(changed[1], same[1])
+
+
+@pytest.mark.parametrize("count", [1, 2, 7, 100])
+def test_the_median_of_frames_is_numpys_cast_to_bytes(count):
+    """:func:`~miketalk.composite.registration.median_frames` (a radix sort) gives the bytes
+    of ``np.median(frames, axis=0).astype(np.uint8)``, an even count's two middles too."""
+    from miketalk.composite.registration import median_frames
+
+    frames = np.random.default_rng(count).integers(0, 256, (count, 9, 11, 3), np.uint8)
+    frames[:, 0, 0] = np.array([255 if i % 2 else 0 for i in range(count)])[:, None]  # far apart
+    got = median_frames(frames)
+    assert got.dtype == np.uint8 and got.shape == (9, 11, 3)
+    assert np.array_equal(got, np.median(frames, axis=0).astype(np.uint8))
