@@ -366,3 +366,63 @@ def test_sentences_join_into_one_timeline_without_a_jump(learned_face: Path, tmp
     assert abs(doc["duration"] - len(frames) / doc["fps"]) < 1e-3
     video, audio = probe_durations(tmp_path / "three.mp4")
     assert abs(video - audio) < 1e-3
+
+
+def test_the_first_frame_comes_before_the_second_sentence_is_spoken(
+    learned_face: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import miketalk.talk.say as say_module
+
+    read_first = threading.Event()
+    waited = []
+    made = say_module.ahead
+
+    def held(items, **options):  # the second sentence is spoken only once a frame was read
+        def second_held():
+            for i, item in enumerate(items):
+                if i == 1:
+                    waited.append(read_first.wait(120))
+                yield item
+
+        return made(second_held(), **options)
+
+    monkeypatch.setattr(say_module, "ahead", held)
+    settings = api.SaySettings(model=str(learned_face), lipsync_model="learned")
+    with api.say_stream(THREE, settings) as stream:
+        chunks = iter(stream)
+        first = next(chunks)
+        read_first.set()
+        rest = list(chunks)
+    # the face played the first sentence's frames before the second was known
+    assert first.index == 0 and waited == [True]
+    assert len(rest) + 1 == len(stream.result.timeline.frames)
+
+
+def test_a_sentence_drawn_before_the_next_is_known_is_drawn_as_knowing_it(
+    learned_face: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import miketalk.talk.say as say_module
+    from miketalk.draw.learned import learned_exposures
+    from miketalk.draw.registry import LearnedDrawing
+    from miketalk.model.face import open_model
+    from miketalk.talk.sentences import in_context
+
+    seen = []
+    monkeypatch.setattr(
+        say_module, "in_context", lambda t, b, a: seen.append((t, b, a)) or in_context(t, b, a)
+    )
+    api.say(THREE, tmp_path / "three.mp4", api.SaySettings(model=str(learned_face)))
+    model = open_model(learned_face)
+    drawing = LearnedDrawing(model.coarticulation)
+    known = [(t, b, a) for t, b, a in seen if a is not None]
+    assert len(known) == 2  # the first two sentences' ends, drawn once the next was known
+    for timeline, before, after in known:
+        head = drawing.settled(timeline)
+        assert 0 < head < len(timeline.frames)
+        alone, knowing = (
+            learned_exposures(in_context(timeline, before, a), model.coarticulation,
+                              displacement=model.displacement, max_px_per_frame=2.5)
+            for a in (None, after)
+        )  # fmt: skip
+        assert alone[:head] == knowing[:head]  # the frames played before `after` was known
+        assert alone != knowing  # and the next sentence does change the sentence's end

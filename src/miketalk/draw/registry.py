@@ -30,6 +30,10 @@ if TYPE_CHECKING:
 #: What :meth:`Drawing.frames` returns: the rendered frames (a closable iterator); the viseme
 #: weights at each frame's middle and the states drawn (the learned coarticulation's, which
 #: the motion is measured on), else None and None.
+#: Frames before a sentence's end, past the coarticulation's window, that a keyframe after
+#: it may still change through the step limit's blur (:meth:`LearnedDrawing.settled`).
+SETTLE_FRAMES = 6
+
 Frames = tuple["Iterator[np.ndarray]", "Sequence[Weights] | None", "Sequence[Weights] | None"]
 
 
@@ -54,6 +58,13 @@ class Drawing:
         """``trained``: its trajectory model, settled; else None."""
         return None
 
+    def settled(self, timeline: Timeline) -> int:
+        """How many of ``timeline``'s first frames the keyframes of a sentence after it
+        (:func:`miketalk.talk.sentences.in_context`) cannot change: what may be drawn before
+        that sentence is known. All of them here (the paper's morph and the trained face
+        read no keyframes)."""
+        return len(timeline.frames)
+
     def frames(
         self,
         model: Any,
@@ -62,10 +73,14 @@ class Drawing:
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
         region: tuple[int, int, int, int] | None = None,
+        part: tuple[int, int] | None = None,
     ) -> Frames:
         """The frames of ``timeline`` drawn with ``model`` (see :data:`Frames`); ``region``
         ``(x0, y0, x1, y1)``: only these pixels of each frame will be read (a frame
-        composited into video), which a drawing may draw alone."""
+        composited into video), which a drawing may draw alone. ``part`` ``(lo, hi)``: only
+        frames ``lo`` to ``hi`` (a drawing whose :meth:`settled` is every frame is asked
+        for its whole only)."""
+        _whole(timeline, part)
         return model.render(timeline), None, None
 
     def doc(self) -> dict:
@@ -88,10 +103,12 @@ class LearnedDrawing(Drawing):
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
         region: tuple[int, int, int, int] | None = None,
+        part: tuple[int, int] | None = None,
     ) -> Frames:
         """The frames, with the viseme weights at each frame's middle and the states drawn,
         in order (several for a frame blurred to keep consecutive states within
-        ``max_px_per_frame``, :func:`miketalk.draw.learned.learned_exposures`)."""
+        ``max_px_per_frame``, :func:`miketalk.draw.learned.learned_exposures`); ``part``
+        ``(lo, hi)``: frames ``lo`` to ``hi`` only, weighed and blurred as in the whole."""
         from miketalk.draw.coarticulation import frame_weights
         from miketalk.draw.learned import drawn_states, learned_exposures, render_learned
 
@@ -100,10 +117,21 @@ class LearnedDrawing(Drawing):
             timeline, self.coarticulation, displacement=model.displacement,
             max_px_per_frame=max_px_per_frame, middles=middles,
         )  # fmt: skip
+        if part is not None:
+            middles, exposures = middles[part[0] : part[1]], exposures[part[0] : part[1]]
         rendered = render_learned(
             model, timeline, self.coarticulation, exposures=exposures, region=region
         )
         return rendered, middles, drawn_states(exposures)
+
+    def settled(self, timeline: Timeline) -> int:
+        """The frames further than the coarticulation's window (and :data:`SETTLE_FRAMES`
+        more, the step limit's blur reaching back) before ``timeline``'s end: a keyframe
+        after the end weighs no frame further than the window, and the blur of
+        :func:`~miketalk.draw.learned.learned_exposures` spreads a change a few frames
+        (7 frames before the end at most on s1's sentences, the window being 10.5)."""
+        end = timeline.duration - self.coarticulation.window - SETTLE_FRAMES / timeline.fps
+        return sum(1 for f in timeline.frames if f.time < end)
 
 
 @dataclass(frozen=True)
@@ -129,11 +157,13 @@ class TrainedDrawing(Drawing):
         recording: Recording | None = None,
         max_px_per_frame: float | None = None,
         region: tuple[int, int, int, int] | None = None,
+        part: tuple[int, int] | None = None,
     ) -> Frames:
         """The frames drawn from the person's own (``recording``: the sound the trajectory
         may hear; ``max_px_per_frame`` does not apply)."""
         from miketalk.draw.trained.draw import render_trained
 
+        _whole(timeline, part)
         rendered = render_trained(
             model, timeline, trained=self.trained, kind=self.kind, recording=recording
         )
@@ -142,6 +172,13 @@ class TrainedDrawing(Drawing):
     def doc(self) -> dict:
         """What the utterance's JSON records of it: also its trajectory."""
         return super().doc() | {"trajectory": self.kind}
+
+
+def _whole(timeline: Timeline, part: tuple[int, int] | None) -> None:
+    """Refuse a ``part`` that is not the whole of ``timeline`` (a drawing that draws only
+    whole utterances)."""
+    if part is not None and tuple(part) != (0, len(timeline.frames)):
+        raise ValueError(f"this drawing draws whole utterances, not frames {part}")
 
 
 def _paper(model: Any, trajectory: str | None, recorded: bool) -> Drawing:

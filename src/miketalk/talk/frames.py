@@ -101,6 +101,7 @@ def draw_utterance(
     jerk: JerkMeter | None = None,
     bar=None,
     compositing=None,
+    part: tuple[int, int] | None = None,
 ) -> tuple:
     """Render ``timeline``'s frames and emit each with its sound; return the drawing's
     weights and states (:data:`~miketalk.draw.registry.Frames`).
@@ -132,6 +133,10 @@ def draw_utterance(
     compositing : MouthCompositing, optional
         ``background``'s compositing, made once for all the sentences
         (:func:`mouth_compositing`); None: made here.
+    part : tuple of int, optional
+        ``(lo, hi)``: only the timeline's frames ``lo`` to ``hi`` (a sentence's frames
+        drawn before the next sentence is known, :meth:`~miketalk.draw.registry.Drawing.
+        settled`, then the rest); None: all.
     """
     from contextlib import closing
 
@@ -141,6 +146,7 @@ def draw_utterance(
         model.displacement(t.source, t.target)
     started = time.perf_counter()
     n = len(timeline.frames)
+    lo, hi = (0, n) if part is None else part
     fps = timeline.fps
     base = sample_bounds(first, rate, fps)
     sound = _fit(samples, sample_bounds(first + n, rate, fps) - base)
@@ -149,24 +155,25 @@ def draw_utterance(
     region = compositing.region if compositing is not None else None
     jerk = jerk if jerk is not None else JerkMeter(region)
     rendered, weights, states = drawing.frames(
-        model, timeline, recording=recording, max_px_per_frame=max_px_per_frame, region=region
-    )
+        model, timeline, recording=recording, max_px_per_frame=max_px_per_frame, region=region,
+        part=part,
+    )  # fmt: skip
     frames = jerk.watch(rendered)
     if compositing is not None:  # only the region compositing reads is drawn (and measured)
-        frames = compositing.frames(frames, fps=fps, i420=True, start=first)
+        frames = compositing.frames(frames, fps=fps, i420=True, start=first + lo)
     if progress and bar is None:
         from tqdm import tqdm
 
-        frames = tqdm(frames, total=n, desc="rendering", unit="frame")
+        frames = tqdm(frames, total=hi - lo, desc="rendering", unit="frame")
     with closing(rendered):
-        start = 0
-        for k, frame in enumerate(frames, first):
+        start = sample_bounds(first + lo, rate, fps) - base
+        for k, frame in enumerate(frames, first + lo):
             end = sample_bounds(k + 1, rate, fps) - base
             emitter.emit(Chunk(k, frame, sound[start:end], fps))
             start = end
             if bar is not None:
                 bar.update(1)
-    log.info("rendered %d frames in %.2f s", n, time.perf_counter() - started)
+    log.info("rendered %d frames in %.2f s", hi - lo, time.perf_counter() - started)
     return weights, states
 
 

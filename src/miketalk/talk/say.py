@@ -236,24 +236,36 @@ def _say_text(
         from tqdm import tqdm
 
         bar = tqdm(desc="rendering", total=0, unit="frame")  # its total grows by sentence
+    drawn_with = {"drawing": drawing, "progress": progress, "background": background,
+                  "max_px_per_frame": max_px_per_frame, "jerk": jerk, "bar": bar,
+                  "compositing": compositing}  # fmt: skip
     with speech, contextlib.closing(bar) if bar is not None else contextlib.nullcontext():
         said = ahead(spoken(s) for s in speech.sentences())
         before, now = None, next(said, None)
         while now is not None:
-            after = next(said, None)  # Festival made it while the face drew the one before
             utterance, timeline, planned = now
             if before is None:
                 emitter.info(StreamInfo(fps=timeline.fps, rate=utterance.rate))
             if bar is not None:
                 bar.total += len(timeline.frames)
                 bar.refresh()
-            weights, states = draw_utterance(
-                emitter, model=model, timeline=in_context(timeline, before, after),
-                samples=utterance.samples, rate=utterance.rate, drawing=drawing,
-                progress=progress, background=background, max_px_per_frame=max_px_per_frame,
-                first=joined.frames, jerk=jerk, bar=bar, compositing=compositing,
-            )  # fmt: skip
-            joined.add(utterance, timeline, planned, weights, states)
+
+            # the frames the next sentence cannot change are drawn (and played) before it
+            # is known: the first frame waits for the first sentence only
+            n, head = len(timeline.frames), drawing.settled(timeline)
+            sentence = {"model": model, "samples": utterance.samples, "rate": utterance.rate,
+                        "first": joined.frames} | drawn_with  # fmt: skip
+            drawn = []
+            if head:
+                drawn.append(draw_utterance(
+                    emitter, timeline=in_context(timeline, before, None), part=(0, head),
+                    **sentence))  # fmt: skip
+            after = next(said, None)  # Festival made it while the face drew the head
+            if head < n:
+                drawn.append(draw_utterance(
+                    emitter, timeline=in_context(timeline, before, after), part=(head, n),
+                    **sentence))  # fmt: skip
+            joined.add(utterance, timeline, planned, *_joined_parts(drawn))
             before, now = now, after
     timeline, utterance = joined.timeline(), joined.utterance(speech.text)
     planned_duration = (
@@ -287,6 +299,16 @@ def _say_text(
         duration=utterance.duration, lipsync_model=drawing.lipsync_model.value,
         trajectory=drawing.trajectory, utterance=utterance,
     )  # fmt: skip
+
+
+def _joined_parts(drawn: list[tuple]) -> tuple:
+    """The weights and states of a sentence drawn in parts (each None, or a list)."""
+    weights = [list(w) for w, _ in drawn if w is not None]
+    states = [list(s) for _, s in drawn if s is not None]
+    return (
+        [w for part in weights for w in part] if len(weights) == len(drawn) else None,
+        [s for part in states for s in part] if len(states) == len(drawn) else None,
+    )
 
 
 __all__ = ["Recorded", "Spoken", "open_model", "producer", "say"]
