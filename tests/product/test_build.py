@@ -112,6 +112,27 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
 
 
 @pytest.mark.slow
+def test_the_build_chooses_a_recordings_lipsync_on_its_held_back_clips(built: Path) -> None:
+    from miketalk.building.lipsync_choice import CANDIDATES, MARGIN, choose_recording_lipsync
+    from miketalk.model.parts import LIPSYNC_CHOICE, default_lipsync_model
+
+    doc = json.loads((built / LIPSYNC_CHOICE).read_text())
+    assert doc["recording"] in CANDIDATES and set(doc["scores"]) == set(CANDIDATES)
+    clips = json.loads((built / "trained" / "frames.json").read_text())["clip_ids"]
+    assert doc["clips"] == len(clips) and f"paper {doc['scores']['paper']:.2f}" in doc["reason"]
+    scores, chosen = doc["scores"], doc["recording"]
+    others = max(v for k, v in scores.items() if k != "paper")
+    if chosen == "paper":
+        assert others < scores["paper"] + MARGIN
+    else:
+        assert scores[chosen] == others >= scores["paper"] + MARGIN
+    assert default_lipsync_model(built, recorded=True) == chosen
+    # the same corpus and model judge the same (the corpus kept beside the model)
+    again = choose_recording_lipsync(built.parent / "corpus", built)
+    assert again.to_dict() == doc
+
+
+@pytest.mark.slow
 @needs_festival
 def test_say_and_dub_take_the_built_model(
     built: Path, joined, tmp_path: Path, capsys: pytest.CaptureFixture[str]

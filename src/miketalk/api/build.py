@@ -71,10 +71,11 @@ def build(
         keep_corpus=settings.keep_corpus, crop=settings.frame_settings.crop,
         flow=settings.flow, mixed_window=settings.mixed_window,
     )  # fmt: skip
-    from miketalk.model.parts import default_lipsync_model, trained_predicts
+    from miketalk.model.parts import built_choice, default_lipsync_model, trained_predicts
 
     segments = json.loads((Path(output) / "build" / "segments.json").read_text("utf-8"))
     utterances = segments["utterances"]
+    choice = built_choice(output) or {}
     return BuildResult(
         Path(output),
         utterances=sum(u["split"] == "train" for u in utterances),
@@ -84,6 +85,8 @@ def build(
         stage_seconds=dict(seconds),
         recording_lipsync=default_lipsync_model(output, recorded=True),
         trained_cv_r2=trained_predicts(output)[1],
+        lipsync_scores=dict(choice.get("scores", {})),
+        lipsync_reason=str(choice.get("reason", "")),
     )
 
 

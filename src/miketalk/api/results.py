@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -149,6 +149,12 @@ class BuildResult:
         The lip-sync model the model draws a recording with, unless told.
     trained_cv_r2 : float or None
         The trained face's leave-clip-out R² (None: no trained face).
+    lipsync_scores : dict of str to float
+        How well each lip-sync model followed his mouth on the held-back training clips
+        the build chose ``recording_lipsync`` by (:mod:`miketalk.building.lipsync_choice`;
+        empty: too little to judge on, or no trained face).
+    lipsync_reason : str
+        Why ``recording_lipsync``, in one line ('' for a model without the choice).
     """
 
     model: Path
@@ -159,6 +165,8 @@ class BuildResult:
     stage_seconds: dict[str, float]
     recording_lipsync: str = "paper"
     trained_cv_r2: float | None = None
+    lipsync_scores: dict[str, float] = field(default_factory=dict)
+    lipsync_reason: str = ""
 
 
 @dataclass(frozen=True)

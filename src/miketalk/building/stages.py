@@ -187,6 +187,9 @@ def model_stage(
         )
         write_coarticulation(out, params)
         fit_trained(corpus, trained_folder(out), grouping=dict(grouping))
+        from miketalk.building.lipsync_choice import choose_recording_lipsync, write_choice
+
+        write_choice(out, choose_recording_lipsync(corpus, out, grouping=dict(grouping)))
         if media:  # its person's own frames, for say and dub
             write_background(out, corpus_dir=corpus, media=media, segments=segments)
     list_model_files(out)  # last: every part listed, checked when the model opens

@@ -59,6 +59,8 @@ def cmd_build(args: argparse.Namespace) -> int:
         "unaligned_words": built.unaligned_words,
         "recording_lipsync": built.recording_lipsync,
         "trained_cv_r2": built.trained_cv_r2,
+        "lipsync_scores": built.lipsync_scores,
+        "lipsync_reason": built.lipsync_reason,
         "seconds": round(total, 1),
         "stage_seconds": {k: round(v, 1) for k, v in built.stage_seconds.items()},
         "stage_peak_mb": {k: round(v) for k, v in peaks.items()},
@@ -70,11 +72,7 @@ def cmd_build(args: argparse.Namespace) -> int:
             f"{args.output}: built from {summary['utterances']} utterances "
             f"({summary['unaligned_words']} of {summary['words']} words not aligned) "
             f"in {total:.0f} s; a recording is drawn by {summary['recording_lipsync']}"
-            + (
-                f" (the trained face's leave-clip-out R² {summary['trained_cv_r2']:.2f})"
-                if summary["trained_cv_r2"] is not None
-                else ""
-            ),
+            + (f" ({built.lipsync_reason})" if built.lipsync_reason else ""),
             file=args.out,
         )
     return 0

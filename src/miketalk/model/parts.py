@@ -28,6 +28,10 @@ COARTICULATION = "coarticulation.json"
 #: The trained face's folder in a model directory, and its manifest in that folder.
 TRAINED_DIRECTORY, TRAINED_MANIFEST = "trained", "trained.json"
 
+#: The lip-sync model its build chose for a recording, on held-back seconds of its video
+#: (:mod:`miketalk.building.lipsync_choice`), in a model directory.
+LIPSYNC_CHOICE = "lipsync.json"
+
 
 def workflow_results() -> list[Path]:
     """The folders where the workflow's results are looked for, first found first:
@@ -145,10 +149,37 @@ def trained_predicts(model_dir: str | os.PathLike[str]) -> tuple[bool, float | N
     return r2 >= MIN_TRAINED_R2, r2
 
 
+def built_choice(model_dir: str | os.PathLike[str]) -> dict | None:
+    """What the model's build chose for a recording and its measure
+    (:data:`LIPSYNC_CHOICE`: ``recording``, ``scores``, ``reason``...); None for a model
+    built before the build chose (or one without a trained face).
+
+    Raises
+    ------
+    MiketalkError
+        In one line, for a choice that cannot be read or names no lip-sync model.
+    """
+    from miketalk.lipsync.settings import LIPSYNC_MODELS
+
+    path = Path(model_dir) / LIPSYNC_CHOICE
+    if not path.is_file():
+        return None
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        if doc["recording"] not in LIPSYNC_MODELS:
+            raise ValueError(f"no lip-sync model {doc['recording']!r}")
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise MiketalkError(f"cannot read the build's lip-sync choice {path}: {err!r}") from None
+    return doc
+
+
 def own_recording_model(model_dir: str | os.PathLike[str]) -> str | None:
-    """``paper`` when the model has a trained face that its build found unable to predict
-    his mouth (:func:`trained_predicts`): a recording is then drawn by the paper's morph by
-    default; None: the preferred order decides."""
+    """The lip-sync model a recording is drawn with when none is asked for: the one its
+    build chose on held-back seconds of its video (:func:`built_choice`); for a model built
+    before that, ``paper`` when it has a trained face its build found unable to predict
+    his mouth (:func:`trained_predicts`); None: the preferred order decides."""
+    if (choice := built_choice(model_dir)) is not None:
+        return str(choice["recording"])
     if not trained_trajectories(model_dir):
         return None
     return None if trained_predicts(model_dir)[0] else "paper"
@@ -239,9 +270,11 @@ def default_lipsync_model(model_dir: str | os.PathLike[str], *, recorded: bool) 
 __all__ = [
     "COARTICULATION",
     "DEFAULT_MODEL",
+    "LIPSYNC_CHOICE",
     "MIN_TRAINED_R2",
     "TRAINED_DIRECTORY",
     "TRAINED_MANIFEST",
+    "built_choice",
     "choose_lipsync_model",
     "default_lipsync_model",
     "default_model_dir",
