@@ -112,7 +112,9 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
 
 
 @pytest.mark.slow
-def test_the_build_chooses_a_recordings_lipsync_on_its_held_back_clips(built: Path) -> None:
+def test_the_build_chooses_a_recordings_lipsync_on_its_held_back_clips(
+    built: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from miketalk.building.lipsync_choice import CANDIDATES, MARGIN, choose_recording_lipsync
     from miketalk.model.parts import LIPSYNC_CHOICE, default_lipsync_model
 
@@ -127,9 +129,24 @@ def test_the_build_chooses_a_recordings_lipsync_on_its_held_back_clips(built: Pa
     else:
         assert scores[chosen] == others >= scores["paper"] + MARGIN
     assert default_lipsync_model(built, recorded=True) == chosen
+    # both fits of the trained face were judged, the one kept is the model's
+    fits, centred = (
+        doc["trained_fits"],
+        json.loads((built / "trained" / "trained.json").read_text())["fitting"]["centred"],
+    )
+    assert scores["trained"] == fits["centred" if centred else "measured"]
+    assert centred == (fits["centred"] >= fits["measured"] + MARGIN)
     # the same corpus and model judge the same (the corpus kept beside the model)
     again = choose_recording_lipsync(built.parent / "corpus", built)
-    assert again.to_dict() == doc
+    assert (again.recording, again.scores) == (chosen, scores)
+    # the trained face's cross-validated predictions the build kept are those a refit makes
+    from miketalk.draw.trained import build as trained_build
+
+    kept = trained_build.read_held_out(built / "trained", "heard")
+    assert kept is not None and kept.shape[1] == 16
+    monkeypatch.setattr(trained_build, "read_held_out", lambda *args: None)  # a face before
+    refit = choose_recording_lipsync(built.parent / "corpus", built)
+    assert refit.scores == pytest.approx(doc["scores"], abs=1e-4)
 
 
 @pytest.mark.slow

@@ -40,7 +40,6 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.draw.trained.training import FitSettings
 from miketalk.lipsync.settings import LIPSYNC_MODELS
 from miketalk.visemes import VisemeTable
 
@@ -74,6 +73,10 @@ class LipsyncChoice:
         Their frames' length.
     reason : str
         One line: why this model.
+    trained_fits : dict
+        The trained face's score fitted to the descriptions as they are (``measured``) and
+        to each clip's less its mean (``centred``), when both were fitted
+        (:func:`fit_and_choose`); ``scores`` holds the one kept.
     """
 
     recording: str
@@ -81,6 +84,7 @@ class LipsyncChoice:
     clips: int
     seconds: float
     reason: str
+    trained_fits: dict[str, float] = dataclasses.field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """JSON-ready form, with its format tag."""
@@ -123,20 +127,24 @@ def _fitted_length(path: np.ndarray, n: int) -> np.ndarray:
 
 
 def held_back_predictions(
-    corpus_dir: str | os.PathLike[str], model_dir: str | os.PathLike[str], table: VisemeTable
+    corpus_dir: str | os.PathLike[str],
+    model_dir: str | os.PathLike[str],
+    table: VisemeTable,
+    trained: str | os.PathLike[str] | None = None,
 ) -> tuple[list[np.ndarray], dict[str, list[np.ndarray]]]:
     """Each training clip's real descriptions and each lip-sync model's prediction of them
-    (see the module docstring); a model the face lacks is left out."""
+    (see the module docstring), the trained face's from its folder ``trained`` (default
+    the model's); a model the face lacks is left out."""
     from miketalk.draw.coarticulation import predict_trajectory, read_params
     from miketalk.draw.coarticulation.weights import paper_trajectory
     from miketalk.draw.trained.mouths import load_frames
-    from miketalk.draw.trained.training import clip_offsets, training_set
-    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, fit_window
+    from miketalk.draw.trained.training import training_set
     from miketalk.lipsync.timeline import keyframes, plan
     from miketalk.model.parts import COARTICULATION, TRAINED_DIRECTORY
 
     model_dir = Path(model_dir)
-    frames = load_frames(model_dir / TRAINED_DIRECTORY)
+    trained = Path(trained) if trained is not None else model_dir / TRAINED_DIRECTORY
+    frames = load_frames(trained)
     data = training_set(corpus_dir, frames)
     real = [np.asarray(c, float) for c in data.coords]
     targets = _viseme_descriptions(model_dir, frames)
@@ -153,25 +161,58 @@ def held_back_predictions(
             times = np.arange(n) / frames.fps
             path = predict_trajectory(keys, times, params, targets, rendered=True)
             out["learned"].append(path)
-    fitting = _fitting(model_dir)
-    if fitting.centred:  # as the face was fitted: each clip less its mean
-        offsets = clip_offsets(frames)
-        data = dataclasses.replace(
-            data, coords=tuple(c - offsets[k] for k, c in enumerate(data.coords))
-        )
-    held: dict[int, np.ndarray] = {}
-    context = Context.of(data.phones, table)
-    fit_window(data, context, table, half=fitting.half, heard=HEARD_HALF, predictions=held)
-    out["trained"] = [held[i] for i in range(len(real))]
+    out["trained"] = _trained_drawn(trained, data, table)
     return real, out
 
 
-def _fitting(model_dir: Path) -> FitSettings:
-    """The settings the model's trained face was fitted with."""
-    from miketalk.model.parts import TRAINED_DIRECTORY, TRAINED_MANIFEST
+def _trained_drawn(folder: Path, data, table: VisemeTable) -> list[np.ndarray]:
+    """Each training clip as the trained face draws it without that clip: its trajectory
+    (heard) predicted by a fit without it, and the training frames of the other clips
+    the selection chooses along it; their descriptions."""
+    from miketalk.draw.trained.build import read_held_out, read_trained
+    from miketalk.draw.trained.selection import select
+    from miketalk.draw.trained.training import clip_offsets
+    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, fit_window
 
-    doc = json.loads((model_dir / TRAINED_DIRECTORY / TRAINED_MANIFEST).read_text("utf-8"))
-    return FitSettings(**doc.get("fitting", {}))
+    face = read_trained(folder)
+    frames, kind = face.frames, "heard"
+    kept = read_held_out(folder, kind)
+    if kept is not None:  # the build's own cross-validation kept them
+        held = {c: kept[frames.clip == c] for c in range(len(data.coords))}
+    else:  # a face fitted before: fitted again, as it was
+        fitted = data
+        if face.fitting.centred:  # each clip less its mean
+            offsets = clip_offsets(frames)
+            coords = tuple(c - offsets[k] for k, c in enumerate(data.coords))
+            fitted = dataclasses.replace(data, coords=coords)
+        held = {}
+        context = Context.of(data.phones, table)
+        fit_window(
+            fitted, context, table, half=face.fitting.half, heard=HEARD_HALF, predictions=held
+        )
+    fit = face.report["fit"][kind]
+    weights = fit.get("cv_r2") if face.selection.weighted else None
+    context = face.trajectories[kind].context
+    drawn = []
+    for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):
+        target = held[c]
+        if face.selection.amplitude > 0:
+            target = face.amplified(target, fit)
+        described = face.described().copy()
+        described[frames.clip == c] += _AWAY  # never its own frames
+        visemes = None
+        if face.frame_visemes is not None and face.selection.viseme > 0:
+            visemes = (context.labels(phones, times, table)[1], face.frame_visemes)
+        path = select(
+            frames, target, face.selection, weights=weights, described=described,
+            visemes=visemes,
+        )  # fmt: skip
+        drawn.append(np.asarray(frames.coords[path], float))
+    return drawn
+
+
+#: How far a held-back clip's own frames are put from any target (description units).
+_AWAY = 1e6
 
 
 def choose_recording_lipsync(
@@ -179,6 +220,7 @@ def choose_recording_lipsync(
     model_dir: str | os.PathLike[str],
     *,
     grouping: dict[str, str] | None = None,
+    trained: str | os.PathLike[str] | None = None,
 ) -> LipsyncChoice:
     """The lip-sync model a recording of this face is drawn with, judged on its held-back
     training clips (see the module docstring).
@@ -191,11 +233,14 @@ def choose_recording_lipsync(
         The model built from it, with its trained face (and coarticulation, if fitted).
     grouping : dict, optional
         Viseme grouping overrides (the configuration's ``visemes.grouping``).
+    trained : path, optional
+        The trained face's folder (default the model's).
     """
     from miketalk.draw.trained.mouths import load_frames
     from miketalk.model.parts import TRAINED_DIRECTORY
 
-    frames = load_frames(Path(model_dir) / TRAINED_DIRECTORY)
+    trained = Path(trained) if trained is not None else Path(model_dir) / TRAINED_DIRECTORY
+    frames = load_frames(trained)
     clips, seconds = len(frames.clip_ids), round(len(frames.coords) / frames.fps, 2)
     if clips < MIN_CLIPS or seconds < MIN_SECONDS:
         return LipsyncChoice(
@@ -203,7 +248,8 @@ def choose_recording_lipsync(
             f"too little to judge on ({clips} clips, {seconds:.1f} s; at least {MIN_CLIPS} "
             f"clips and {MIN_SECONDS:g} s): the paper's morph",
         )  # fmt: skip
-    real, predicted = held_back_predictions(corpus_dir, model_dir, VisemeTable(grouping=grouping))
+    table = VisemeTable(grouping=grouping)
+    real, predicted = held_back_predictions(corpus_dir, model_dir, table, trained)
     scores = {name: round(follow_score(real, predicted[name]), 4) for name in predicted}
     best = max(scores, key=lambda name: (scores[name], -CANDIDATES.index(name)))
     figures = ", ".join(f"{name} {scores[name]:.2f}" for name in CANDIDATES if name in scores)
@@ -212,6 +258,57 @@ def choose_recording_lipsync(
         reason = f"none followed his mouth better than the paper's morph {where}"
         return LipsyncChoice("paper", scores, clips, seconds, reason)
     return LipsyncChoice(best, scores, clips, seconds, f"it followed his mouth best {where}")
+
+
+def fit_and_choose(
+    corpus_dir: str | os.PathLike[str],
+    model_dir: str | os.PathLike[str],
+    *,
+    grouping: dict[str, str] | None = None,
+) -> LipsyncChoice:
+    """Fit the model's trained face, choose its recording's lip-sync, keep both.
+
+    The trained face is fitted to the mouth's descriptions as they are; where the choice
+    is judged (enough clips), also to each clip's descriptions less the clip's mean
+    (:class:`~miketalk.draw.trained.training.FitSettings` ``centred``: a video of several
+    days, whose light and framing differ from clip to clip, leaves the day out), and that
+    fit is kept when it follows the held-back clips better by :data:`MARGIN`. Then the
+    choice (:func:`choose_recording_lipsync`) is written (:func:`write_choice`).
+    """
+    import shutil
+
+    from miketalk.draw.trained import fit_trained
+    from miketalk.draw.trained.mouths import load_frames
+    from miketalk.draw.trained.training import FitSettings
+    from miketalk.model.write import trained_folder
+
+    folder = trained_folder(model_dir)
+    fit_trained(corpus_dir, folder, grouping=grouping)
+    choice = choose_recording_lipsync(corpus_dir, model_dir, grouping=grouping)
+    if choice.scores:
+        spare = Path(model_dir) / f".{folder.name}-centred"  # hidden: never a model's file
+        try:
+            fit_trained(
+                corpus_dir, spare, grouping=grouping, fitting=FitSettings(centred=True),
+                frames=load_frames(folder),
+            )  # fmt: skip
+            centred = choose_recording_lipsync(
+                corpus_dir, model_dir, grouping=grouping, trained=spare
+            )
+            fits = {"measured": choice.scores["trained"], "centred": centred.scores["trained"]}
+            if fits["centred"] >= fits["measured"] + MARGIN:
+                shutil.rmtree(folder)
+                spare.rename(folder)
+                reason = (
+                    f"{centred.reason}; the trained face fitted to each clip less its mean "
+                    f"({fits['centred']:.2f} against {fits['measured']:.2f})"
+                )
+                choice = dataclasses.replace(centred, reason=reason)
+            choice = dataclasses.replace(choice, trained_fits=fits)
+        finally:
+            shutil.rmtree(spare, ignore_errors=True)
+    write_choice(model_dir, choice)
+    return choice
 
 
 def write_choice(model_dir: str | os.PathLike[str], choice: LipsyncChoice) -> Path:
@@ -233,6 +330,7 @@ __all__ = [
     "MIN_SECONDS",
     "LipsyncChoice",
     "choose_recording_lipsync",
+    "fit_and_choose",
     "follow_score",
     "held_back_predictions",
     "write_choice",

@@ -173,11 +173,11 @@ def model_stage(
     )
     if phones:  # a face from clips: learn from its frames
         from miketalk.building.background import write_background
+        from miketalk.building.lipsync_choice import fit_and_choose
         from miketalk.corpus.eigenlips import read_eigenlips
         from miketalk.draw.coarticulation import fit_coarticulation
-        from miketalk.draw.trained import fit_trained
         from miketalk.model.face import Model
-        from miketalk.model.write import trained_folder, write_coarticulation
+        from miketalk.model.write import write_coarticulation
 
         corpus = Path(phones).parent
         with Model(out) as model:
@@ -186,10 +186,7 @@ def model_stage(
             corpus, images, grouping=dict(grouping), corpus_eigenlips=read_eigenlips(eigenlips)
         )
         write_coarticulation(out, params)
-        fit_trained(corpus, trained_folder(out), grouping=dict(grouping))
-        from miketalk.building.lipsync_choice import choose_recording_lipsync, write_choice
-
-        write_choice(out, choose_recording_lipsync(corpus, out, grouping=dict(grouping)))
+        fit_and_choose(corpus, out, grouping=dict(grouping))  # the trained face, the choice
         if media:  # its person's own frames, for say and dub
             write_background(out, corpus_dir=corpus, media=media, segments=segments)
     list_model_files(out)  # last: every part listed, checked when the model opens

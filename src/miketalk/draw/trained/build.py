@@ -60,6 +60,10 @@ log = logging.getLogger(__name__)
 #: Format tag of the trained face's manifest.
 FORMAT = "miketalk-trained/1"
 
+#: The prefix of ``trajectory.npz``'s keys of each trajectory model's cross-validated
+#: predictions of the training frames (each clip by a fit without it).
+HELD_OUT = "held_out."
+
 #: The trained face's manifest in its folder, written last (as
 #: :data:`miketalk.model.parts.TRAINED_MANIFEST` names it).
 MANIFEST = "trained.json"
@@ -194,6 +198,7 @@ def fit_trained(
     components: int = 16,
     selection: SelectionSettings | None = None,
     fitting: FitSettings | None = None,
+    frames: MouthFrames | None = None,
 ) -> dict:
     """Measure every training frame, fit the trajectory models, write them to ``folder``.
 
@@ -211,6 +216,8 @@ def fit_trained(
         Principal components of the description.
     selection : SelectionSettings, optional
     fitting : FitSettings, optional
+    frames : MouthFrames, optional
+        The training frames measured before (by another fit of the same corpus).
 
     Returns
     -------
@@ -224,11 +231,14 @@ def fit_trained(
     started = time.perf_counter()
     table = VisemeTable(grouping=grouping)
     selection, fitting = selection or SelectionSettings(), fitting or FitSettings()
-    frames = measure_frames(corpus_dir, components=components)
+    if frames is None:
+        frames = measure_frames(corpus_dir, components=components)
     measured = time.perf_counter() - started
+    held: dict[str, dict[int, np.ndarray]] = {}
     face = fitted_face(
-        frames, corpus_dir, selection=selection, fitting=fitting, table=table, default=default
-    )
+        frames, corpus_dir, selection=selection, fitting=fitting, table=table, default=default,
+        predictions=held,
+    )  # fmt: skip
     window, regularized = face.trajectories["window"], face.trajectories["regularized"]
     window_report, regularized_report = (
         face.report["fit"]["window"],
@@ -243,6 +253,8 @@ def fit_trained(
         arrays |= {f"{name}.{k}": v for k, v in a.items()}
         settings[name] = s
     arrays["frames.viseme"] = face.frame_visemes
+    for name, by_clip in held.items():  # each frame's prediction by a fit without its clip
+        arrays[f"{HELD_OUT}{name}"] = held_out_rows(frames, by_clip)
     with atomic_path(out / "trajectory.npz") as tmp, open(tmp, "wb") as f:
         np.savez(f, **arrays)
     doc = {
@@ -279,10 +291,12 @@ def fitted_face(
     fitting: FitSettings | None = None,
     table: VisemeTable,
     default: str = TRAJECTORIES[0],
+    predictions: dict[str, dict[int, np.ndarray]] | None = None,
 ) -> TrainedFace:
     """The trajectory models fitted to ``frames`` (in memory) with ``fitting``: the face
     :func:`fit_trained` writes, drawing with ``selection`` (``fitting`` default
-    :class:`FitSettings`)."""
+    :class:`FitSettings`). ``predictions``, when given, receives each trajectory model's
+    cross-validated prediction of each clip (``name -> clip index -> (frames, n)``)."""
     fitting = fitting or FitSettings()
     data = training_set(corpus_dir, frames)
     if fitting.centred:
@@ -299,6 +313,8 @@ def fitted_face(
             data, context, table, half=fitting.half, heard=HEARD_HALF, predictions=held["heard"]
         ),
     }
+    if predictions is not None:
+        predictions.update(held)
     for name, (model, report) in fitted.items():
         report["amplitude_gain"] = amplitude_gain(model, data, table)
         report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
@@ -308,6 +324,22 @@ def fitted_face(
     for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):
         shown[frames.clip == c] = context.labels(phones, times, table)[1]
     return TrainedFace(frames, models, default, selection, table, report, shown, fitting)
+
+
+def held_out_rows(frames: MouthFrames, by_clip: Mapping[int, np.ndarray]) -> np.ndarray:
+    """``(N, n)``: each training frame's row of its clip's array in ``by_clip``."""
+    rows = np.zeros_like(frames.coords)
+    for c, predicted in by_clip.items():
+        rows[frames.clip == c] = predicted
+    return rows
+
+
+def read_held_out(folder: str | os.PathLike[str], name: str) -> np.ndarray | None:
+    """What :func:`fit_trained` kept of trajectory model ``name``'s cross-validated
+    predictions (:func:`held_out_rows`), or None (a face fitted before they were kept)."""
+    with np.load(Path(folder) / "trajectory.npz", allow_pickle=False) as z:
+        key = f"{HELD_OUT}{name}"
+        return z[key] if key in z.files else None
 
 
 def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) -> list[float]:
@@ -394,4 +426,14 @@ def read_trained(folder: str | os.PathLike[str]) -> TrainedFace:
     )
 
 
-__all__ = ["FORMAT", "MANIFEST", "FitSettings", "TrainedFace", "fit_trained", "read_trained"]
+__all__ = [
+    "FORMAT",
+    "HELD_OUT",
+    "MANIFEST",
+    "FitSettings",
+    "TrainedFace",
+    "fit_trained",
+    "held_out_rows",
+    "read_held_out",
+    "read_trained",
+]
