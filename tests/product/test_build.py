@@ -115,30 +115,25 @@ def test_build_writes_a_model_of_the_training_part(built: Path) -> None:
 def test_the_build_chooses_a_recordings_lipsync_on_its_held_back_clips(
     built: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from miketalk.building.lipsync_choice import CANDIDATES, MARGIN, choose_recording_lipsync
+    from miketalk.building.lipsync_choice import CANDIDATES, MIN_T, choose_recording_lipsync
     from miketalk.model.parts import LIPSYNC_CHOICE, default_lipsync_model
 
     doc = json.loads((built / LIPSYNC_CHOICE).read_text())
     assert doc["recording"] in CANDIDATES and set(doc["scores"]) == set(CANDIDATES)
     clips = json.loads((built / "trained" / "frames.json").read_text())["clip_ids"]
     assert doc["clips"] == len(clips) and f"paper {doc['scores']['paper']:.2f}" in doc["reason"]
-    scores, chosen = doc["scores"], doc["recording"]
-    others = max(v for k, v in scores.items() if k != "paper")
-    if chosen == "paper":
-        assert others < scores["paper"] + MARGIN
-    else:
-        assert scores[chosen] == others >= scores["paper"] + MARGIN
+    scores, chosen, t = doc["scores"], doc["recording"], doc["t"]
+    best = max(scores, key=scores.get)
+    assert chosen == (best if best != "paper" and t[best] >= MIN_T else "paper")
     assert default_lipsync_model(built, recorded=True) == chosen
     # both fits of the trained face were judged, the one kept is the model's
-    fits, centred = (
-        doc["trained_fits"],
-        json.loads((built / "trained" / "trained.json").read_text())["fitting"]["centred"],
-    )
-    assert scores["trained"] == fits["centred" if centred else "measured"]
-    assert centred == (fits["centred"] >= fits["measured"] + MARGIN)
+    fits = doc["trained_fits"]
+    fitted = json.loads((built / "trained" / "trained.json").read_text())["fitting"]
+    assert scores["trained"] == fits["centred" if fitted["centred"] else "measured"]
+    assert fitted["centred"] == (fits["t"] >= MIN_T)
     # the same corpus and model judge the same (the corpus kept beside the model)
     again = choose_recording_lipsync(built.parent / "corpus", built)
-    assert (again.recording, again.scores) == (chosen, scores)
+    assert (again.recording, again.scores, again.t) == (chosen, scores, t)
     # the trained face's cross-validated predictions the build kept are those a refit makes
     from miketalk.draw.trained import build as trained_build
 

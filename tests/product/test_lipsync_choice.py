@@ -12,10 +12,11 @@ import pytest
 
 from miketalk.building import lipsync_choice
 from miketalk.building.lipsync_choice import (
-    MARGIN,
     MIN_CLIPS,
+    MIN_T,
     choose_recording_lipsync,
     follow_score,
+    paired_t,
     write_choice,
 )
 from miketalk.errors import MiketalkError
@@ -75,35 +76,46 @@ def test_too_little_video_is_drawn_by_the_paper_morph(
 
 
 @pytest.mark.parametrize(
-    "trained_noise,learned_noise,chosen",
-    [(0.1, 5.0, "trained"), (5.0, 0.1, "learned"), (None, 5.0, "paper"), (5.0, 5.0, "paper")],
+    "case,chosen",
+    [("trained", "trained"), ("learned", "learned"), ("none", "paper"), ("one clip", "paper")],
 )
-def test_the_best_on_the_held_back_clips_is_chosen_and_the_morph_unless_beaten(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, trained_noise, learned_noise, chosen
+def test_the_best_on_the_held_back_clips_is_chosen_if_surely_better_than_the_morph(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, case: str, chosen: str
 ) -> None:
     model = _frames(tmp_path, 4, 60)
     real = _clips(2, (60, 60, 60, 60))
+    real[3] = 0.3 * real[3]  # a quiet clip: little weight in the pooled score
     rng = np.random.default_rng(3)
-    paper = [c + rng.normal(size=c.shape) * 2.0 for c in real]
 
-    def noisy(level: float | None) -> list[np.ndarray]:
-        if level is None:  # the morph's error a little smaller: better, within the margin
-            return [c + (p - c) * 0.98 for c, p in zip(real, paper, strict=True)]
+    def noisy(level: float) -> list[np.ndarray]:
         return [c + rng.normal(size=c.shape) * level for c in real]
 
-    predicted = {"paper": paper, "learned": noisy(learned_noise), "trained": noisy(trained_noise)}
+    paper, good, bad = noisy(2.0), noisy(0.3), noisy(8.0)
+    predicted = {"paper": paper, "learned": bad, "trained": bad}
+    if case in ("trained", "learned"):
+        predicted[case] = good
+    elif case == "one clip":  # better on three clips, lost on the quiet one
+        predicted["trained"] = [*good[:3], rng.normal(size=real[3].shape)]
     monkeypatch.setattr(lipsync_choice, "held_back_predictions", lambda *a: (real, predicted))
     choice = choose_recording_lipsync(tmp_path / "corpus", model)
     assert choice.recording == chosen
-    assert set(choice.scores) == {"paper", "learned", "trained"}
-    best = max(choice.scores.values())
-    if trained_noise is None:
-        assert choice.scores["paper"] < choice.scores["trained"] < choice.scores["paper"] + MARGIN
-    if chosen == "paper":
-        assert best < choice.scores["paper"] + MARGIN
-    else:
-        assert choice.scores[chosen] == best >= choice.scores["paper"] + MARGIN
+    assert set(choice.scores) == set(choice.t) == {"paper", "learned", "trained"}
+    assert all(len(v) == 4 for v in choice.clip_scores.values())
+    if case == "one clip":  # the best over all the clips, not surely better clip by clip
+        assert choice.scores["trained"] > choice.scores["paper"]
+        assert choice.t["trained"] < MIN_T
+    if chosen != "paper":
+        assert choice.scores[chosen] == max(choice.scores.values())
+        assert choice.t[chosen] >= MIN_T
     assert f"paper {choice.scores['paper']:.2f}" in choice.reason
+
+
+def test_the_paired_t_of_clip_scores() -> None:
+    assert paired_t([0.5, 0.6, 0.7], [0.4, 0.5, 0.6]) > 1e4  # the same gain on every clip
+    assert paired_t([0.5, 0.2], [0.2, 0.5]) == 0.0
+    assert paired_t([0.9], [0.1]) == 0.0  # one clip says nothing of the spread
+    d = np.array([0.1, 0.3, -0.1, 0.2])
+    assert paired_t(d, np.zeros(4)) == pytest.approx(d.mean() / (d.std(ddof=1) / 2), abs=1e-3)
 
 
 def test_a_model_draws_a_recording_with_its_builds_choice(tmp_path: Path) -> None:

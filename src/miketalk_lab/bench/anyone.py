@@ -60,6 +60,7 @@ import pandas as pd
 
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
+from miketalk.model.parts import built_choice
 from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk_lab.evaluation.mouth_follow import lip_colours, pooled_shifts, shifts_table
 from miketalk_lab.evaluation.sound_sync import measure_sound_lag, speech_span
@@ -77,7 +78,7 @@ RENDERERS = {
     "trained_heard": ("--trajectory", "heard"),
 }
 #: What the summary's ``builds`` say of each fold's model.
-BUILD_FIGURES = ("build_seconds", "sound_lag_frames", "sound_lag_r")
+BUILD_FIGURES = ("build_seconds", "sound_lag_frames", "sound_lag_r", "lipsync_choice")
 #: The typed sentence of the ``unrelated`` row.
 UNRELATED = "Together we can build a stronger economy for everyone."
 #: The lag searched, frames either way.
@@ -213,12 +214,16 @@ def _fold_model(obama: Path, work: Path, held: Sequence[str], ids: Sequence[str]
             work / f"build_{'_'.join(held)}.log",
         )
     lag = measure_sound_lag(work / f"{stem}.mp4", model / "build" / "segments.json")
+    choice = built_choice(model) or {}  # the build's own lip-sync for a recording
     return {
         "model": model,
         "train": train,
         "build_seconds": seconds,
         "sound_lag_frames": round(lag.peak_frames, 2),
         "sound_lag_r": round(lag.peak_r, 2),
+        "lipsync_choice": {
+            k: choice[k] for k in ("recording", "scores", "trained_fits") if k in choice
+        },
     }
 
 
