@@ -140,6 +140,36 @@ def test_a_face_crop_videos_crops_made_again_are_the_held_crops_byte_for_byte() 
     np.testing.assert_array_equal(streamed.to_crop, held.to_crop)
 
 
+@pytest.mark.parametrize("budget", ["default", "none"])
+def test_a_short_videos_crops_are_read_once_and_held_a_long_ones_streamed(budget, monkeypatch):
+    """Registration reads a video's crops twice: a short video's (at most
+    :data:`~miketalk.composite.tracked.HOLD_CROPS_BYTES`) are read once into an array, the
+    bytes of every reading; a longer one's are made again at each reading."""
+    from miketalk.composite import registration, tracked
+    from miketalk.track.crop import FaceCropSettings
+    from miketalk.track.video_crops import StreamedCrops, crop_video
+
+    clip = Path(__file__).parents[2] / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
+    if budget == "none":
+        monkeypatch.setattr(tracked, "HOLD_CROPS_BYTES", 0)
+    given = []
+
+    def register(frames, *args, **kwargs):
+        given.append(frames)
+        raise KeyboardInterrupt  # what registration was given is all this asks
+
+    monkeypatch.setattr(registration, "register_video", register)
+    with pytest.raises(KeyboardInterrupt):
+        tracked.tracked_background(clip, None, FaceCropSettings(), frames=30)
+    (frames,) = given
+    held = crop_video(clip, crop=FaceCropSettings(), frames=30).crops
+    if budget == "none":
+        assert isinstance(frames, StreamedCrops)
+        frames = np.stack(list(frames))
+    assert isinstance(frames, np.ndarray) and frames.dtype == np.uint8
+    np.testing.assert_array_equal(frames, held)
+
+
 def test_the_eye_bands_are_held_in_half_the_bytes_with_the_same_blinks() -> None:
     """The eye band of every frame is what registration still holds for the whole video:
     as the exact sum of the three channels (uint16), the band times 3, with the blinks of

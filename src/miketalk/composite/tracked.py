@@ -14,7 +14,8 @@ carries the mouth through it into the frame at the video's own resolution, touch
 mouth's pixels only.
 
 Neither the frames nor their crops are held: the crops are made again at each of the
-registration's two readings (:class:`~miketalk.track.video_crops.StreamedCrops`), and
+registration's two readings (:class:`~miketalk.track.video_crops.StreamedCrops`; a short
+video's, at most :data:`HOLD_CROPS_BYTES`, are read once and held), and
 :class:`~miketalk.media.frame_source.VideoFrames` decodes the frames as the output is
 written; memory does not grow with the video's length. Frames where the tracker found no one frontal
 face (the face out of the picture, turned away, two faces, another shot) are named in a
@@ -38,7 +39,13 @@ from miketalk.track.similarity import compose_affine, invert_affine
 
 log = logging.getLogger(__name__)
 
-__all__ = ["tracked_background"]
+__all__ = ["HOLD_CROPS_BYTES", "tracked_background"]
+
+#: A video whose face crops take at most this many bytes has them held: read once, instead of
+#: made again at each of the registration's two readings (a reading of 10 s of 720p costs
+#: 0.85 s of CPU: its decoding and warping); a longer one's are streamed, so that memory does
+#: not grow with the video's length (96 MB: 16 s at 30 fps of 256-pixel crops).
+HOLD_CROPS_BYTES = 96 << 20
 
 
 def tracked_background(
@@ -108,8 +115,11 @@ def tracked_background(
             "facing the camera"
         )
     shot = _shots(cropped.track.segments, n)
+    crops = cropped.crops
+    if n * int(np.prod(crops.shape[1:])) <= HOLD_CROPS_BYTES:  # read once, not twice
+        crops = _held(crops)
     found = register_video(
-        cropped.crops, fps, stabilizer, source=source, progress=progress, smooth=smooth,
+        crops, fps, stabilizer, source=source, progress=progress, smooth=smooth,
         usable=cropped.tracked, refine=True, shots=shot,
     )  # fmt: skip
     to_frame = np.stack([invert_affine(c) for c in cropped.to_crop])
@@ -121,6 +131,14 @@ def tracked_background(
         shown=cropped.tracked.copy(), shot=shot, steady_shots=found.steady_shots,
         left_out=left_out,
     )  # fmt: skip
+
+
+def _held(crops) -> np.ndarray:
+    """The crops of one reading, in one array."""
+    held = np.empty(crops.shape, np.uint8)
+    for k, crop in enumerate(crops):
+        held[k] = crop
+    return held
 
 
 def _shots(segments, n: int) -> np.ndarray:
