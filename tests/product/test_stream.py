@@ -426,3 +426,47 @@ def test_a_sentence_drawn_before_the_next_is_known_is_drawn_as_knowing_it(
         )  # fmt: skip
         assert alone[:head] == knowing[:head]  # the frames played before `after` was known
         assert alone != knowing  # and the next sentence does change the sentence's end
+
+
+def test_the_live_encoder_keeps_up_with_frames_slower_than_real_time(tmp_path: Path) -> None:
+    # with x264's zerolatency tune, ffmpeg stopped reading both its pipes for good once the
+    # frames came slower than they play (the page's 720p stream hung at its first frame)
+    from miketalk.media.encoder import StreamEncoder
+    from miketalk.media.x264 import LIVE_X264
+    from miketalk.media.yuv import I420Frame
+
+    read_end, write_end = os.pipe()
+    out = bytearray()
+
+    def read() -> None:
+        while block := os.read(read_end, 1 << 16):
+            out.extend(block)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    rng = np.random.default_rng(0)
+    encoder = StreamEncoder(write_end, fps=29.97, rate=16000, log_path=tmp_path / "ffmpeg.log",
+                            x264=LIVE_X264)  # fmt: skip
+    ended = threading.Event()
+
+    def write() -> None:
+        with encoder:
+            for _ in range(40):
+                time.sleep(0.05)  # 20 frames a second, for a video of 30
+                planes = rng.integers(0, 256, (720 * 3 // 2, 1280), np.uint8)
+                encoder.add(I420Frame(planes), np.zeros(533, np.int16))  # as composited
+            encoder.finish()
+        ended.set()
+
+    writer = threading.Thread(target=write, daemon=True)
+    writer.start()
+    try:
+        until(ended.is_set, within=60, what="the live encoder's end")
+    finally:
+        encoder.kill()
+        os.close(write_end)
+    reader.join(10)
+    os.close(read_end)
+    got = tmp_path / "live.mp4"
+    got.write_bytes(bytes(out))
+    assert len(decoded(got, "v")) == 40

@@ -118,7 +118,7 @@ def write_mp4(
     preset : str, keyword-only
         x264 preset (speed/size trade-off; does not affect determinism).
     tune : str, keyword-only, optional
-        x264 tune (:data:`LIVE_X264`'s ``zerolatency``); None: none.
+        x264 tune (e.g. ``film``); None: none (as both :data:`FILE_X264` and :data:`LIVE_X264`).
     audio_file : path-like, keyword-only, optional
         A recording whose first audio stream is the sound, at its own rate and channels
         (see the module docstring), instead of ``audio``.

@@ -92,7 +92,8 @@ async def follow(live: LiveFile, until: Callable[[], bool]) -> AsyncIterator[byt
 
 
 def record(stream: Stream, live: LiveFile, output: Path) -> Any:
-    """Write ``stream`` as a fragmented MP4 (:func:`miketalk.api.write_fragmented`) into
+    """Write ``stream`` as a fragmented MP4 (:func:`miketalk.api.write_fragmented`, x264's
+    live settings: :data:`~miketalk.media.x264.LIVE_X264`) into
     ``live`` as it is made, then the whole into ``output`` (:func:`whole`); ``live``'s file
     is removed after. Returns what the library says was written (its timeline, its motion).
 
@@ -108,7 +109,7 @@ def record(stream: Stream, live: LiveFile, output: Path) -> Any:
     relay.start()
     try:
         try:
-            spoken = api.write_fragmented(stream, write_fd)
+            spoken = api.write_fragmented(stream, write_fd, live=True)
         finally:
             os.close(write_fd)
             relay.join()

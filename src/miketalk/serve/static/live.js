@@ -23,11 +23,11 @@ function mp4Codecs(bytes) {
 
 // Plays the stream at `url` in `player` as it comes. Returns a handle: `stop()` ends the
 // fetch and the playback at once; `done` settles when the stream has ended (or was stopped).
-// `stats` counts what the viewer saw: the first frame shown (performance.now()), the times
-// the video waited for data after it, and how long.
+// `stats` counts what the viewer saw: the first bytes come and the first frame shown
+// (performance.now()), the times the video waited for data after it, and how long.
 function playLive(player, url, { onFirstFrame, keepSeconds = 30 } = {}) {
   const aborter = new AbortController();
-  const stats = { firstFrame: null, stalls: 0, stalledSeconds: 0, bytes: 0, ended: false };
+  const stats = { firstByte: null, firstFrame: null, stalls: 0, stalledSeconds: 0, bytes: 0, ended: false };
   const source = new MediaSource();
   const objectUrl = URL.createObjectURL(source);
   let buffer = null;
@@ -98,6 +98,7 @@ function playLive(player, url, { onFirstFrame, keepSeconds = 30 } = {}) {
     for (;;) {
       const { value, done: over } = await reader.read();
       if (over) break;
+      if (stats.firstByte === null) stats.firstByte = performance.now();
       stats.bytes += value.length;
       if (!buffer) {  // the codecs are in the first bytes: wait for them
         const joined = new Uint8Array(head.length + value.length);

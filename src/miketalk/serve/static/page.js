@@ -224,6 +224,7 @@ async function submitSpeech(form, kind) {
     }
     const job = await post("/api/jobs", body);
     noteLive("job", job.id);
+    noteLive("posted", ((performance.now() - clicked) / 1000).toFixed(3));
     refreshJobs();
     playing = startLive(job, clicked, kind);
     const done = await follow(job.id, (j) => {
@@ -266,6 +267,7 @@ function startLive(job, clicked, kind) {
   const handle = playLive(player, job.live, {
     onFirstFrame: (t) => {
       noteLive("firstFrame", ((t - clicked) / 1000).toFixed(3));
+      noteLive("firstByte", ((handle.stats.firstByte - clicked) / 1000).toFixed(3));
       noteLive("sinceClick", ((t - clicked) / 1000).toFixed(2));
       $("#live-state").textContent = "Playing as it is made";
     },
