@@ -67,7 +67,8 @@ def test_registration_stabilizes_a_chunk_at_a_time_with_the_whole_videos_result(
     """The stabilized copy of every frame (as much again as the frames registered) is no
     longer held: the frames are stabilized 50 at a time, and the blinks and the light are
     those of the whole stabilized video."""
-    from miketalk.composite.registration import _CHUNK, _SAMPLE, find_blinks, register_video
+    from miketalk.composite.blinks import find_blinks
+    from miketalk.composite.registration import _CHUNK, _SAMPLE, register_video
 
     frames, _ = _clip(120)
     stabilizer = Model(person).stabilizer()
@@ -174,7 +175,7 @@ def test_the_eye_bands_are_held_in_half_the_bytes_with_the_same_blinks() -> None
     """The eye band of every frame is what registration still holds for the whole video:
     as the exact sum of the three channels (uint16), the band times 3, with the blinks of
     the band in float."""
-    from miketalk.composite.registration import _blinks_of, _blinks_of_sums, _eye_sums, eye_band
+    from miketalk.composite.blinks import _blinks_of, _blinks_of_sums, _eye_sums, eye_band
 
     rng = np.random.default_rng(0)
     box = (92, 164, 72, 28)
@@ -185,3 +186,31 @@ def test_the_eye_bands_are_held_in_half_the_bytes_with_the_same_blinks() -> None
         assert sums.dtype == np.uint16
         np.testing.assert_array_equal(sums.astype(np.float32) / 3, band)
         assert _blinks_of_sums(sums) == _blinks_of(band) == (n // 3, n // 3 + 1)
+
+
+def test_a_long_videos_eye_bands_are_held_a_block_at_a_time(monkeypatch) -> None:
+    """Issue 50: the eye bands grew about 22 MB a minute of a face-crop dub. They are now held
+    a block at a time, each block against its own usual eyes: up to a block, the whole
+    video's blinks as before; longer, the blinks of every block, and never more held."""
+    from miketalk.composite import blinks as eyes_of
+    from miketalk.composite.blinks import _blinks_of_changes, _blinks_of_sums, _eye_sums
+
+    monkeypatch.setattr(eyes_of, "BLINK_BLOCK", 40)
+    rng = np.random.default_rng(1)
+    box = (92, 164, 72, 28)
+    closed = (5, 50, 51, 97, 125)
+    for n, light in ((37, 0), (130, 0), (130, 30)):
+        frames = rng.integers(115, 125, (n, 256, 256, 3), dtype=np.uint8)
+        frames[98:, 60:110] += np.uint8(light)  # the light changes where the last block starts
+        blinks = tuple(i for i in closed if i < n)
+        frames[list(blinks), 60:110] = 10
+        eyes = eyes_of._EyeChanges(n)
+        for start in range(0, n, 7):  # given in pieces that straddle the blocks' ends
+            eyes.add(_eye_sums(frames[start : start + 7], box))
+        changes = eyes.changes()
+        assert len(changes) == n and eyes.most_held <= 40
+        assert _blinks_of_changes(changes) == blinks
+        if n <= 40:
+            assert _blinks_of_changes(changes) == _blinks_of_sums(_eye_sums(frames, box))
+    # a whole video's median counts the changed light's frames as blinks; the blocks do not
+    assert len(_blinks_of_sums(_eye_sums(frames, box))) > len(blinks)

@@ -5,12 +5,12 @@ to it, or its face crops, :mod:`miketalk.track`) with the model's stabilizer: th
 usable frame alone first (a video whose first frame does not register does not show the
 model's person), then all of them in chunks, each starting from the last registered
 frame; frames that do not register take the nearest registered frame's transform, and
-the transforms are smoothed in time. It finds the blinks and the light (the median of
-the registered frames), and refuses a video whose mouth and chin do not land on the
-model's, or whose face's colour the model's mouth cannot match. It reads the frames in
-order, twice (to register them, then to stabilize them for the blinks and the light),
-and holds a chunk of them and an evenly spread sample: frames made again at each reading
-(:class:`~miketalk.track.video_crops.StreamedCrops`) keep its memory independent of the
+the transforms are smoothed in time. It finds the blinks (:mod:`~miketalk.composite.blinks`)
+and the light (the median of the registered frames), and refuses a video whose mouth and
+chin do not land on the model's, or whose face's colour the model's mouth cannot match. It
+reads the frames in order, twice (to register them, then to stabilize them for the blinks and
+the light), and holds a chunk of them and an evenly spread sample: frames made again at each
+reading (:class:`~miketalk.track.video_crops.StreamedCrops`) keep its memory independent of the
 video's length.
 """
 
@@ -23,6 +23,14 @@ from itertools import islice
 import numpy as np
 
 from miketalk import defaults
+from miketalk.composite.blinks import (  # the blinks: the eye bands of the registered frames
+    BLINK_FACTOR,
+    _blinks_of_changes,
+    _eye_sums,
+    _EyeChanges,
+    eye_band,
+    find_blinks,
+)
 from miketalk.composite.loop import smooth_in_time
 from miketalk.errors import MiketalkError
 
@@ -40,10 +48,6 @@ __all__ = [
 #: with the model's reference: the 16 committed GRID clips checked score 0.63 to 0.96, the
 #: same man mirrored (registered wrongly, at ECC correlation 0.91) 0.12.
 MIN_LOWER_FACE = 0.4
-
-#: A frame blinks when its eye band differs from the sequence's median by this many
-#: times the band's median difference (and at least 3 grey levels).
-BLINK_FACTOR = 3.0
 
 
 @dataclass(frozen=True)
@@ -182,8 +186,8 @@ def register_video(
         for shot in np.unique(shots[shots >= 0]):
             frames_of = np.flatnonzero(shots == shot)
             picked[int(shot)] = frames_of[_spread(len(frames_of), _SAMPLE)]
-    sums, medians = _stabilized(stabilizer, frames, transforms, field, {-1: some, **picked})
-    blinks = _blinks_of_sums(sums)
+    changes, medians = _stabilized(stabilizer, frames, transforms, field, {-1: some, **picked})
+    blinks = _blinks_of_changes(changes)
     median = medians.pop(-1)
     score = lower_face_correlation(median, stabilizer.reference, stabilizer.mouth_box)
     # tracked crops: the landmarks put the mouth in place; another session's light and
@@ -209,15 +213,15 @@ _CHUNK = 50
 def _stabilized(
     stabilizer, frames, transforms, field, picked: dict[int, np.ndarray]
 ) -> tuple[np.ndarray, dict[int, np.ndarray]]:
-    """Every frame's eye band on the reference (:func:`_eye_sums`), and for each key of
-    ``picked`` the median of its frames (sorted indices) stabilized; the frames stabilized
-    :data:`_CHUNK` at a time, each set's frames let go once its median is taken (a shot's
-    frames lie within the shot), so that what is held is the bands (2 bytes a pixel of the
-    band a frame) and at most two sets' frames."""
-    sums, held, medians = [], {key: [] for key in picked}, {}
+    """Every frame's eye change (:class:`_EyeChanges`), and for each key of ``picked`` the
+    median of its frames (sorted indices) stabilized; the frames stabilized :data:`_CHUNK` at
+    a time, each set's frames let go once its median is taken (a shot's frames lie within the
+    shot), so that what is held is at most a block of eye bands (2 bytes a pixel of the band
+    a frame) and two sets' frames."""
+    changes, held, medians = _EyeChanges(len(frames)), {key: [] for key in picked}, {}
     for start, chunk in _chunks(frames, _CHUNK):
         part = stabilizer.apply(chunk, transforms[start : start + len(chunk)], field=field)
-        sums.append(_eye_sums(part, stabilizer.mouth_box))
+        changes.add(_eye_sums(part, stabilizer.mouth_box))
         stop = start + len(part)
         for key, at in picked.items():
             if key in medians:
@@ -225,7 +229,7 @@ def _stabilized(
             held[key].extend(part[at[(at >= start) & (at < stop)] - start])
             if len(at) and at[-1] < stop:  # its last frame read: its median, and let go
                 medians[key] = median_frames(np.stack(held.pop(key)))
-    return np.concatenate(sums), medians
+    return changes.changes(), medians
 
 
 def median_frames(frames: np.ndarray) -> np.ndarray:
@@ -263,69 +267,6 @@ def lower_face_correlation(
     a, b = a - a.mean(), b - b.mean()
     norm = float(np.sqrt((a * a).sum() * (b * b).sum()))
     return float((a * b).sum() / norm) if norm > 0 else 0.0
-
-
-def find_blinks(
-    stabilized: np.ndarray, mouth_box: tuple[int, int, int, int], *, factor: float = BLINK_FACTOR
-) -> tuple[int, ...]:
-    """Frames whose eyes differ from the sequence's usual eyes: blinks.
-
-    Parameters
-    ----------
-    stabilized : numpy.ndarray
-        (N, H, W, 3) frames on the reference.
-    mouth_box : tuple of int
-        The mouth box: the eyes are 0.8 to 1.4 mouth widths above it (a face's
-        proportions, as :mod:`miketalk.stabilize` uses them), across
-        two mouth widths about its centre.
-    factor : float
-        See :data:`BLINK_FACTOR`.
-    """
-    return _blinks_of(eye_band(stabilized, mouth_box), factor=factor)
-
-
-def eye_band(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np.ndarray:
-    """``(N, h, w)`` float32 grey: the eyes' band of frames on the reference (0.8 to 1.4 mouth
-    widths above the mouth box, two mouth widths about its centre)."""
-    return stabilized[_eye_rows(mouth_box)].astype(np.float32).mean(axis=3)
-
-
-def _eye_sums(stabilized: np.ndarray, mouth_box: tuple[int, int, int, int]) -> np.ndarray:
-    """``(N, h, w)`` uint16: :func:`eye_band` times 3, exactly (the sum of each pixel's three
-    channels, half the bytes of the band)."""
-    return stabilized[_eye_rows(mouth_box)].sum(axis=3, dtype=np.uint16)
-
-
-def _eye_rows(mouth_box: tuple[int, int, int, int]) -> tuple[slice, slice, slice]:
-    """The index of :func:`eye_band`'s band in ``(N, H, W, 3)`` frames."""
-    x, y, w, _ = mouth_box
-    top, bottom = max(0, y - round(1.4 * w)), max(1, y - round(0.8 * w))
-    left, right = max(0, round(x + w / 2 - 1.2 * w)), round(x + w / 2 + 1.2 * w)
-    return slice(None), slice(top, bottom), slice(left, right)
-
-
-def _blinks_of_sums(sums: np.ndarray, *, factor: float = BLINK_FACTOR) -> tuple[int, ...]:
-    """:func:`_blinks_of` of the bands whose :func:`_eye_sums` are ``sums``, the same
-    result, without the whole band in float (its median taken a few rows at a time)."""
-    rows = max(1, (4 << 20) // (4 * sums.shape[0] * sums.shape[2]))  # about 4 MB in float
-    median = np.concatenate(
-        [np.median(sums[:, r : r + rows].astype(np.float32) / 3, axis=0)
-         for r in range(0, sums.shape[1], rows)]
-    )  # fmt: skip
-    change = np.concatenate(
-        [np.abs(sums[i : i + _CHUNK].astype(np.float32) / 3 - median).mean(axis=(1, 2))
-         for i in range(0, len(sums), _CHUNK)]
-    )  # fmt: skip
-    threshold = max(factor * float(np.median(change)), 3.0)
-    return tuple(int(i) for i in np.flatnonzero(change > threshold))
-
-
-def _blinks_of(band: np.ndarray, *, factor: float = BLINK_FACTOR) -> tuple[int, ...]:
-    """The frames whose eye band (:func:`eye_band`) differs from the usual (see
-    :func:`find_blinks`)."""
-    change = np.abs(band - np.median(band, axis=0)).mean(axis=(1, 2))
-    threshold = max(factor * float(np.median(change)), 3.0)
-    return tuple(int(i) for i in np.flatnonzero(change > threshold))
 
 
 #: Frames a long video's conform field and light are measured on (evenly spread).
