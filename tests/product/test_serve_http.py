@@ -327,3 +327,73 @@ def test_a_text_over_the_word_limit_is_refused_before_it_is_queued(server) -> No
         "minutes of speech); split it"
     )
     assert len(server.app.board.listing()) == before
+
+
+#: A committed GRID clip of s1 (3 s of video with his speech).
+CLIP = Path(__file__).resolve().parents[2] / "data" / "grid_s1" / "video" / "bbaf2n.mpg"
+
+
+def _upload(server, path: Path, kind: str) -> str:
+    status, _, raw = _ask(server, "POST", f"/api/upload?kind={kind}", path.read_bytes(),
+                          X_Miketalk="1", X_Miketalk_Name=path.name)  # fmt: skip
+    assert status == 200, raw
+    return json.loads(raw)["upload"]
+
+
+def _job(server, body: dict) -> tuple[int, dict]:
+    status, _, raw = _ask(server, "POST", "/api/jobs", json.dumps(body).encode(), X_Miketalk="1")
+    return status, json.loads(raw)
+
+
+def test_the_page_builds_from_a_video_alone_its_words_to_be_recognized(server) -> None:
+    """Issue 53 item 4: Build a face with no transcript or subtitles is a build job whose
+    words the library recognizes (``api.build`` with neither); cancelled here, at once."""
+    status, job = _job(server, {"kind": "build", "name": "no words",
+                                "video": _upload(server, CLIP, "video")})  # fmt: skip
+    assert status == 201, job
+    assert job["inputs"]["words"] == "recognized from its speech"
+    assert server.app.board.get(job["id"]).params["script"] == {}
+    _ask(server, "POST", f"/api/jobs/{job['id']}/cancel", X_Miketalk="1")
+    ended = _until(server, job["id"], {"cancelled", "failed", "done"}, within=60)
+    assert ended["status"] == "cancelled", ended
+    assert not (server.app.config.models / job["id"]).exists()
+
+
+def test_the_page_speaks_a_recording_given_without_its_text(server) -> None:
+    """Issue 53 item 4: a recording with no text is spoken with the words recognized from
+    it (``api.say`` of a ``Recorded`` without text), as ``miketalk say --audio`` does."""
+    status, job = _job(server, {"kind": "say", "model": "model", "text": "",
+                                "audio": _upload(server, CLIP, "audio")})  # fmt: skip
+    assert status == 201, job
+    assert job["inputs"]["words"] == "recognized from its speech" and not job["inputs"]["text"]
+    done = _until(server, job["id"], {"done", "failed"})
+    assert done["status"] == "done", done
+    timeline = json.loads((server.app.config.results / job["id"] / "say.json").read_text())
+    assert timeline["words_from"].startswith("whisper-base")
+    assert "two now" in timeline["text"].lower()  # bbaf2n says "bin blue at f two now"
+
+
+def test_the_page_dubs_with_the_videos_own_model_when_none_is_chosen(server, monkeypatch) -> None:
+    """Issue 53 item 4: a dub with no face of the list asks the library for the video's own
+    model (``api.own_model``: built once, kept by the video's checksum) and dubs with it; a
+    say still needs a face. The build itself (minutes) is test_dub's; here the library's call
+    is watched, and the model it gives is the synthetic face, which a dub refuses."""
+    from miketalk import api
+
+    asked = []
+
+    def own_model(video, **kwargs):
+        asked.append(Path(video))
+        return server.app.catalog.get("model").path, False
+
+    monkeypatch.setattr(api, "own_model", own_model)
+    body = {"kind": "dub", "text": "Bin blue.", "video": _upload(server, CLIP, "video")}
+    status, job = _job(server, body)
+    assert status == 201, job
+    assert job["inputs"]["model"] == "the video's own"
+    ended = _until(server, job["id"], {"done", "failed"})
+    assert [p.name for p in asked] == ["video.mpg"]
+    assert asked[0].parent == server.app.config.results / job["id"]  # the uploaded video
+    assert ended["status"] == "failed" and "person" in ended["message"], ended
+    status, refused = _job(server, {"kind": "say", "text": "Bin blue."})
+    assert status == 400 and asked == [asked[0]], refused

@@ -6,7 +6,9 @@ typed result (docs/api.md).
   :func:`say_stream`: the same as a stream of timed chunks (a frame and its sound at a
   time, a bounded queue, cancellable);
 - :func:`dub`: a video of the model's person made to say new speech (:class:`DubSettings`,
-  :class:`DubResult`); :func:`dub_stream` as a stream;
+  :class:`DubResult`); :func:`dub_stream` as a stream; :func:`own_model`: a video's own
+  model, built once and kept by its checksum (a dub given no model;
+  :func:`miketalk.api.video_model.video_model`);
 - :func:`build`: a model from one video of a person and what it says
   (:class:`BuildSettings`, :class:`BuildResult`);
 - :func:`cues`: the mouth cues of a text or a recording (:class:`CuesSettings`,
@@ -34,6 +36,7 @@ from miketalk.api.models import (
 from miketalk.api.results import BuildResult, CuesResult, DubResult, SayResult
 from miketalk.api.say import Recorded, check, say, say_stream, write_fragmented
 from miketalk.api.settings import BuildSettings, CuesSettings, DubSettings, SaySettings
+from miketalk.api.video_model import video_model as own_model
 from miketalk.errors import MachineFailure, MiketalkError, SettingError
 from miketalk.model.parts import workflow_results
 from miketalk.speech.text import read_text_file
@@ -69,6 +72,7 @@ __all__ = [
     "list_model_files",
     "load_engine",
     "model_picture",
+    "own_model",
     "phones",
     "read_text_file",
     "say",

@@ -66,7 +66,7 @@ def video_model(video: str | os.PathLike[str], *, progress: bool = False) -> tup
         log.info("%s: its model, built before, is %s", video, folder)
         return folder, False
     log.warning(
-        "%s: no --model given: building one from the video itself (its words recognized) into "
+        "%s: no model given: building one from the video itself (its words recognized) into "
         "%s; a dub of the same video later starts from it", video, folder,
     )  # fmt: skip
     build(video, folder, BuildSettings(heldout_seconds=0.0), progress=progress)

@@ -32,6 +32,10 @@ KINDS = ("say", "dub", "build")
 MAX_LABEL_CHARS = 80
 #: A word, as the library counts them for its limit.
 _WORDS = re.compile(r"[A-Za-z0-9']+")
+#: What the page shows for the words of a recording or video given without them.
+RECOGNIZED = "recognized from its speech"
+#: What the page shows for the model of a dub given none: built from its video (and kept).
+OWN_MODEL = "the video's own"
 #: The page's name of each setting a job sets (:class:`~miketalk.errors.SettingError`'s names).
 FIELDS = {"lipsync_model": "lipsync", "audio": "recording"}
 
@@ -60,23 +64,26 @@ def _choice(body: Mapping[str, Any], key: str, choices: tuple[str, ...], default
 
 
 def _speech_settings(
-    body: Mapping[str, Any], entry: Entry, *, recorded: bool, dub: bool
+    body: Mapping[str, Any], entry: Entry | None, *, recorded: bool, dub: bool
 ) -> dict[str, Any]:
     """The text, lip-sync model and voice of a say or dub, checked against the model by the
     library's own check (:func:`miketalk.api.check`), its settings named as the page names
-    them (:data:`FIELDS`) and its paths as the page knows them."""
+    them (:data:`FIELDS`) and its paths as the page knows them; with no model (a dub's own,
+    built from its video), checked by the library once it is built."""
     text = _text(body)
     if not recorded and not text:
         raise MiketalkError("no text: type what the face should say, or give a recording")
     lipsync = _choice(body, "lipsync", ("", *LIPSYNC_MODELS), "")
     voice = None if recorded else _choice(body, "voice", tuple(VOICES), DEFAULT_VOICE)
-    options = {"model": entry.path, "lipsync_model": lipsync or None, "voice": voice}
-    try:
-        settings = (DubSettings if dub else SaySettings)(**options)
-        chosen = api.check(settings, recorded=recorded, dub=dub)[1]
-    except MiketalkError as err:  # named as the page knows them
-        line = err.render(FIELDS) if isinstance(err, SettingError) else str(err)
-        raise MiketalkError(plainly(line, [(str(entry.path), entry.label)])) from None
+    chosen = None
+    if entry is not None:
+        options = {"model": entry.path, "lipsync_model": lipsync or None, "voice": voice}
+        try:
+            settings = (DubSettings if dub else SaySettings)(**options)
+            chosen = api.check(settings, recorded=recorded, dub=dub)[1]
+        except MiketalkError as err:  # named as the page knows them
+            line = err.render(FIELDS) if isinstance(err, SettingError) else str(err)
+            raise MiketalkError(plainly(line, [(str(entry.path), entry.label)])) from None
     return {"text": text or None, "lipsync": lipsync or None, "voice": voice, "chosen": chosen}
 
 
@@ -96,8 +103,9 @@ def make_job(body: object, *, board: Board, catalog: Catalog, uploads: Uploads) 
         raise MiketalkError(f"kind must be one of {', '.join(KINDS)}")
     if kind == "build":
         return _build(body, board=board, uploads=uploads)
-    entry = catalog.get(body.get("model"))
     recorded = bool(body.get("audio"))
+    own = kind == "dub" and not body.get("model")  # the video's own model (api.dub's, cached)
+    entry = None if own else catalog.get(body.get("model"))
     settings = _speech_settings(body, entry, recorded=recorded, dub=kind == "dub")
     if kind == "dub" and not body.get("video"):
         raise MiketalkError("choose the video to dub")
@@ -109,18 +117,23 @@ def make_job(body: object, *, board: Board, catalog: Catalog, uploads: Uploads) 
         if kind == "dub":
             video = _take(job, uploads, body["video"], ("video",), "video")
         job.params = {
-            "model_dir": entry.path, "text": settings["text"], "lipsync": settings["lipsync"],
-            "voice": settings["voice"], "audio": audio.path if audio else None,
+            "model_dir": entry.path if entry else None, "text": settings["text"],
+            "lipsync": settings["lipsync"], "voice": settings["voice"],
+            "audio": audio.path if audio else None,
         } | ({"video": video.path} if video else {})  # fmt: skip
+        chosen = settings["chosen"]
         job.shown = {
-            "model": entry.label,
+            "model": entry.label if entry else OWN_MODEL,
             "text": settings["text"],
+            "words": RECOGNIZED if recorded and not settings["text"] else None,
             "recording": audio.name if audio else None,
             "video": video.name if video else None,
-            "lipsync": settings["lipsync"] or f"the model's own ({settings['chosen'].value})",
+            "lipsync": settings["lipsync"]
+            or f"the model's own{f' ({chosen.value})' if chosen else ''}",
             "voice": None if recorded else settings["voice"],
         }
-        job.aliases.append((str(entry.path), entry.label))
+        if entry is not None:
+            job.aliases.append((str(entry.path), entry.label))
         if body.get("live"):  # played as it is made (miketalk.serve.live)
             job.live = LiveFile(job.folder / LIVE_FILE)
     except BaseException:
@@ -133,20 +146,23 @@ def _build(body: Mapping[str, Any], *, board: Board, uploads: Uploads) -> Job:
     label = " ".join(_text(body, "name", limit=1000).split())[:MAX_LABEL_CHARS]
     if not body.get("video"):
         raise MiketalkError("choose the video of the person to build the face from")
-    if not body.get("script"):
-        raise MiketalkError("choose what the video says: a transcript (.txt) or subtitles")
     job = board.new_job("build")
     try:
         video = _take(job, uploads, body["video"], ("video",), "video")
-        script = uploads.take(body["script"], ("script",), job.folder, "script")
-        kind = "subtitles" if script.path.suffix in (".srt", ".vtt") else "transcript"
-        path = script.path.rename(script.path.with_name(kind + script.path.suffix))
-        job.aliases.append((str(path), script.name))
         label = label or Path(video.name).stem or "a face"
+        job.shown = {"name": label, "video": video.name}
+        script = {}  # none: the video's words are recognized (api.build)
+        if body.get("script"):
+            given = uploads.take(body["script"], ("script",), job.folder, "script")
+            kind = "subtitles" if given.path.suffix in (".srt", ".vtt") else "transcript"
+            path = given.path.rename(given.path.with_name(kind + given.path.suffix))
+            job.aliases.append((str(path), given.name))
+            script, job.shown[kind] = {kind: path}, given.name
+        else:
+            job.shown["words"] = RECOGNIZED
         model_dir = board.config.models / job.id
-        job.params = {"video": video.path, "script": {kind: path}, "label": label,
+        job.params = {"video": video.path, "script": script, "label": label,
                       "model_dir": model_dir}  # fmt: skip
-        job.shown = {"name": label, "video": video.name, kind: script.name}
         job.aliases.append((str(model_dir), f"the model {label}"))
     except BaseException:
         shutil.rmtree(job.folder, ignore_errors=True)

@@ -62,7 +62,7 @@ def one_line(err: BaseException) -> str:
 
 def speak(
     folder: Path,
-    model_dir: Path,
+    model_dir: Path | None,
     *,
     text: str | None,
     audio: Path | None = None,
@@ -80,6 +80,9 @@ def speak(
     (:func:`miketalk.serve.live.record`), ``started(stream)`` told the stream first (a Stop
     cancels it).
 
+    A dub with no ``model_dir`` is made with the video's own model
+    (:func:`miketalk.api.own_model`: built from it the first time, minutes, before any
+    frame; kept in the user's cache by its checksum, so the next dub of it starts at once).
     Writes ``say.mp4`` (``dub.mp4``) and its timeline ``.json``, ``cues.json`` and
     ``cues.tsv`` into ``folder``. ``warm`` keeps the model open for the next one.
 
@@ -91,6 +94,8 @@ def speak(
         A live job's stream was stopped.
     """
     speech = Recorded(audio, text=text or None) if audio is not None else text or ""
+    if model_dir is None and video is not None:  # a dub given no model: the video's own
+        model_dir = api.own_model(video)[0]  # built once, kept by its checksum
     options = {"model": model_dir, "lipsync_model": lipsync or None, "voice": voice}
     if live is not None:
         settings = (DubSettings if video is not None else SaySettings)(**options)

@@ -130,11 +130,18 @@ function chooseModel(id) {
   for (const label of $$(".chosen")) {
     label.textContent = state.model ? state.model.label : "none chosen";
   }
+  if (dubsOwn()) $("#dub-form .chosen").textContent = "the video's own";
   for (const form of [$("#say-form"), $("#dub-form")]) fillLipsync(form);
   const person = Boolean(state.model && state.model.person);
-  $(".person-only", $("#dub-form")).hidden = person || !state.model;
-  $("#dub-form button[type=submit]").disabled = !person;
+  $(".person-only", $("#dub-form")).hidden = person || !state.model || dubsOwn();
+  $("#dub-form button[type=submit]").disabled = !person && !dubsOwn();
   $("#say-form button[type=submit]").disabled = !state.model;
+}
+
+// A dub with the video's own face: built from the video itself (the first time; kept for the
+// next dub of the same video), no face of the list needed.
+function dubsOwn() {
+  return $("#dub-form input[name=own]").checked;
 }
 
 function fillLipsync(form) {
@@ -142,7 +149,7 @@ function fillLipsync(form) {
   const recorded = Boolean($("input[name=audio]", form).files.length);
   const keep = select.value;
   select.replaceChildren();
-  const model = state.model;
+  const model = form.id === "dub-form" && dubsOwn() ? null : state.model;  // not built yet
   const own = model ? (recorded ? model.own_recording : model.own_text) : null;
   select.append(new Option(own ? `the model's own (${own})` : "the model's own", ""));
   for (const name of (model ? model.lipsync_models : [])) select.append(new Option(name, name));
@@ -157,8 +164,8 @@ function setBusy(form, text) {
   busy.textContent = text || "";
   $("button[type=submit]", form).disabled = Boolean(text) ||
     (form.id === "build-form" && Boolean(state.build)) ||
-    (form.id !== "build-form" && !state.model) ||
-    (form.id === "dub-form" && !(state.model && state.model.person));
+    (form.id === "say-form" && !state.model) ||
+    (form.id === "dub-form" && !dubsOwn() && !(state.model && state.model.person));
 }
 
 function showError(form, message) {
@@ -196,7 +203,8 @@ function noteLive(key, value) {
 // Speak (or Dub): the job is queued, and played as it is made (live.js); Stop ends it.
 async function submitSpeech(form, kind) {
   showError(form, null);
-  if (!state.model) { showError(form, "choose a face in the list first"); return; }
+  const own = kind === "dub" && dubsOwn();
+  if (!state.model && !own) { showError(form, "choose a face in the list first"); return; }
   const refusal = showCount(form);
   if (refusal) { showError(form, `${refusal}; nothing was sent or cut`); return; }
   const clicked = performance.now();
@@ -211,7 +219,7 @@ async function submitSpeech(form, kind) {
   try {
     setBusy(form, "starting");
     const body = {
-      kind, model: state.model.id, text: $("textarea[name=text]", form).value,
+      kind, model: own ? null : state.model.id, text: $("textarea[name=text]", form).value,
       lipsync: $("select[name=lipsync]", form).value, live: true,
     };
     const audio = $("input[name=audio]", form).files[0];
@@ -341,14 +349,13 @@ function stopPlaying() {
 async function submitBuild(form) {
   showError(form, null);
   const video = $("input[name=video]", form).files[0];
-  const script = $("input[name=script]", form).files[0];
+  const script = $("input[name=script]", form).files[0];  // none: its words are recognized
   try {
     if (!video) throw new Error("choose the video of the person to build the face from");
-    if (!script) throw new Error("choose what the video says: a transcript (.txt) or subtitles");
     setBusy(form, "starting");
     const body = { kind: "build", name: $("input[name=name]", form).value };
     body.video = (await upload(video, "video", (t) => setBusy(form, t))).upload;
-    body.script = (await upload(script, "script", (t) => setBusy(form, t))).upload;
+    if (script) body.script = (await upload(script, "script", (t) => setBusy(form, t))).upload;
     const job = await post("/api/jobs", body);
     setBusy(form, null);
     refreshJobs();
@@ -635,6 +642,10 @@ async function start() {
       fillLipsync(form);
     });
   }
+  $("#dub-form input[name=own]").addEventListener("change", () => {
+    chooseModel(state.model && state.model.id);
+    setBusy($("#dub-form"), null);
+  });
   followPlayer();
   $("#stop").addEventListener("click", stopLive);
   try {
