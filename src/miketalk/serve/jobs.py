@@ -371,7 +371,9 @@ class Board:
     def _save(self, job: Job) -> None:
         doc = job.public() | {
             "files": {name: path.name for name, path in job.files.items()},
-            "params": {k: str(v) for k, v in job.params.items() if k in ("model_dir",)},
+            "params": {
+                k: str(v) for k, v in job.params.items() if k in ("model_dir",) and v is not None
+            },  # none: a dub's own
         }
         try:
             write_text(job.folder / RECORD, json.dumps(doc, indent=1))
