@@ -96,7 +96,7 @@ def test_the_best_on_the_held_back_clips_is_chosen_if_surely_better_than_the_mor
         predicted[case] = good
     elif case == "one clip":  # better on three clips, lost on the quiet one
         predicted["trained"] = [*good[:3], rng.normal(size=real[3].shape)]
-    monkeypatch.setattr(lipsync_choice, "held_back_predictions", lambda *a: (real, predicted))
+    monkeypatch.setattr(lipsync_choice, "held_back_predictions", lambda *a, **k: (real, predicted))
     choice = choose_recording_lipsync(tmp_path / "corpus", model)
     assert choice.recording == chosen
     assert set(choice.scores) == set(choice.t) == {"paper", "learned", "trained"}

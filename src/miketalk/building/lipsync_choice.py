@@ -154,10 +154,13 @@ def held_back_predictions(
     model_dir: str | os.PathLike[str],
     table: VisemeTable,
     trained: str | os.PathLike[str] | None = None,
+    *,
+    centred: bool = False,
 ) -> tuple[list[np.ndarray], dict[str, list[np.ndarray]]]:
     """Each training clip's real descriptions and each lip-sync model's prediction of them
     (see the module docstring), the trained face's from its folder ``trained`` (default
-    the model's); a model the face lacks is left out."""
+    the model's; with ``centred``, its heard trajectory fitted again to each clip's
+    descriptions less the clip's mean, in memory); a model the face lacks is left out."""
     from miketalk.draw.coarticulation import predict_trajectory, read_params
     from miketalk.draw.coarticulation.weights import paper_trajectory
     from miketalk.draw.trained.mouths import load_frames
@@ -184,35 +187,28 @@ def held_back_predictions(
             times = np.arange(n) / frames.fps
             path = predict_trajectory(keys, times, params, targets, rendered=True)
             out["learned"].append(path)
-    out["trained"] = _trained_drawn(trained, data, table)
+    out["trained"] = _trained_drawn(trained, data, table, centred=centred)
     return real, out
 
 
-def _trained_drawn(folder: Path, data, table: VisemeTable) -> list[np.ndarray]:
+def _trained_drawn(
+    folder: Path, data, table: VisemeTable, *, centred: bool = False
+) -> list[np.ndarray]:
     """Each training clip as the trained face draws it without that clip: its trajectory
     (heard) predicted by a fit without it, and the training frames of the other clips
     the selection chooses along it; their descriptions."""
     from miketalk.draw.trained.build import read_held_out, read_trained
     from miketalk.draw.trained.selection import select
-    from miketalk.draw.trained.training import clip_offsets
-    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, fit_window
 
     face = read_trained(folder)
     frames, kind = face.frames, "heard"
     kept = read_held_out(folder, kind)
-    if kept is not None:  # the build's own cross-validation kept them
+    if centred and not face.fitting.centred:
+        face, held = _heard_centred(face, data, table)
+    elif kept is not None:  # the build's own cross-validation kept them
         held = {c: kept[frames.clip == c] for c in range(len(data.coords))}
     else:  # a face fitted before: fitted again, as it was
-        fitted = data
-        if face.fitting.centred:  # each clip less its mean
-            offsets = clip_offsets(frames)
-            coords = tuple(c - offsets[k] for k, c in enumerate(data.coords))
-            fitted = dataclasses.replace(data, coords=coords)
-        held = {}
-        context = Context.of(data.phones, table)
-        fit_window(
-            fitted, context, table, half=face.fitting.half, heard=HEARD_HALF, predictions=held
-        )
+        held = _heard_again(face, data, table)[2]
     fit = face.report["fit"][kind]
     weights = fit.get("cv_r2") if face.selection.weighted else None
     context = face.trajectories[kind].context
@@ -234,6 +230,39 @@ def _trained_drawn(folder: Path, data, table: VisemeTable) -> list[np.ndarray]:
     return drawn
 
 
+def _heard_again(face, data, table: VisemeTable):
+    """The face's heard trajectory fitted again as its ``fitting`` says: the model, its
+    report and each clip's cross-validated prediction."""
+    from miketalk.draw.trained.training import clip_offsets
+    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, fit_window
+
+    if face.fitting.centred:  # each clip less its mean
+        offsets = clip_offsets(face.frames)
+        coords = tuple(c - offsets[k] for k, c in enumerate(data.coords))
+        data = dataclasses.replace(data, coords=coords)
+    held: dict[int, np.ndarray] = {}
+    context = Context.of(data.phones, table)
+    model, report = fit_window(
+        data, context, table, half=face.fitting.half, heard=HEARD_HALF, predictions=held
+    )
+    return model, report, held, data
+
+
+def _heard_centred(face, data, table: VisemeTable):
+    """``face`` as it would be fitted to each clip less its mean, as far as its heard
+    trajectory draws (what :func:`~miketalk.draw.trained.build.fitted_face` fits of it
+    with ``centred``), and each clip's cross-validated prediction."""
+    from miketalk.draw.trained.build import amplitude_gain, cv_amplitude_gain
+
+    centred = dataclasses.replace(face, fitting=dataclasses.replace(face.fitting, centred=True))
+    model, report, held, fitted = _heard_again(centred, data, table)
+    report["amplitude_gain"] = amplitude_gain(model, fitted, table)
+    report["amplitude_gain_cv"] = cv_amplitude_gain(held, fitted)
+    trajectories = {**face.trajectories, "heard": model}
+    doc = {**face.report, "fit": {**face.report["fit"], "heard": report}}
+    return dataclasses.replace(centred, trajectories=trajectories, report=doc), held
+
+
 #: How far a held-back clip's own frames are put from any target (description units).
 _AWAY = 1e6
 
@@ -244,6 +273,7 @@ def choose_recording_lipsync(
     *,
     grouping: dict[str, str] | None = None,
     trained: str | os.PathLike[str] | None = None,
+    centred: bool = False,
 ) -> LipsyncChoice:
     """The lip-sync model a recording of this face is drawn with, judged on its held-back
     training clips (see the module docstring).
@@ -258,6 +288,9 @@ def choose_recording_lipsync(
         Viseme grouping overrides (the configuration's ``visemes.grouping``).
     trained : path, optional
         The trained face's folder (default the model's).
+    centred : bool
+        Judge the trained face as if fitted to each clip less its mean (its heard
+        trajectory fitted again in memory).
     """
     from miketalk.draw.trained.mouths import load_frames
     from miketalk.model.parts import TRAINED_DIRECTORY
@@ -272,7 +305,7 @@ def choose_recording_lipsync(
             f"clips and {MIN_SECONDS:g} s): the paper's morph",
         )  # fmt: skip
     table = VisemeTable(grouping=grouping)
-    real, predicted = held_back_predictions(corpus_dir, model_dir, table, trained)
+    real, predicted = held_back_predictions(corpus_dir, model_dir, table, trained, centred=centred)
     scores = {name: round(follow_score(real, predicted[name]), 4) for name in predicted}
     per_clip = {
         name: [round(follow_score([r], [p]), 4) for r, p in zip(real, path, strict=True)]
@@ -318,33 +351,27 @@ def fit_and_choose(
     folder = trained_folder(model_dir)
     fit_trained(corpus_dir, folder, grouping=grouping)
     choice = choose_recording_lipsync(corpus_dir, model_dir, grouping=grouping)
-    if choice.scores:
-        spare = Path(model_dir) / f".{folder.name}-centred"  # hidden: never a model's file
-        try:
-            fit_trained(
-                corpus_dir, spare, grouping=grouping, fitting=FitSettings(centred=True),
-                frames=load_frames(folder),
-            )  # fmt: skip
-            centred = choose_recording_lipsync(
-                corpus_dir, model_dir, grouping=grouping, trained=spare
-            )
-            t = paired_t(centred.clip_scores["trained"], choice.clip_scores["trained"])
-            fits = {
-                "measured": choice.scores["trained"],
-                "centred": centred.scores["trained"],
-                "t": t,
-            }
-            if t >= MIN_T:
+    if choice.scores:  # judged: the centred fit judged too, fitted whole only when kept
+        centred = choose_recording_lipsync(corpus_dir, model_dir, grouping=grouping, centred=True)
+        t = paired_t(centred.clip_scores["trained"], choice.clip_scores["trained"])
+        fits = {"measured": choice.scores["trained"], "centred": centred.scores["trained"], "t": t}
+        if t >= MIN_T:
+            spare = Path(model_dir) / f".{folder.name}-centred"  # hidden: never a model's file
+            try:
+                fit_trained(
+                    corpus_dir, spare, grouping=grouping, fitting=FitSettings(centred=True),
+                    frames=load_frames(folder),
+                )  # fmt: skip
                 shutil.rmtree(folder)
                 spare.rename(folder)
-                reason = (
-                    f"{centred.reason}; the trained face fitted to each clip less its mean "
-                    f"({fits['centred']:.2f} against {fits['measured']:.2f}, t {t:.1f})"
-                )
-                choice = dataclasses.replace(centred, reason=reason)
-            choice = dataclasses.replace(choice, trained_fits=fits)
-        finally:
-            shutil.rmtree(spare, ignore_errors=True)
+            finally:
+                shutil.rmtree(spare, ignore_errors=True)
+            reason = (
+                f"{centred.reason}; the trained face fitted to each clip less its mean "
+                f"({fits['centred']:.2f} against {fits['measured']:.2f}, t {t:.1f})"
+            )
+            choice = dataclasses.replace(centred, reason=reason)
+        choice = dataclasses.replace(choice, trained_fits=fits)
     write_choice(model_dir, choice)
     return choice
 
