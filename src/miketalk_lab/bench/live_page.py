@@ -1,6 +1,7 @@
 """Live Speak in a real browser: what the viewer sees, timed by the page itself.
 
-``python -m miketalk_lab.bench.live_page OUT [--model LABEL=DIR ...] [--repeats N]`` starts
+``python -m miketalk_lab.bench.live_page OUT [--model LABEL=DIR ...] [--repeats N]
+[--only first|long|stop ...]`` starts
 ``miketalk serve`` on a free port of 127.0.0.1 with the models (default: ``make run``'s
 synthetic face and s1), drives Debian's Chromium (Playwright, headless; never ``playwright
 install``) and measures, per model:
@@ -38,6 +39,8 @@ from miketalk.errors import MiketalkError
 from miketalk_lab.bench.page_timings import served_page, speak
 
 REPEATS = 5
+#: What is measured: the first frames, the long text's waits, the stops.
+PARTS = frozenset({"first", "long", "stop"})
 #: Ten words (the issue's say of 10 words).
 SENTENCE = "Bin blue at F two now, please say it again soon."
 #: About two minutes of speech (some 300 words), sentence by sentence.
@@ -112,9 +115,11 @@ def _spread(runs: list[float]) -> dict[str, float]:
 
 
 def live_figures(
-    models: dict[str, pathlib.Path], out_dir: pathlib.Path, *, repeats: int = REPEATS
-) -> dict[str, float]:
-    """Measure every figure for ``models`` (label -> model folder); see the module docstring."""
+    models: dict[str, pathlib.Path], out_dir: pathlib.Path, *, repeats: int = REPEATS,
+    parts: frozenset[str] = PARTS,
+) -> dict[str, float]:  # fmt: skip
+    """Measure the figures of ``parts`` (of :data:`PARTS`) for ``models`` (label -> model
+    folder); see the module docstring."""
     for model in models.values():
         if not (model / "manifest.json").is_file():
             raise MiketalkError(f"no model at {model}: run `make run` first (make bench does)")
@@ -125,13 +130,24 @@ def live_figures(
         page.goto(url)
         page.wait_for_selector("body[data-ready='1']", timeout=60_000)
         for label, model in models.items():
-            figures |= _one_model(page, label, model.name, server.pid, shots, repeats)
+            figures |= _one_model(page, label, model.name, server.pid, shots, repeats, parts)
     figures["load_average_1min"] = round(os.getloadavg()[0], 2)
     return figures
 
 
 def _one_model(page, label: str, name: str, server_pid: int, shots: pathlib.Path,
-               repeats: int) -> dict[str, float]:  # fmt: skip
+               repeats: int, parts: frozenset[str]) -> dict[str, float]:  # fmt: skip
+    figures: dict[str, float] = {}
+    if "first" in parts:
+        figures |= _first_frames(page, label, name, repeats)
+    if "long" in parts:
+        figures |= _long_text(page, label, name, shots)
+    if "stop" in parts:
+        figures |= _stops(page, label, name, server_pid, shots, repeats)
+    return figures
+
+
+def _first_frames(page, label: str, name: str, repeats: int) -> dict[str, float]:
     figures: dict[str, float] = {}
     marks: dict[str, list[float]] = {"posted": [], "first_byte": [], "first_frame": []}
     for _ in range(repeats):
@@ -139,12 +155,17 @@ def _one_model(page, label: str, name: str, server_pid: int, shots: pathlib.Path
         seen = _seen(page)
         for mark, key in (("posted", "posted"), ("first_byte", "firstByte"),
                           ("first_frame", "firstFrame")):  # fmt: skip
-            marks[mark].append(float(seen[key]))
+            marks[mark].append(float(seen.get(key, "nan")))  # nan: a page without it
         _played_whole(page, 120)
     for mark, runs in marks.items():  # where the first frame's time goes
         for stat, value in _spread(runs).items():
             figures[f"live_{mark}_{stat}_seconds_{label}"] = value
-    # a long text played to its end: the viewer's waits
+    return figures
+
+
+def _long_text(page, label: str, name: str, shots: pathlib.Path) -> dict[str, float]:
+    """A long text played to its end: the viewer's waits."""
+    figures: dict[str, float] = {}
     _speak(page, name, LONG_TEXT)
     figures[f"live_long_first_frame_seconds_{label}"] = float(_seen(page)["firstFrame"])
     page.wait_for_timeout(1500)
@@ -155,7 +176,13 @@ def _one_model(page, label: str, name: str, server_pid: int, shots: pathlib.Path
     figures[f"live_long_stalled_seconds_{label}"] = float(seen.get("stalledSeconds", 0))
     figures[f"live_long_seconds_{label}"] = round(page.evaluate(
         "document.getElementById('player').duration"), 2)  # fmt: skip
-    # Stop one second into the long text
+    return figures
+
+
+def _stops(page, label: str, name: str, server_pid: int, shots: pathlib.Path,
+           repeats: int) -> dict[str, float]:  # fmt: skip
+    """Stop one second into the long text."""
+    figures: dict[str, float] = {}
     page_stop, server_stop, gone = [], [], []
     for _ in range(repeats):
         _speak(page, name, LONG_TEXT)
@@ -203,6 +230,8 @@ def main(argv: list[str] | None = None) -> int:
         help="a model to measure (default: make run's synthetic and s1)",
     )
     parser.add_argument("--repeats", type=int, default=REPEATS)
+    parser.add_argument("--only", action="append", choices=sorted(PARTS),
+                        help="measure only this part (repeatable; default: all)")  # fmt: skip
     args = parser.parse_args(argv)
     models = (
         dict(m.split("=", 1) for m in args.model)
@@ -213,7 +242,8 @@ def main(argv: list[str] | None = None) -> int:
         }
     )
     paths = {label: pathlib.Path(path) for label, path in models.items()}
-    _report(live_figures(paths, args.out, repeats=args.repeats), args.out)
+    parts = frozenset(args.only) if args.only else PARTS
+    _report(live_figures(paths, args.out, repeats=args.repeats, parts=parts), args.out)
     return 0
 
 
