@@ -291,6 +291,35 @@ def test_a_check_passed_in_one_run_is_not_repeated_by_the_next_and_a_change_is_f
         Model(directory)
 
 
+def test_a_manifest_validated_once_is_not_validated_again_and_a_changed_one_is(
+    model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A manifest's text that passed the schema is recorded in the user's cache: the next
+    open of the same text does not validate it again (no jsonschema); another text is
+    validated, and refused when it does not pass."""
+    from miketalk.model import manifest
+
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    validated: list[int] = []
+    validator = manifest._manifest_validator
+    monkeypatch.setattr(manifest, "_manifest_validator", lambda: validated.append(1) or validator())
+    first = manifest.read_manifest(model_dir)
+    assert len(validated) == 1
+    assert manifest.read_manifest(model_dir) == first and len(validated) == 1  # recorded
+    monkeypatch.setenv("MIKETALK_CACHE", "off")  # nothing kept: validated at every open
+    manifest.read_manifest(model_dir)
+    assert len(validated) == 2
+    monkeypatch.setenv("MIKETALK_CACHE", str(tmp_path / "cache"))
+    directory = tmp_path / "model"
+    shutil.copytree(model_dir, directory)
+    bad = json.loads((directory / "manifest.json").read_text()) | {"visemes": "p"}
+    (directory / "manifest.json").write_text(json.dumps(bad))
+    for _ in range(2):  # a text that failed is never recorded: refused again
+        with pytest.raises(MiketalkError, match="at visemes, 'p' is not of type 'array'"):
+            manifest.read_manifest(directory)
+    assert len(validated) == 4
+
+
 def test_a_models_flows_are_kept_decoded_for_the_next_run_and_give_the_same_frames(
     model_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
