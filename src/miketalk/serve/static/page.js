@@ -278,6 +278,9 @@ function startLive(job, clicked, kind) {
       noteLive("firstByte", ((handle.stats.firstByte - clicked) / 1000).toFixed(3));
       noteLive("sinceClick", ((t - clicked) / 1000).toFixed(2));
       $("#live-state").textContent = "Playing as it is made";
+      // what changed above it since Speak (the jobs, the form's state) may have moved it
+      const top = section.getBoundingClientRect().top;
+      if (top < -1 || top > innerHeight / 2) section.scrollIntoView({ block: "start", behavior: "instant" });
     },
   });
   state.live = { job: job.id, handle, stopped: false };
