@@ -99,9 +99,11 @@ def forget_registrations() -> None:
     import shutil
 
     from miketalk.composite.kept_registration import KIND
-    from miketalk.media.user_cache import cache_root
+    from miketalk.media.user_cache import cache_dir
 
-    shutil.rmtree(cache_root() / KIND, ignore_errors=True)
+    kept = cache_dir(KIND)  # None: no cache (``$MIKETALK_CACHE=off``), nothing kept
+    if kept is not None:
+        shutil.rmtree(kept, ignore_errors=True)
 
 
 def render_throughput(model: Path, timeline_json: Path) -> dict[str, float]:
