@@ -207,14 +207,17 @@ def _stops(page, label: str, name: str, server_pid: int, shots: pathlib.Path,
 def run(out_dir: pathlib.Path) -> dict[str, float]:
     """make bench's entry: the synthetic face and s1 of ``make run``."""
     models = {"synthetic": defaults.model_dir("synthetic"), "s1": defaults.model_dir("s1")}
-    return _report(live_figures(models, out_dir), out_dir)
+    return report(live_figures(models, out_dir), out_dir)
 
 
-def _report(figures: dict[str, float], out_dir: pathlib.Path) -> dict[str, float]:
+def report(
+    figures: dict[str, float], out_dir: pathlib.Path, name: str = "live_page"
+) -> dict[str, float]:
+    """Print ``figures`` and write them to ``out_dir/NAME.json``; return them."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    for name, value in figures.items():
-        print(f"{name:52s} {value:8.3f}")
-    (out_dir / "live_page.json").write_text(json.dumps(figures, indent=1, sort_keys=True))
+    for figure, value in figures.items():
+        print(f"{figure:52s} {value:8.3f}")
+    (out_dir / f"{name}.json").write_text(json.dumps(figures, indent=1, sort_keys=True))
     return figures
 
 
@@ -243,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     paths = {label: pathlib.Path(path) for label, path in models.items()}
     parts = frozenset(args.only) if args.only else PARTS
-    _report(live_figures(paths, args.out, repeats=args.repeats, parts=parts), args.out)
+    report(live_figures(paths, args.out, repeats=args.repeats, parts=parts), args.out)
     return 0
 
 

@@ -19,7 +19,6 @@ on the load.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import pathlib
 import signal
@@ -32,7 +31,7 @@ import time
 
 from miketalk import defaults
 from miketalk.errors import MiketalkError
-from miketalk_lab.bench.live_page import LONG_TEXT, descendants
+from miketalk_lab.bench.live_page import LONG_TEXT, descendants, report
 
 REPEATS = 5
 #: Bytes of the fragmented MP4 read before the stop: the face is playing by then.
@@ -162,15 +161,7 @@ def stop_figures(model: pathlib.Path, *, repeats: int = REPEATS) -> dict[str, fl
 
 def run(out_dir: pathlib.Path) -> dict[str, float]:
     """make bench's entry: s1 of ``make run``."""
-    return _report(stop_figures(defaults.model_dir("s1")), out_dir)
-
-
-def _report(figures: dict[str, float], out_dir: pathlib.Path) -> dict[str, float]:
-    out_dir.mkdir(parents=True, exist_ok=True)
-    for name, value in figures.items():
-        print(f"{name:40s} {value:8.3f}")
-    (out_dir / "stop.json").write_text(json.dumps(figures, indent=1, sort_keys=True))
-    return figures
+    return report(stop_figures(defaults.model_dir("s1")), out_dir, "stop")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -182,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=REPEATS)
     args = parser.parse_args(argv)
     model = args.model or defaults.model_dir("s1")
-    _report(stop_figures(model, repeats=args.repeats), args.out)
+    report(stop_figures(model, repeats=args.repeats), args.out, "stop")
     return 0
 
 
