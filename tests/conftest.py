@@ -46,9 +46,10 @@ def pytest_configure(config: pytest.Config) -> None:
       What a run keeps for the next (``$MIKETALK_CACHE``: models' checks, decoded frames)
       is kept in a folder of the session's, not the user's cache.
       The controller sets both; xdist's workers and every process a test starts inherit them.
-    - pytest-xdist's workers (``make test`` runs ``-n 2``) start with Ctrl-C ignored, and
-      the processes they start would inherit that: the tests of what Ctrl-C does need
-      Python's own handler, as a terminal gives it.
+    - pytest-xdist's workers (``make test`` runs ``-n 2``) start with Ctrl-C ignored, as
+      does a pytest started in the background by a shell without job control
+      (``pytest ... &``), and the processes they start would inherit that: the tests of
+      what Ctrl-C does need Python's own handler, as a terminal gives it.
     """
     os.environ.pop("MIKETALK_MODEL", None)
     if not os.environ.get("PYTEST_XDIST_WORKER"):
@@ -58,8 +59,7 @@ def pytest_configure(config: pytest.Config) -> None:
         os.environ["MIKETALK_CACHE"] = str(cache)  # what a run keeps for the next: the session's
         config.add_cleanup(lambda: shutil.rmtree(empty, ignore_errors=True))
         config.add_cleanup(lambda: shutil.rmtree(cache, ignore_errors=True))
-    if os.environ.get("PYTEST_XDIST_WORKER"):
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def made_once(factory: pytest.TempPathFactory, name: str, make) -> Path:

@@ -965,9 +965,9 @@ def joined_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, st
 
 
 @pytest.fixture(scope="module")
-def first_minute(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
-    """The first 20 GRID clips' sound joined (1 minute) and its transcript."""
-    return _joined_sound(tmp_path_factory.mktemp("first_minute"), 20)
+def half_minute(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """The first 10 GRID clips' sound joined (30 s) and its transcript."""
+    return _joined_sound(tmp_path_factory.mktemp("half_minute"), 10)
 
 
 @pytest.mark.parametrize("signum", [2, 15])
@@ -1118,17 +1118,17 @@ def test_a_full_disk_at_publication_is_exit_one_and_leaves_the_old_pair(
 
 @pytest.mark.parametrize("anchors", [True, False])
 def test_long_audio_is_halved_where_the_words_fit(
-    first_minute: tuple[Path, str], monkeypatch: pytest.MonkeyPatch, anchors: bool
+    half_minute: tuple[Path, str], monkeypatch: pytest.MonkeyPatch, anchors: bool
 ) -> None:
     """Audio over COARSE_SECONDS is cut at anchors (runs of words a recogniser hears), or
     without them halved at a pause, before the coarse pass (its memory), and the words on
-    either side of the halving cut are settled by the fine aligner: none lost. (A minute
-    cut as an hour would be, with the limit at 20 s.)"""
+    either side of the halving cut are settled by the fine aligner: none lost. (Half a
+    minute cut as an hour would be, with the limit at 20 s: halved once, at a pause.)"""
     from miketalk.corpus.script import Cue
     from miketalk.media.decode import read_media_audio
     from miketalk.speech import long_align
 
-    audio, text = first_minute
+    audio, text = half_minute
     samples = read_media_audio(audio)
     monkeypatch.setattr(long_align, "COARSE_SECONDS", 20.0)
     coarse, anchored = [], []  # what the coarse pass was given (s); the spans cut at anchors
