@@ -103,6 +103,10 @@ def cancel_once(model: pathlib.Path, text: str) -> tuple[float, set[str]]:
 
 def signal_once(model: pathlib.Path, text_file: pathlib.Path, sig: int) -> tuple[float, int]:
     """One stop of ``miketalk say -o -`` by ``sig``: ``(seconds, its exit status)``."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        # started by a shell without job control (nohup, `&` in a script): an ignored
+        # Ctrl-C stays ignored across exec, so say would be given it as a terminal never does
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     command = [sys.executable, "-m", "miketalk.cli", "say", "-f", str(text_file), "-o", "-",
                "--model", str(model)]  # fmt: skip
     say = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
