@@ -89,3 +89,40 @@ def test_the_default_model_is_found_from_any_working_directory(
     # $MIKETALK_MODEL above all
     monkeypatch.setenv("MIKETALK_MODEL", str(tmp_path / "mine"))
     assert default_model_dir() == tmp_path / "mine"
+
+
+def test_say_checks_a_model_before_numpy_loads(tmp_path: Path) -> None:
+    """``say``'s checks of the model (its lip-sync model, its coarticulation read whole) load
+    no numpy, OpenCV or SciPy: Festival starts once they pass, and the model's imports then
+    run while Festival reads the text, not before it starts. A fresh interpreter, as the
+    command line has."""
+    import subprocess
+    import sys
+
+    from miketalk.draw.coarticulation import CoarticulationParams
+    from miketalk.model.write import write_coarticulation
+    from miketalk.visemes import VisemeTable
+
+    model = tmp_path / "model"
+    model.mkdir()
+    (model / "manifest.json").write_text("{}")
+    write_coarticulation(model, CoarticulationParams.prior(VisemeTable().visemes, lead=0.02))
+    program = (
+        "import sys\n"
+        "import miketalk.cli.main\n"
+        "from miketalk.api import SaySettings\n"
+        "from miketalk.api.say import check\n"
+        f"_, chosen = check(SaySettings(model={str(model)!r}), recorded=False)\n"
+        "loaded = [m for m in ('numpy', 'cv2', 'scipy') if m in sys.modules]\n"
+        "print(chosen.value, loaded)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", program], capture_output=True, text=True, check=True, timeout=60
+    )
+    assert out.stdout.split("\n")[0] == "learned []", out.stdout + out.stderr
+    # and a malformed coarticulation is still found there, in one line
+    (model / COARTICULATION).write_text('{"magnitude": 1}')
+    bad = subprocess.run(
+        [sys.executable, "-c", program], capture_output=True, text=True, timeout=60
+    )
+    assert bad.returncode != 0 and "coarticulation" in bad.stderr.lower(), bad.stderr[-500:]

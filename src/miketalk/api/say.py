@@ -58,8 +58,7 @@ def check(
         own durations, no model there, a model without the lip-sync model asked for, a dub
         with a model not built from video of a person.
     """
-    from miketalk.model.face import model_path
-    from miketalk.model.parts import choose_lipsync_model
+    from miketalk.model.parts import choose_lipsync_model, model_path
 
     if recorded:
         check_recorded_speech(settings)

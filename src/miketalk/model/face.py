@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from miketalk.errors import MiketalkError, SettingError
+from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.media.images import read_image
 from miketalk.model.background import KeptBackground
@@ -46,9 +46,9 @@ from miketalk.model.parts import (
     COARTICULATION,
     TRAINED_DIRECTORY,
     choose_lipsync_model,
-    default_model_dir,
     lipsync_models_in,
     missing_part,
+    model_path,
     own_recording_model,
     trained_trajectories,
 )
@@ -262,26 +262,6 @@ def open_model(directory: str | os.PathLike[str] | None, **options: object) -> M
     """Open a model (None: :func:`~miketalk.model.parts.default_model_dir`), with a hint on
     how to build the default one when it is missing; ``options`` go to :class:`Model`."""
     return Model(model_path(directory), **options)
-
-
-def model_path(directory: str | os.PathLike[str] | None) -> Path:
-    """The model directory ``directory`` names (None: the default one), checked to hold a
-    model before anything is read, with a hint on how to build the default one.
-
-    Raises
-    ------
-    SettingError
-        No model there (naming the ``model`` setting).
-    """
-    path = Path(directory) if directory is not None else default_model_dir()
-    if not (path / "manifest.json").exists():
-        hint = (
-            "build the default model with `make run` (or `snakemake --cores all model`)"
-            if directory is None
-            else "name a {model} directory built by the workflow or `miketalk build`"
-        )
-        raise SettingError(f"no model at {path}: {hint}")
-    return path
 
 
 __all__ = ["RENDER_WORKERS", "Model", "model_path", "open_model"]

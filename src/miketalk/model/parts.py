@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from miketalk import defaults
-from miketalk.errors import MiketalkError
+from miketalk.errors import MiketalkError, SettingError
 
 #: The model ``miketalk say`` uses when none is given (relative to the working directory).
 DEFAULT_MODEL = defaults.model_dir()
@@ -173,6 +173,26 @@ def built_choice(model_dir: str | os.PathLike[str]) -> dict | None:
     return doc
 
 
+def model_path(directory: str | os.PathLike[str] | None) -> Path:
+    """The model directory ``directory`` names (None: the default one), checked to hold a
+    model before anything is read, with a hint on how to build the default one.
+
+    Raises
+    ------
+    SettingError
+        No model there (naming the ``model`` setting).
+    """
+    path = Path(directory) if directory is not None else default_model_dir()
+    if not (path / "manifest.json").exists():
+        hint = (
+            "build the default model with `make run` (or `snakemake --cores all model`)"
+            if directory is None
+            else "name a {model} directory built by the workflow or `miketalk build`"
+        )
+        raise SettingError(f"no model at {path}: {hint}")
+    return path
+
+
 def own_recording_model(model_dir: str | os.PathLike[str]) -> str | None:
     """The lip-sync model a recording is drawn with when none is asked for: the one its
     build chose on held-back seconds of its video (:func:`built_choice`); for a model built
@@ -281,6 +301,7 @@ __all__ = [
     "is_model",
     "lipsync_models_in",
     "missing_part",
+    "model_path",
     "own_recording_model",
     "picture",
     "trained_default",

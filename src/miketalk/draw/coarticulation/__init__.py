@@ -55,13 +55,9 @@ the ``max_visemes`` largest, those under ``min_weight`` dropped, renormalized;
 :func:`miketalk.draw.learned.render_learned` draws them.
 """
 
-from miketalk.draw.coarticulation.fit import (
-    TrainingClip,
-    detrender,
-    fit,
-    fit_coarticulation,
-    training_clips,
-)
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
 from miketalk.draw.coarticulation.params import (
     FORMAT,
     LEAD_GRID,
@@ -70,12 +66,47 @@ from miketalk.draw.coarticulation.params import (
     read_params,
     write_params,
 )
-from miketalk.draw.coarticulation.weights import (
-    dominance_weights,
-    frame_weights,
-    paper_trajectory,
-    predict_trajectory,
-)
+
+if TYPE_CHECKING:
+    from miketalk.draw.coarticulation.fit import (
+        TrainingClip,
+        detrender,
+        fit,
+        fit_coarticulation,
+        training_clips,
+    )
+    from miketalk.draw.coarticulation.weights import (
+        dominance_weights,
+        frame_weights,
+        paper_trajectory,
+        predict_trajectory,
+    )
+
+#: The names of the modules that need numpy, imported when first asked for: the parameters
+#: (standard library only) are read before numpy loads (``miketalk say`` checks a model's
+#: coarticulation before it starts Festival, :func:`miketalk.model.parts.choose_lipsync_model`).
+_LAZY = {
+    **dict.fromkeys(
+        ("TrainingClip", "detrender", "fit", "fit_coarticulation", "training_clips"), "fit"
+    ),
+    **dict.fromkeys(
+        ("dominance_weights", "frame_weights", "paper_trajectory", "predict_trajectory"),
+        "weights",
+    ),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    where = _LAZY[name]
+    module = import_module(f"{__name__}.{where}")
+    for lazy in (n for n, w in _LAZY.items() if w == where):
+        # every name of that module bound here: ``fit`` the function, not the submodule
+        # ``fit`` that importing it bound in this package
+        globals()[lazy] = getattr(module, lazy)
+    return globals()[name]
+
 
 __all__ = [
     "FORMAT",
