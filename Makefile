@@ -13,9 +13,15 @@ CORES ?= all
 export VTK_DEFAULT_OPENGL_WINDOW := vtkEGLRenderWindow
 export PYTHONHASHSEED := 0
 
-.PHONY: setup apt run test lint bench report clean
+.PHONY: setup apt bytecode run test lint bench report clean
 
-setup: apt $(STAMP)
+setup: apt $(STAMP) bytecode
+
+# The sources' bytecode, compiled now (only what changed): the install is editable, so
+# nothing else compiles it where PYTHONDONTWRITEBYTECODE is set, and every command would
+# compile miketalk's modules again (s1's 10-word say: 0.09 s of its 1.6 s of CPU).
+bytecode: $(STAMP)
+	@$(BIN)/python -m compileall -q src >/dev/null
 
 apt:
 	@missing=$$(for p in $(APT_PACKAGES); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || echo $$p; done); \
