@@ -8,7 +8,8 @@ found before the work starts where it can be. stdout carries only the result
 SIGTERM and SIGHUP stop a run as Ctrl-C does, and leave nothing behind; run as the
 command (no ``argv`` given), a run so stopped then ends at once (``os._exit``, its
 clean-up done), instead of waiting for the interpreter to free its memory (the
-aligner's decoders: most of a second on a busy machine). A full disk
+aligner's decoders: most of a second on a busy machine); so does every ``say``
+(:data:`ENDS_AT_ONCE`). A full disk
 or a worker process killed under it (by the kernel, when memory runs out) is one line and
 exit status 1: not the user's mistake, but not a traceback either; outputs are written
 atomically, so nothing half-written is left.
@@ -33,8 +34,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     Parameters
     ----------
     argv : sequence of str, optional
-        The arguments (default: the command line's, and a run stopped by a signal
-        ends the process at once, see the module docstring).
+        The arguments (default: the command line's, and a run stopped by a signal, or
+        any run of :data:`ENDS_AT_ONCE`, ends the process at once: see the module
+        docstring).
 
     Returns
     -------
@@ -42,9 +44,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         The exit status: 0, 1 (the machine), 2 (a mistake), 128 + the signal.
     """
     code = _main(argv)
-    if argv is None and code > 128:
+    if argv is None and (code > 128 or _ran[0] in ENDS_AT_ONCE):
         _end_now(code)
     return code
+
+
+#: The commands that, run as the command, end at once (:func:`_end_now`) however they end:
+#: when they return, their files are closed and their child processes reaped, and the
+#: interpreter's own teardown (every module and array freed: some 30 ms of s1's 10-word
+#: ``say``, whose whole command takes a second) would only delay the exit.
+ENDS_AT_ONCE = frozenset({"say"})
+
+_ran: list[str | None] = [None]  # the command :func:`_main` ran
 
 
 def _end_now(code: int) -> None:
@@ -63,6 +74,7 @@ def _main(argv: Sequence[str] | None) -> int:
     """:func:`main` but for its end."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    _ran[0] = getattr(args, "command", None)
     if hasattr(args, "voice"):
         args.voice_given = args.voice is not None
         args.voice = args.voice or "kal"
