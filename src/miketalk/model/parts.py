@@ -1,7 +1,7 @@
 """Model directories before they are opened: which one ``miketalk say`` uses by default,
 what it holds beyond the paper's viseme images and flows, and so which lip-sync models it
-can speak with (standard library only: ``miketalk say`` asks before Festival starts, and
-Festival starts before numpy loads).
+can speak with (standard library only: ``miketalk say`` asks before numpy, OpenCV or
+Festival start).
 
 A model built from recorded clips also holds its learned coarticulation
 (:data:`COARTICULATION`, :mod:`miketalk.draw.coarticulation`) and its trained face
