@@ -186,8 +186,12 @@ def handle_termination() -> Iterator[None]:
         raise Terminated(signum)
 
     def interrupt(signum: int, frame: FrameType | None) -> None:
-        if not _in_finalizer(frame):  # (raised there, Ctrl-C is lost: the run goes on)
-            _stop()
+        if _in_finalizer(frame):
+            # raised there, Ctrl-C would be printed and lost and the run would go on:
+            # ask again once the finalizer is done
+            threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
+            return
+        _stop()
         if _holding[0]:
             if not _held:
                 _held.append(signum)
@@ -205,10 +209,21 @@ def handle_termination() -> Iterator[None]:
         _stopped[0] = False
 
 
+#: The code of the callbacks ``os.fork`` runs around a fork in the parent (logging's lock,
+#: taken before and given back after; Python 3.11 names): an exception raised in them is
+#: printed and lost, as in a ``__del__``. Called elsewhere, a signal there only waits 10 ms.
+_FORK_CALLBACKS = frozenset(
+    function.__code__
+    for name in ("_acquireLock", "_releaseLock", "_prepareFork", "_afterFork")
+    if callable(function := getattr(logging, name, None)) and hasattr(function, "__code__")
+)
+
+
 def _in_finalizer(frame: FrameType | None) -> bool:
-    """Whether ``frame`` runs inside a ``__del__`` method (where an exception would be lost)."""
+    """Whether ``frame`` runs where an exception would be printed and lost: inside a
+    ``__del__`` method, or a callback ``os.fork`` runs (:data:`_FORK_CALLBACKS`)."""
     while frame is not None:
-        if frame.f_code.co_name == "__del__":
+        if frame.f_code.co_name == "__del__" or frame.f_code in _FORK_CALLBACKS:
             return True
         frame = frame.f_back
     return False

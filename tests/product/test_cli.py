@@ -822,6 +822,35 @@ def test_a_signal_handled_inside_a_deferred_block_is_held_until_it_ends(signum: 
     assert getattr(raised.value, "signum", signal.SIGINT) == signum
 
 
+def test_ctrl_c_landing_in_a_forks_callback_is_asked_again() -> None:
+    """Ctrl-C that lands while ``os.fork`` runs logging's callbacks (as the aligner's child
+    is forked): raised there, it would be printed and lost ("Exception ignored in
+    _releaseLock") and the build would go on; it is asked again once they are done."""
+    import logging
+    import sys
+    import time
+
+    from miketalk.console import handle_termination
+
+    frames = []
+
+    def profile(frame, event, _arg) -> None:
+        if event == "call" and frame.f_code is logging._releaseLock.__code__:
+            frames.append(frame)
+
+    sys.setprofile(profile)
+    try:
+        logging._acquireLock()
+        logging._releaseLock()
+    finally:
+        sys.setprofile(None)
+    with handle_termination():
+        signal.getsignal(signal.SIGINT)(signal.SIGINT, frames[0])  # returns: not lost there
+        with pytest.raises(KeyboardInterrupt):
+            for _ in range(3000):  # a poll's generous deadline (30 s)
+                time.sleep(0.01)
+
+
 def _failing_cli(monkeypatch: pytest.MonkeyPatch, failure: BaseException):
     """The CLI's entry module, with every subcommand raising ``failure``."""
     import argparse
