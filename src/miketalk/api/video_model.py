@@ -12,13 +12,13 @@ model there is a model like any other (delete its folder to build it again).
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import os
 from pathlib import Path
 
 from miketalk.api.settings import BuildSettings
 from miketalk.errors import MiketalkError
+from miketalk.model.manifest import file_digest
 
 __all__ = ["video_digest", "video_model", "with_video_model"]
 
@@ -29,12 +29,8 @@ KIND = "video-models"
 
 
 def video_digest(video: str | os.PathLike[str]) -> str:
-    """The SHA-256 of the video file's bytes (read a megabyte at a time), in hex."""
-    digest = hashlib.sha256()
-    with open(video, "rb") as f:
-        while block := f.read(1 << 20):
-            digest.update(block)
-    return digest.hexdigest()
+    """The SHA-256 of the video file's bytes, in hex (``model.manifest.file_digest``)."""
+    return file_digest(video)
 
 
 def video_model(video: str | os.PathLike[str], *, progress: bool = False) -> tuple[Path, bool]:

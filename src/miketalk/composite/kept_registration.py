@@ -67,12 +67,9 @@ def untracked_warning(source: str, left_out: tuple[str, ...], untracked: int, n:
 
 
 def _file_digest(path: str | os.PathLike[str]) -> str:
-    """The SHA-256 of a file's bytes, a megabyte at a time."""
-    digest = hashlib.sha256()
+    """The SHA-256 of a file's bytes, in hex."""
     with open(path, "rb") as f:
-        while block := f.read(1 << 20):
-            digest.update(block)
-    return digest.hexdigest()
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def _code_digest() -> str:
