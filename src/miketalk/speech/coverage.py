@@ -59,10 +59,13 @@ class SpeechCoverage:
     unexplained_seconds : float
         Of those, the seconds outside every aligned non-silent phone (with
         :data:`MARGIN_SECONDS` around each).
+    longest_unexplained : float
+        The longest run of them (seconds).
     """
 
     voiced_seconds: float
     unexplained_seconds: float
+    longest_unexplained: float = 0.0
 
     @property
     def unexplained_share(self) -> float:
@@ -142,7 +145,11 @@ def speech_coverage(samples: np.ndarray, rate: int, phones: Sequence[Phone]) -> 
     for p in phones:
         if p.name != "pau":
             explained |= (centres >= p.start - MARGIN_SECONDS) & (centres < p.end + MARGIN_SECONDS)
+    outside = voiced & ~explained
+    edges = np.flatnonzero(np.diff(np.r_[0, outside.astype(np.int8), 0]))
+    longest = int((edges[1::2] - edges[::2]).max()) if len(edges) else 0
     return SpeechCoverage(
         voiced_seconds=float(voiced.sum() * HOP_SECONDS),
-        unexplained_seconds=float((voiced & ~explained).sum() * HOP_SECONDS),
+        unexplained_seconds=float(outside.sum() * HOP_SECONDS),
+        longest_unexplained=longest * HOP_SECONDS,
     )

@@ -43,6 +43,7 @@ if TYPE_CHECKING:
     from miketalk.speech.coverage import SpeechCoverage
     from miketalk.speech.recognize import Heard
     from miketalk.talk.frames import Uttered
+    from miketalk.talk.guided import GuidedPhones
 
 log = logging.getLogger(__name__)
 
@@ -73,6 +74,10 @@ class Aligned:
         :data:`RATE`.
     heard : Heard or None
         When no text was given: what the recognizer heard (the words then come from it).
+    left_out : tuple of str
+        A text's words left out (:mod:`miketalk.talk.guided`): not placed in the recording.
+    filled_by : str or None
+        The recognizer whose words filled speech the text does not hold (None: none did).
     """
 
     words: tuple[str, ...]
@@ -80,6 +85,8 @@ class Aligned:
     samples: np.ndarray
     rate: int
     heard: Heard | None = None
+    left_out: tuple[str, ...] = ()
+    filled_by: str | None = None
 
     @property
     def duration(self) -> float:
@@ -118,6 +125,8 @@ def align_recording(
         What is said. Without it and without ``timings`` the words are recognized
         (:func:`miketalk.speech.recognize.recognize_words`), then aligned as a given text
         is; words the aligner cannot place in the sound are left out, named in a warning.
+        A text alone whose words the aligner cannot all place, or that leaves a stretch of
+        speech uncovered, is a guide (:func:`miketalk.talk.guided.guided_alignment`).
     timings : path-like, optional
         Word timings of the recording (``.align`` or ``.TextGrid``); the phones
         then stay inside their words. With ``text`` as well, both must name the
@@ -130,15 +139,18 @@ def align_recording(
     ------
     MiketalkError
         Words that do not match the timings, a recording without sound, a word the
-        aligner cannot place; without text, speech that is not English or noise.
+        aligner cannot place (with timings), too little of a text placed; without text,
+        speech that is not English or noise.
 
     Warns (:func:`warn_unexplained`) when the words leave more than a quarter
     of the recording's voiced audio outside their phones, and (:func:`warn_misfit`) when
     they fit its sound badly (likely another recording's transcript).
     """
     from miketalk.media.decode import read_media_audio
+    from miketalk.speech.align.phones import UnplacedWord
     from miketalk.speech.coverage import speech_coverage
     from miketalk.speech.word_timings import read_word_timings
+    from miketalk.talk.guided import UNCOVERED_SECONDS, guided_alignment
     from miketalk.workers import run_in_child
 
     given = read_word_timings(timings) if timings is not None else None
@@ -167,12 +179,34 @@ def align_recording(
             warn_disagreement(audio, words, recognized.words)
         words, heard, given = list(recognized.words), recognized.heard, None
     log.info("aligning %d words to %.1f s of %s", len(words), len(samples) / RATE, audio)
+    # a text alone, short: a guide, if it must be (a long one's unplaced words are left out)
+    guide = heard is None and given is None and len(samples) <= LONG_SECONDS * RATE
     # in a child process: the aligner holds the interpreter for as long as its audio, and
     # Ctrl-C or SIGTERM must stop it at once (miketalk.workers.run_in_child)
-    phones, score = run_in_child(place_phones, audio, samples, words, given, heard is not None)
+    try:
+        phones, score = run_in_child(place_phones, audio, samples, words, given, heard is not None)
+    except UnplacedWord as err:
+        if not guide:
+            raise
+        return _guided(audio, samples, guided_alignment(audio, samples, RATE, words, unplaced=err))
+    coverage = speech_coverage(samples, RATE, phones)
+    if guide and coverage.longest_unexplained >= UNCOVERED_SECONDS:
+        found = guided_alignment(audio, samples, RATE, words, phones=(phones, score, coverage))
+        return _guided(audio, samples, found)
     warn_misfit(audio, score, words)
-    warn_unexplained(audio, speech_coverage(samples, RATE, phones), words)
+    warn_unexplained(audio, coverage, words)
     return Aligned(tuple(words), tuple(phones), samples, RATE, heard)
+
+
+def _guided(audio: object, samples: np.ndarray, found: GuidedPhones) -> Aligned:
+    """A recording aligned with its text as a guide, its fit warned about as a text's."""
+    warn_misfit(audio, found.score, found.words)
+    if found.coverage is not None:  # the text's own alignment, kept
+        warn_unexplained(audio, found.coverage, found.words)
+    return Aligned(
+        found.words, found.phones, samples, RATE, left_out=found.left_out,
+        filled_by=found.filled_by,
+    )  # fmt: skip
 
 
 def place_phones(
@@ -265,6 +299,14 @@ def warn_unexplained(audio: object, coverage: SpeechCoverage, words: Sequence[st
     )  # fmt: skip
 
 
+def _words_from(aligned: Aligned) -> str:
+    """Where a recording's words came from: the text given (and the recognizer that filled
+    speech it did not hold), or the recognizer alone."""
+    if aligned.heard is not None:
+        return aligned.heard.recognizer
+    return f"given+{aligned.filled_by}" if aligned.filled_by else "given"
+
+
 def say_recording(
     emitter: Emitter,
     recorded: Recorded,
@@ -335,7 +377,7 @@ def say_recording(
     )  # fmt: skip
     extra = {
         "text": " ".join(aligned.words),
-        "words_from": "given" if aligned.heard is None else aligned.heard.recognizer,
+        "words_from": _words_from(aligned),
         "phones": recorded.phones,
         "audio": str(recorded.audio),
         "sampling": settings.sampling.value if max_px_per_frame is not None else "none",
@@ -344,6 +386,7 @@ def say_recording(
         "lipsync_model": drawing.lipsync_model.value,
         "sound_lag_s": lead,
     }
+    extra |= {"words_left_out": " ".join(aligned.left_out)} if aligned.left_out else {}
     extra |= (own_frames_doc(drawing) if drawing.own_frames else {}) | background_doc(background)
     return Uttered(
         timeline, motion, extra, words=aligned.words, duration=aligned.duration,

@@ -90,6 +90,12 @@ class Alignment:
     score_per_frame: float | None = None
 
 
+class UnplacedWord(MiketalkError):
+    """The aligner could not place a word of the text in the recording: it is likely not
+    said there (the message names it). A recording's text may then be a guide instead
+    (:mod:`miketalk.speech.align_guide`)."""
+
+
 #: The score per frame (:attr:`Alignment.score_per_frame`) under which a recording's words
 #: likely are not what it says. On the 48 GRID clips of ``data/grid_s1`` (text only, no word
 #: timings) the clips' own transcripts score -10.9 to -23.8; another clip's transcript of
@@ -172,7 +178,7 @@ def align(
     Raises
     ------
     MiketalkError
-        As :func:`align_phones`.
+        As :func:`align_phones`; :class:`UnplacedWord` for a word it cannot place.
     """
     if isinstance(rate, bool) or not isinstance(rate, int | np.integer) or rate <= 0:
         raise MiketalkError(f"rate must be a positive number of Hz, got {rate!r}")
@@ -189,7 +195,7 @@ def align(
         placed = _strip(aligner.words_placed(data, clean))
         if placed != clean:
             index = min(_first_unplaced(aligner, data, clean, placed), len(clean) - 1)
-            raise MiketalkError(
+            raise UnplacedWord(
                 f"cannot align the word {words[index]!r} (word {index + 1} of {len(clean)}) "
                 "to the audio: is it said there?"
             )
