@@ -1,7 +1,7 @@
 """A face built from recognized words against one built from its transcript, held out on s1.
 
 ``python -m miketalk_lab.bench.recognized_build --out OUT [--config .bench/config.yaml]
-[--train N] [--every K] [--limit N]``
+[--train N] [--every K] [--limit N] [--builds transcript,recognized,reordered]``
 
 Issue 53's first target. Clips of face ``s1`` of ``--config`` (every ``K``-th of its training
 clips, ``N`` of them: 8 by default, some 24 s, the issue 52 case of a short video) are joined
@@ -14,6 +14,11 @@ corpus's frame (:func:`miketalk_lab.bench.video_vs_clips.heldout_of_model`: the 
 evaluation of every lip-sync model, drawn along each clip's own phones), and paired clip by
 clip, recognized minus transcript (:func:`paired`): per renderer and measure the mean
 difference, its sd and 95 % interval, and the clips within the target's bound.
+
+``--builds`` names the builds, the first the one every other is paired against. ``reordered``
+is the control of the bound's own noise: the same clips joined in another order (the second
+half first), built with their transcript, so ``reordered`` minus ``transcript`` is how far two
+transcript builds of one person's same frames, cut differently, move each measure.
 
 Writes ``OUT/joined/``, ``OUT/{transcript,recognized}/{model,corpus,heldout}/``,
 ``OUT/{transcript,recognized}/build.log``, ``OUT/paired.csv`` and ``OUT/summary.md``; a model
@@ -42,14 +47,25 @@ ROOT = Path(__file__).resolve().parents[3]
 #: The issue's bounds on recognized minus transcript (absolute), per held-out measure.
 BOUNDS = {"lip_opening_corr_speech": 0.05, "mouth_lmd": 0.15, "lip_opening_amplitude_speech": 0.05}
 
-#: The two builds: their name and the script option of ``miketalk build``.
-SCRIPTS = ("transcript", "recognized")
+#: The builds: the words of ``transcript`` and ``reordered`` are given, ``recognized`` hears
+#: them; ``reordered`` joins the same clips in another order (:func:`reordered`).
+SCRIPTS = ("transcript", "recognized", "reordered")
 
 
-def paired(a: pd.DataFrame, b: pd.DataFrame, renderers: Sequence[str]) -> pd.DataFrame:
+def reordered(ids: Sequence[str]) -> list[str]:
+    """The same clips in another order: the second half first (a rotation: every clip's
+    frames and sound are the same, its place in the video and most of its joins are not)."""
+    half = (len(ids) + 1) // 2
+    return [*ids[half:], *ids[:half]]
+
+
+def paired(
+    a: pd.DataFrame, b: pd.DataFrame, renderers: Sequence[str], names: Sequence[str] = SCRIPTS[:2]
+) -> pd.DataFrame:
     """``b`` minus ``a`` (held-out ``clips.csv`` tables) clip by clip: per renderer and
-    :data:`BOUNDS` measure, both means, the difference's mean, sd, 95 % interval (normal,
-    over the clips) and how many clips lie within the bound."""
+    :data:`BOUNDS` measure, both means (columns ``transcript`` and ``recognized``), the
+    difference's mean, sd, 95 % interval (normal, over the clips) and how many clips lie
+    within the bound; ``names`` (``a``'s and ``b``'s build) fill ``base`` and ``build``."""
     rows = []
     for renderer in renderers:
         pa = a[a["renderer"] == renderer].set_index("clip")
@@ -61,6 +77,7 @@ def paired(a: pd.DataFrame, b: pd.DataFrame, renderers: Sequence[str]) -> pd.Dat
             diff = (pb.loc[common, measure] - pa.loc[common, measure]).dropna()
             half = 1.96 * diff.std(ddof=1) / np.sqrt(len(diff)) if len(diff) > 1 else np.nan
             rows.append({
+                "base": names[0], "build": names[1],
                 "renderer": renderer, "measure": measure, "clips": len(diff),
                 "transcript": pa.loc[common, measure].mean(),
                 "recognized": pb.loc[common, measure].mean(),
@@ -106,7 +123,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--config", type=Path, default=ROOT / ".bench" / "config.yaml")
     parser.add_argument("--train", type=int, default=8, help="training clips joined")
     parser.add_argument("--every", type=int, default=5, help="every K-th training clip")
-    return run_bench(parser, argv, _work)
+    parser.add_argument(
+        "--builds", default="transcript,recognized",
+        help=f"the builds, comma-separated, of {', '.join(SCRIPTS)}: the first is the base "
+        "every other is paired against",
+    )  # fmt: skip
+    return run_bench(parser, argv, _work, check=_check)
+
+
+def _builds(args: argparse.Namespace) -> list[str]:
+    return [b.strip() for b in args.builds.split(",") if b.strip()]
+
+
+def _check(args: argparse.Namespace) -> str | None:
+    builds = _builds(args)
+    unknown = sorted(set(builds) - set(SCRIPTS))
+    if unknown:
+        return f"--builds: unknown {', '.join(unknown)} (known: {', '.join(SCRIPTS)})"
+    if len(builds) < 2 or len(set(builds)) != len(builds):
+        return "--builds needs two or more different builds"
+    return None
 
 
 def _work(args: argparse.Namespace) -> str:
@@ -119,18 +155,21 @@ def _work(args: argparse.Namespace) -> str:
     root, corpus = args.config.resolve().parents[1], face["corpus"]  # relative to the project
     ids = list(corpus["train"])[:: args.every][: args.train]
     test = list(corpus["test"])[: args.limit]
-    joined = join_clips(
-        ids, args.out / "joined", media=str(root / corpus["media"]),
-        transcripts=root / corpus["transcripts"], timings=str(root / corpus["timings"]),
-    )  # fmt: skip
+    names = _builds(args)
+    sources = {"media": str(root / corpus["media"]), "transcripts": root / corpus["transcripts"],
+               "timings": str(root / corpus["timings"])}  # fmt: skip
+    joined = join_clips(ids, args.out / "joined", **sources)
+    cuts = {"transcript": joined, "recognized": joined}
+    if "reordered" in names:
+        cuts["reordered"] = join_clips(reordered(ids), args.out / "joined_reordered", **sources)
     clips = clip_sources(test, media=str(root / corpus["media"]),
                          transcripts=root / corpus["transcripts"],
                          timings=str(root / corpus["timings"]))  # fmt: skip
     tables, builds = {}, {}
-    for name in SCRIPTS:
+    for name in names:
         out = args.out / name
-        script = joined.transcript if name == "transcript" else None
-        builds[name] = _build(joined.video, out, script)
+        script = None if name == "recognized" else cuts[name].transcript
+        builds[name] = _build(cuts[name].video, out, script)
         held = out / "heldout" / "clips.csv"
         tables[name] = (
             pd.read_csv(held) if held.is_file() and args.limit is None
@@ -138,18 +177,22 @@ def _work(args: argparse.Namespace) -> str:
                                   name=face["model_name"], morph=face["morph_options"],
                                   grouping=face["grouping"])
         )  # fmt: skip
-    renderers = sorted(set(tables["transcript"].renderer) & set(tables["recognized"].renderer))
-    table = paired(tables["transcript"], tables["recognized"], renderers)
+    base = tables[names[0]]
+    table = pd.concat([
+        paired(base, tables[name], sorted(set(base.renderer) & set(tables[name].renderer)),
+               (names[0], name))
+        for name in names[1:]
+    ], ignore_index=True)  # fmt: skip
     table.to_csv(args.out / "paired.csv", index=False, float_format="%.4f")
     return _summary(args, ids, test, builds, table)
 
 
 def _summary(args, ids, test, builds: dict, table: pd.DataFrame) -> str:
     lines = [
-        f"# Recognized words against the transcript: s1, {len(ids)} training clips joined "
-        f"({' '.join(ids)}), {len(test)} held-out clips", "",
+        f"# Builds of the same s1 video against {_builds(args)[0]}: {len(ids)} training clips "
+        f"joined ({' '.join(ids)}), {len(test)} held-out clips", "",
     ]  # fmt: skip
-    for name in SCRIPTS:
+    for name in builds:
         seg = _segments(args.out / name)
         left = len(seg.get("unaligned", ())) + len(seg.get("not_confident", ()))
         lines.append(
@@ -157,11 +200,12 @@ def _summary(args, ids, test, builds: dict, table: pd.DataFrame) -> str:
             f"{len(seg.get('utterances', ()))} utterances; built in "
             f"{builds[name]['wall_seconds']:.0f} s; words from {seg.get('words_from', 'given')}"
         )
-    lines += ["", "| renderer | measure | clips | transcript | recognized | recognized - "
-              "transcript (sd) | 95 % | clips within bound |", "|---" * 8 + "|"]  # fmt: skip
+    lines += ["", "| build - base | renderer | measure | clips | base | build | build - base "
+              "(sd) | 95 % | clips within bound |", "|---" * 9 + "|"]  # fmt: skip
     for _, r in table.iterrows():
         lines.append(
-            f"| {r.renderer} | {r.measure} | {r.clips} | {r.transcript:.3f} | {r.recognized:.3f} "
+            f"| {r.build} - {r.base} | {r.renderer} | {r.measure} | {r.clips} "
+            f"| {r.transcript:.3f} | {r.recognized:.3f} "
             f"| {r.diff_mean:+.3f} ({r.diff_sd:.3f}) | [{r.ci_low:+.3f}, {r.ci_high:+.3f}] "
             f"| {r.clips_within} (±{r.bound:g}) |"
         )
