@@ -125,7 +125,7 @@ def read_kept(key: list, video: str | os.PathLike[str], source: str) -> Backgrou
     """The background kept for ``key``, its frames read from ``video`` when played (None:
     no entry, or one that cannot be read or does not fit the video)."""
     from miketalk.media.decode import video_info
-    from miketalk.media.frame_source import VideoFrames
+    from miketalk.media.frame_source import played
 
     path = _entry(key)
     if path is None or not path.is_file():
@@ -147,13 +147,14 @@ def read_kept(key: list, video: str | os.PathLike[str], source: str) -> Backgrou
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as err:
         log.debug("the kept registration %s was not read (%s): made again", path, err)
         return None
-    frames = VideoFrames(video, count=n, fps=fps, start=0.0)
+    frames, planes = played(video, count=n, fps=fps)
     shown = arrays["shown"].astype(bool)
     untracked_warning(source, tuple(meta["left_out"]), int((~shown).sum()), n)
     return Background(
         frames, transforms, arrays.get("field"), fps, tuple(meta["blinks"]), source,
         arrays.get("steady"), shown=shown, shot=arrays.get("shot"),
         steady_shots=shots if meta["has_shots"] else None, left_out=tuple(meta["left_out"]),
+        i420=planes,
     )  # fmt: skip
 
 

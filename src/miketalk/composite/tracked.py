@@ -86,7 +86,8 @@ def tracked_background(
     Returns
     -------
     Background
-        Its frames read when played (:class:`~miketalk.media.frame_source.VideoFrames`).
+        Its frames read when played (:func:`~miketalk.media.frame_source.played`: in the
+        encoder's colours where the video decodes to them, the mouth's box alone converted).
 
     Raises
     ------
@@ -94,7 +95,7 @@ def tracked_background(
         Unreadable, too short, no frontal face in most frames, or not the model's person.
     """
     from miketalk.composite.registration import register_video
-    from miketalk.media.frame_source import VideoFrames
+    from miketalk.media.frame_source import played
     from miketalk.track.video_crops import crop_video
 
     source = source or str(path)
@@ -125,11 +126,11 @@ def tracked_background(
     to_frame = np.stack([invert_affine(c) for c in cropped.to_crop])
     transforms = np.stack([compose_affine(f, t) for f, t in zip(to_frame, found.transforms,
                                                                 strict=True)])  # fmt: skip
-    video = VideoFrames(path, count=n, fps=fps, start=start or 0.0)
+    video, planes = played(path, count=n, fps=fps, start=start or 0.0)
     return Background(
         video, transforms, found.field, fps, found.blinks, source, found.steady,
         shown=cropped.tracked.copy(), shot=shot, steady_shots=found.steady_shots,
-        left_out=left_out,
+        left_out=left_out, i420=planes,
     )  # fmt: skip
 
 

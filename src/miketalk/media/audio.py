@@ -1,21 +1,27 @@
-"""Mono 16-bit PCM wav files: read and write (atomically) with the standard library."""
+"""Sound: any media file's sound track decoded by ffmpeg (:func:`read_media_audio`, run with
+an argument list, never through a shell); mono 16-bit PCM wav files read and written
+(atomically) with the standard library."""
 
 from __future__ import annotations
 
 import numbers
 import os
 import struct
+import subprocess
 import wave
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from miketalk.console import child_process
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import atomic_paths
 from miketalk.media.ownership import WAV_SOFTWARE
 
 _SAMPLE_WIDTH = 2  # bytes: int16
+#: Seconds ffmpeg may take to decode one file's sound.
+_TIMEOUT = 300.0
 
 
 def check_samples(samples: object, name: str = "samples") -> np.ndarray:
@@ -131,3 +137,67 @@ def read_wav(path: str | os.PathLike[str]) -> tuple[np.ndarray, int]:
             "mono 16-bit PCM is required (convert with: ffmpeg -i IN -ac 1 -c:a pcm_s16le OUT.wav)"
         )
     return np.frombuffer(data, dtype="<i2").astype(np.int16), rate
+
+
+def read_media_audio(
+    path: str | Path,
+    *,
+    rate: int = 16000,
+    start: float | None = None,
+    duration: float | None = None,
+) -> np.ndarray:
+    """Decode the first audio stream of a media file to mono int16 at ``rate`` Hz.
+
+    Channels are averaged; ffmpeg resamples. ``start`` and ``duration`` (seconds)
+    decode a part only.
+
+    Parameters
+    ----------
+    path : str or Path
+        Any file ffmpeg reads (``.mpg``, ``.mp4``, ``.wav``, ...).
+    rate : int
+        Sample rate of the result in Hz.
+
+    Returns
+    -------
+    numpy.ndarray
+        int16 samples, shape ``(n,)``.
+
+    Raises
+    ------
+    MiketalkError
+        If the file is missing, has no audio stream, or ffmpeg cannot decode it;
+        the message names the file.
+    """
+    import imageio_ffmpeg
+
+    path = Path(path)
+    if isinstance(rate, bool) or not isinstance(rate, int) or not 1000 <= rate <= 384000:
+        raise MiketalkError(f"rate must be a whole number of Hz in 1000..384000, got {rate!r}")
+    if not path.is_file():
+        raise MiketalkError(f"cannot read audio from {path}: no such file")
+    command = [
+        imageio_ffmpeg.get_ffmpeg_exe(),
+        "-nostdin", "-hide_banner", "-loglevel", "error",
+        *(["-ss", f"{start:.6f}"] if start else []),
+        "-i", str(path.resolve()),
+        *(["-t", f"{duration:.6f}"] if duration is not None else []),
+        "-map", "0:a:0", "-vn", "-sn", "-dn",
+        "-ac", "1", "-ar", str(rate), "-acodec", "pcm_s16le", "-f", "s16le",
+        "pipe:1",
+    ]  # fmt: skip
+    try:
+        with child_process(command) as proc:  # a signal stopping the run kills it
+            out, err = proc.communicate(timeout=_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        raise MiketalkError(f"ffmpeg took longer than {_TIMEOUT:.0f} s to decode {path}") from None
+    code = proc.returncode
+    errors = err.decode(errors="replace").strip()
+    if code != 0:
+        if "matches no streams" in errors:
+            raise MiketalkError(f"{path} has no audio stream")
+        tail = errors.splitlines()[-1] if errors else f"exit status {code}"
+        raise MiketalkError(f"ffmpeg cannot decode the audio of {path}: {tail}")
+    if len(out) < 2:
+        raise MiketalkError(f"{path} has an empty audio stream")
+    return np.frombuffer(out[: len(out) // 2 * 2], dtype="<i2").astype(np.int16)

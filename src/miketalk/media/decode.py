@@ -1,8 +1,9 @@
-"""Decoding media files with the ffmpeg binary bundled with imageio-ffmpeg: frames and sound.
+"""Decoding video files with the ffmpeg binary bundled with imageio-ffmpeg: their frames (a
+media file's sound: :func:`miketalk.media.audio.read_media_audio`, also importable here).
 
-:func:`read_video` decodes a video file to RGB frames; :func:`read_media_audio` decodes the
-sound track of any media file (video or audio) to mono int16 samples. ffmpeg is run with
-an argument list, never through a shell.
+:func:`read_video` decodes a video file to RGB frames (:func:`iter_video_frames` streams
+them, or their ``yuv420p`` planes). ffmpeg is run with an argument list, never through a
+shell.
 
 :func:`read_video` runs ffmpeg once, with the decoder, the filter graph and the
 colour conversion on one thread each (``-threads 1 -filter_threads 1``) and
@@ -42,7 +43,6 @@ from __future__ import annotations
 import logging
 import math
 import os
-import subprocess
 import tempfile
 import threading
 from collections.abc import Iterator
@@ -54,6 +54,7 @@ import numpy as np
 
 from miketalk.console import child_process
 from miketalk.errors import MiketalkError
+from miketalk.media.audio import read_media_audio  # a media file's sound, here too
 from miketalk.media.ffmpeg_log import RATE_RE as _RATE_RE
 from miketalk.media.ffmpeg_log import SIZE_RE as _SIZE_RE
 from miketalk.media.ffmpeg_log import TV_TO_FULL, Logged, unreadable, warn_if_early_end
@@ -67,12 +68,11 @@ __all__ = [
     "read_video",
     "stated_seconds",
     "video_info",
+    "video_log",
 ]
 
 log = logging.getLogger(__name__)
 
-#: Seconds ffmpeg may take to decode one file's sound.
-_TIMEOUT = 300.0
 #: Frames (of the stated rate) by which the frames' timestamps may span more or less
 #: than ``frames / rate`` before the video counts as having a variable frame rate.
 SLACK_FRAMES = 1.5
@@ -174,11 +174,12 @@ def _video_args(
     luma_plane: bool = False,
     region: tuple[int, int, int, int] | None = None,
     conversion: str = "accurate",
+    i420: bool = False,
 ) -> list[str]:
-    """ffmpeg's arguments decoding ``path``'s first video stream to raw RGB (or grey) on its
-    stdout (every frame as it is, or at the constant rate ``resample``; only ``region``;
-    with ``luma_plane``, the grey frames are the stream's luma plane as stored; the RGB by
-    ``conversion``'s flags, :data:`COLOUR_CONVERSIONS`)."""
+    """ffmpeg's arguments decoding ``path``'s first video stream to raw RGB (or grey, or
+    ``yuv420p`` with ``i420``) on its stdout (every frame as it is, or at the constant rate
+    ``resample``; only ``region``; with ``luma_plane``, the grey frames are the stream's luma
+    plane as stored; the RGB by ``conversion``'s flags, :data:`COLOUR_CONVERSIONS`)."""
     import imageio_ffmpeg
 
     seek, pace = (["-ss", f"{start:.6f}"] if start else []), []
@@ -197,7 +198,8 @@ def _video_args(
         "-map", "0:v:0", "-an", "-sn", "-dn", *(["-vf", ",".join(pace)] if pace else []),
         "-fps_mode", "passthrough", "-filter_threads", "1",
         "-sws_flags", COLOUR_CONVERSIONS[conversion], "-threads", "1",
-        "-f", "rawvideo", "-pix_fmt", "gray" if grey else "rgb24", "pipe:1",
+        "-f", "rawvideo", "-pix_fmt", "gray" if grey else "yuv420p" if i420 else "rgb24",
+        "pipe:1",
     ]  # fmt: skip
 
 
@@ -241,9 +243,13 @@ def video_info(path: str | os.PathLike[str]) -> tuple[int, int, float]:
 
 def stated_seconds(path: str | os.PathLike[str]) -> float | None:
     """The seconds a video's container states it lasts (None: it does not say)."""
-    video_info(path)  # its first frame read once, and what ffmpeg's log said of it kept
-    logged = _logged.get(_file_key(Path(path)))
-    return logged.duration if logged is not None else None
+    return video_log(path).duration
+
+
+def video_log(path: str | os.PathLike[str]) -> Logged:
+    """What ffmpeg's log said of ``path``'s video (its first frame read once)."""
+    video_info(path)
+    return _logged.get(_file_key(Path(path)), Logged(None, None))
 
 
 def iter_video_frames(
@@ -254,6 +260,7 @@ def iter_video_frames(
     grey: bool = False,
     region: tuple[int, int, int, int] | None = None,
     conversion: str = "accurate",
+    i420: bool = False,
 ) -> Iterator[np.ndarray]:
     """Decode the first video stream of ``path`` one frame at a time, as a stream.
 
@@ -283,6 +290,8 @@ def iter_video_frames(
     conversion : str
         The RGB conversion's name in :data:`COLOUR_CONVERSIONS` (``accurate``: the bytes
         of :func:`read_video`).
+    i420 : bool
+        Yield whole frames' ``(H * 3 // 2, W)`` ``yuv420p`` planes instead.
 
     Yields
     ------
@@ -300,7 +309,9 @@ def iter_video_frames(
     width, height, fps = video_info(path)
     if region is not None:
         width, height = region[2], region[3]
-    shape = (height, width) if grey else (height, width, 3)
+    if i420 and (grey or region is not None or width % 2 or height % 2):
+        raise MiketalkError("yuv420p frames are whole frames of an even size, in colour")
+    shape = (height, width) if grey else (height * 3 // 2, width) if i420 else (height, width, 3)
     frame_bytes = math.prod(shape)
     key = _file_key(path)
     rate = _constant_rates.get(key)
@@ -309,7 +320,7 @@ def iter_video_frames(
     lut = TV_TO_FULL if luma == "tv" else None
     args = _video_args(
         path, "error", start, frames, rate, grey=grey, luma_plane=luma is not None,
-        region=region, conversion=conversion,
+        region=region, conversion=conversion, i420=i420,
     )  # fmt: skip
     count = 0
     with tempfile.TemporaryFile() as errors:
@@ -331,68 +342,6 @@ def iter_video_frames(
             raise unreadable(path, errors.read().decode("utf-8", "replace"))
     if start is None and frames is None:
         warn_if_early_end(path, count, rate or fps, logged.duration)
-
-
-def read_media_audio(
-    path: str | Path,
-    *,
-    rate: int = 16000,
-    start: float | None = None,
-    duration: float | None = None,
-) -> np.ndarray:
-    """Decode the first audio stream of a media file to mono int16 at ``rate`` Hz.
-
-    Channels are averaged; ffmpeg resamples. ``start`` and ``duration`` (seconds)
-    decode a part only.
-
-    Parameters
-    ----------
-    path : str or Path
-        Any file ffmpeg reads (``.mpg``, ``.mp4``, ``.wav``, ...).
-    rate : int
-        Sample rate of the result in Hz.
-
-    Returns
-    -------
-    numpy.ndarray
-        int16 samples, shape ``(n,)``.
-
-    Raises
-    ------
-    MiketalkError
-        If the file is missing, has no audio stream, or ffmpeg cannot decode it;
-        the message names the file.
-    """
-    import imageio_ffmpeg
-
-    path = Path(path)
-    if isinstance(rate, bool) or not isinstance(rate, int) or not 1000 <= rate <= 384000:
-        raise MiketalkError(f"rate must be a whole number of Hz in 1000..384000, got {rate!r}")
-    if not path.is_file():
-        raise MiketalkError(f"cannot read audio from {path}: no such file")
-    command = [
-        imageio_ffmpeg.get_ffmpeg_exe(),
-        "-nostdin", "-hide_banner", "-loglevel", "error",
-        *(["-ss", f"{start:.6f}"] if start else []),
-        "-i", str(path.resolve()),
-        *(["-t", f"{duration:.6f}"] if duration is not None else []),
-        "-map", "0:a:0", "-vn", "-sn", "-dn",
-        "-ac", "1", "-ar", str(rate), "-acodec", "pcm_s16le", "-f", "s16le",
-        "pipe:1",
-    ]  # fmt: skip
-    try:
-        code, out, err = _run(command, timeout=_TIMEOUT)
-    except subprocess.TimeoutExpired:
-        raise MiketalkError(f"ffmpeg took longer than {_TIMEOUT:.0f} s to decode {path}") from None
-    errors = err.decode(errors="replace").strip()
-    if code != 0:
-        if "matches no streams" in errors:
-            raise MiketalkError(f"{path} has no audio stream")
-        tail = errors.splitlines()[-1] if errors else f"exit status {code}"
-        raise MiketalkError(f"ffmpeg cannot decode the audio of {path}: {tail}")
-    if len(out) < 2:
-        raise MiketalkError(f"{path} has an empty audio stream")
-    return np.frombuffer(out[: len(out) // 2 * 2], dtype="<i2").astype(np.int16)
 
 
 # ---------------------------------------------------------------------------

@@ -29,6 +29,8 @@ RATE_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bfr:(\d+)/(\d+)")
 SIZE_RE = re.compile(r"Output #0.*?Stream #0:0.*?Video: rawvideo\b.*?, (\d+)x(\d+)", re.DOTALL)
 # the same line's decoded pixel format and range: "... pixfmt:yuv420p ... range:tv ..."
 PIXFMT_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bpixfmt:(\w+)(?:.*?\brange:(\w+))?")
+# the same line's colour space: "... csp:unknown range:unknown ..."
+CSP_RE = re.compile(r"input from stream \S+ @ \S+\] .*?\bcsp:(\w+)")
 # the input's summary: "  Duration: 00:00:03.00, start: 0.000000, bitrate: 152 kb/s"
 DURATION_RE = re.compile(r"^\s*Duration: (\d+):(\d\d):(\d\d(?:\.\d+)?)", re.MULTILINE)
 #: What ffmpeg says of a file it cannot open as media at all (its container unknown, or
@@ -61,11 +63,13 @@ class Logged(NamedTuple):
     luma: str | None
     #: The seconds it states it lasts (:func:`stated_duration`).
     duration: float | None
+    #: Whether its frames are decoded in the encoder's own colours (:func:`plain_i420`).
+    i420: bool = False
 
     @classmethod
     def of(cls, log_text: str) -> Logged:
         """From ffmpeg's verbose log."""
-        return cls(luma_kind(log_text), stated_duration(log_text))
+        return cls(luma_kind(log_text), stated_duration(log_text), plain_i420(log_text))
 
 
 def encoding_failure(folder: Path, log_text: str) -> MiketalkError:
@@ -98,6 +102,22 @@ def luma_kind(log_text: str) -> str | None:
         return None
     full = found[1].startswith("yuvj") or found[2] == "pc"
     return "pc" if full else "tv"
+
+
+#: Colour spaces whose RGB ffmpeg's conversion and OpenCV's (:mod:`miketalk.media.yuv`)
+#: both take as BT.601: none stated, or BT.601's own names.
+BT601 = frozenset({"unknown", "bt470bg", "smpte170m"})
+
+
+def plain_i420(log_text: str) -> bool:
+    """Whether ffmpeg's verbose log says the video's frames decode to 8-bit 4:2:0 in limited
+    range and BT.601 (or no stated colour space): the planes the encoder reads
+    (:mod:`miketalk.media.yuv`), whose RGB OpenCV's conversion gives as ffmpeg's does (but
+    for rounding)."""
+    found, space = PIXFMT_RE.search(log_text), CSP_RE.search(log_text)
+    if found is None or found[1] != "yuv420p" or found[2] == "pc":
+        return False
+    return space is None or space[1] in BT601
 
 
 def stated_duration(log_text: str) -> float | None:
@@ -151,6 +171,7 @@ def warn_if_early_end(path: Path, frames: int, fps: float, stated: float | None)
 
 
 __all__ = [
+    "BT601",
     "EARLY_END",
     "LUMA_PLANAR",
     "RATE_RE",
@@ -158,6 +179,7 @@ __all__ = [
     "TV_TO_FULL",
     "Logged",
     "luma_kind",
+    "plain_i420",
     "stated_duration",
     "tail",
     "unreadable",

@@ -27,7 +27,7 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["KEEP_BYTES", "ImageFrames", "VideoFrames"]
+__all__ = ["KEEP_BYTES", "ImageFrames", "RgbFrames", "VideoFrames", "decodes_to_i420", "played"]
 
 #: The most bytes of frames a :class:`VideoFrames` keeps (at least 2 frames): 32 frames
 #: of 1080p (6.2 MB each), 10 of 4K (24.9 MB), instead of 32 of any size (800 MB at 4K).
@@ -166,6 +166,9 @@ class VideoFrames(_Cached):
     keep : int
         Frames kept in memory (a step back within them reads nothing), at most
         :data:`KEEP_BYTES` of them (and at least 2).
+    i420 : bool
+        Frames as ``(H * 3 // 2, W)`` ``yuv420p`` planes (:mod:`miketalk.media.yuv`; the
+        decoder's own where :func:`decodes_to_i420`), not RGB.
     """
 
     def __init__(
@@ -176,6 +179,7 @@ class VideoFrames(_Cached):
         fps: float,
         start: float = 0.0,
         keep: int = 32,
+        i420: bool = False,
     ) -> None:
         from miketalk.media.decode import video_info
 
@@ -185,15 +189,24 @@ class VideoFrames(_Cached):
         super().__init__(count, (height, width), keep)
         self._fps = float(fps)
         self._start = float(start)
+        self._i420 = bool(i420)
         self._stream: Iterator[np.ndarray] | None = None
         self._next = 0  # the index the open stream yields next
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """``(N, H, W, 3)``; with ``i420``, ``(N, H * 3 // 2, W)``."""
+        n, h, w, _ = super().shape
+        return (n, h * 3 // 2, w) if self._i420 else (n, h, w, 3)
 
     def _open(self) -> None:
         from miketalk.media.decode import iter_video_frames
 
         self.close()
         start = self._start if self._start > 0 else None
-        self._stream = iter_video_frames(self._path, start=start, frames=self._count)
+        self._stream = iter_video_frames(
+            self._path, start=start, frames=self._count, i420=self._i420
+        )
         self._next = 0
 
     def _read(self, i: int) -> np.ndarray:
@@ -225,3 +238,53 @@ class VideoFrames(_Cached):
 
     def __del__(self) -> None:
         self.close()
+
+
+def decodes_to_i420(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path``'s frames decode to the encoder's own colours as they are: 8-bit 4:2:0
+    planes in limited range and BT.601 or no stated colour space
+    (:func:`~miketalk.media.ffmpeg_log.plain_i420`), of an even size."""
+    from miketalk.media.decode import video_info, video_log
+
+    width, height, _ = video_info(path)
+    return video_log(path).i420 and width % 2 == 0 and height % 2 == 0
+
+
+class RgbFrames:
+    """A sequence of I420 frames (:class:`VideoFrames` with ``i420``) indexed as RGB: each
+    a :class:`~miketalk.media.yuv.RgbOfI420`, converted only where it is read."""
+
+    def __init__(self, planes: VideoFrames) -> None:
+        self.planes = planes
+
+    @property
+    def shape(self) -> tuple[int, int, int, int]:
+        """``(N, H, W, 3)``."""
+        n, h2, w = self.planes.shape
+        return (n, h2 * 2 // 3, w, 3)
+
+    def __len__(self) -> int:
+        return len(self.planes)
+
+    def __iter__(self) -> Iterator:
+        for i in range(len(self)):
+            yield self[i]
+
+    def __getitem__(self, index: int):
+        from miketalk.media.yuv import RgbOfI420
+
+        return RgbOfI420(self.planes[index])
+
+
+def played(
+    path: str | os.PathLike[str], *, count: int, fps: float, start: float = 0.0
+) -> tuple[VideoFrames | RgbFrames, VideoFrames | None]:
+    """A video's frames to play a mouth into: ``(frames, i420)``, the second its
+    ``yuv420p`` planes when they are the decoder's own (:func:`decodes_to_i420`; the
+    frames then the same planes read as RGB where read: :class:`RgbFrames`), else None
+    (the frames RGB, as ffmpeg converts them). The parameters are :class:`VideoFrames`'s.
+    """
+    if not decodes_to_i420(path):
+        return VideoFrames(path, count=count, fps=fps, start=start), None
+    planes = VideoFrames(path, count=count, fps=fps, start=start, i420=True)
+    return RgbFrames(planes), planes

@@ -26,7 +26,7 @@ import numpy as np
 
 from miketalk.errors import MiketalkError
 
-__all__ = ["I420Frame", "even_box", "paste_rgb", "to_i420"]
+__all__ = ["I420Frame", "RgbOfI420", "even_box", "paste_rgb", "to_i420"]
 
 
 @dataclass(frozen=True)
@@ -93,3 +93,57 @@ def paste_rgb(planes: np.ndarray, box: tuple[int, int, int, int], rgb: np.ndarra
         start = h * w + k * (h // 2) * (w // 2)
         plane = flat[start : start + (h // 2) * (w // 2)].reshape(h // 2, w // 2)
         plane[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2] = chroma[k]
+
+
+class RgbOfI420:
+    """An I420 frame read as ``(H, W, 3)`` RGB, converted only where it is read.
+
+    ``view[y0:y1, x0:x1]`` converts that box grown to even corners (OpenCV's
+    ``COLOR_YUV2RGB_I420``: BT.601 limited range, each chroma sample for its 2x2 block, so a
+    box's pixels are the whole frame's, byte for byte) and ``numpy.asarray(view)`` the
+    whole frame: a frame whose mouth alone is blended (:mod:`miketalk.composite`) converts
+    that box, not its 0.9 million other pixels.
+
+    Parameters
+    ----------
+    planes : numpy.ndarray
+        ``(H * 3 // 2, W)`` uint8, ``H`` and ``W`` even (:class:`I420Frame`'s layout).
+    """
+
+    ndim = 3
+    dtype = np.dtype(np.uint8)
+
+    def __init__(self, planes: np.ndarray) -> None:
+        self.planes = planes
+        self.shape = (planes.shape[0] * 2 // 3, planes.shape[1], 3)
+
+    def __getitem__(self, key):
+        key = key if isinstance(key, tuple) else (key,)
+        if len(key) < 2 or not all(isinstance(k, slice) and k.step in (None, 1) for k in key[:2]):
+            return np.asarray(self)[key]
+        h, w, _ = self.shape
+        (y0, y1, _), (x0, x1, _) = key[0].indices(h), key[1].indices(w)
+        y1, x1 = max(y0, y1), max(x0, x1)
+        ey0, ex0, ey1, ex1 = y0 - y0 % 2, x0 - x0 % 2, y1 + y1 % 2, x1 + x1 % 2
+        rgb = self._convert(ey0, ey1, ex0, ex1)[y0 - ey0 : y1 - ey0, x0 - ex0 : x1 - ex0]
+        return rgb[(slice(None), slice(None), *key[2:])] if len(key) > 2 else rgb
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        rgb = self._convert(0, self.shape[0], 0, self.shape[1])
+        return rgb if dtype is None else rgb.astype(dtype)
+
+    def _convert(self, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+        """RGB of the even box ``[y0, y1) x [x0, x1)``."""
+        h, w, _ = self.shape
+        bh, bw = y1 - y0, x1 - x0
+        if bh == 0 or bw == 0:
+            return np.zeros((bh, bw, 3), np.uint8)
+        flat = self.planes.reshape(-1)
+        box = np.empty((bh * 3 // 2, bw), np.uint8)
+        box[:bh] = self.planes[y0:y1, x0:x1]
+        chroma = box[bh:].reshape(2, bh // 2, bw // 2)  # U then V, as the whole frame's
+        for k in range(2):
+            start = h * w + k * (h // 2) * (w // 2)
+            plane = flat[start : start + (h // 2) * (w // 2)].reshape(h // 2, w // 2)
+            chroma[k] = plane[y0 // 2 : y1 // 2, x0 // 2 : x1 // 2]
+        return cv2.cvtColor(box, cv2.COLOR_YUV2RGB_I420)
