@@ -59,6 +59,7 @@ def tracked_background(
     progress: bool = False,
     smooth: float = defaults.BACKGROUND_SMOOTH,
     shortest: float = MIN_SECONDS,
+    i420: bool = False,
 ) -> Background:
     """A video of the person registered through its face crops (see the module docstring).
 
@@ -82,12 +83,15 @@ def tracked_background(
         Gaussian sigma in seconds of the crop registrations smoothed in time.
     shortest : float
         The fewest seconds the video may last.
+    i420 : bool
+        Its frames played in the encoder's colours where the video decodes to them
+        (:func:`~miketalk.media.frame_source.played`: a mouth composited into them, each
+        frame's box alone converted); False: RGB frames, as ffmpeg converts them.
 
     Returns
     -------
     Background
-        Its frames read when played (:func:`~miketalk.media.frame_source.played`: in the
-        encoder's colours where the video decodes to them, the mouth's box alone converted).
+        Its frames read when played (:class:`~miketalk.media.frame_source.VideoFrames`).
 
     Raises
     ------
@@ -95,7 +99,7 @@ def tracked_background(
         Unreadable, too short, no frontal face in most frames, or not the model's person.
     """
     from miketalk.composite.registration import register_video
-    from miketalk.media.frame_source import played
+    from miketalk.media.frame_source import VideoFrames, played
     from miketalk.track.video_crops import crop_video
 
     source = source or str(path)
@@ -126,7 +130,10 @@ def tracked_background(
     to_frame = np.stack([invert_affine(c) for c in cropped.to_crop])
     transforms = np.stack([compose_affine(f, t) for f, t in zip(to_frame, found.transforms,
                                                                 strict=True)])  # fmt: skip
-    video, planes = played(path, count=n, fps=fps, start=start or 0.0)
+    if i420:
+        video, planes = played(path, count=n, fps=fps, start=start or 0.0)
+    else:
+        video, planes = VideoFrames(path, count=n, fps=fps, start=start or 0.0), None
     return Background(
         video, transforms, found.field, fps, found.blinks, source, found.steady,
         shown=cropped.tracked.copy(), shot=shot, steady_shots=found.steady_shots,
