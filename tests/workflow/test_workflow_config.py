@@ -101,6 +101,17 @@ def test_one_missing_test_clip_is_named(tmp_path: Path) -> None:
     ]
 
 
+def test_snakemake_reads_the_projects_default_profile(tmp_path: Path) -> None:
+    """profiles/default (the greedy scheduler) is read with no option, wherever it runs from."""
+    proc = dry_run(tmp_path, dot_test_config())
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    said = proc.stdout + proc.stderr
+    used = re.search(r"Using workflow specific profile (\S+) for setting", said)
+    assert used and Path(used[1]).resolve() == ROOT / "profiles" / "default"
+    profile = yaml.safe_load((ROOT / "profiles" / "default" / "config.yaml").read_text())
+    assert profile == {"scheduler": "greedy"}
+
+
 def test_clip_files_are_inputs_of_the_rules_that_read_them(tmp_path: Path) -> None:
     """Training clips' files are inputs of corpus_clips, held-out clips' of heldout only."""
     proc = dry_run(tmp_path, dot_test_config())
