@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from itertools import pairwise
 from pathlib import Path
 
 import cv2
@@ -305,6 +306,50 @@ def test_weights_step_is_the_least_transport_cost() -> None:
         got = weights_step(list(zip(a, wa, strict=True)), list(zip(b, wb, strict=True)),
                            lambda u, v: 0.0 if u == v else _cost(u, v))  # fmt: skip
         assert got == pytest.approx(want, abs=1e-9)
+
+
+def test_steps_measured_sentence_by_sentence_are_those_of_the_whole() -> None:
+    """A text's steps measured as its sentences are drawn (StepMeter) are those of every
+    frame's weights and states kept to the end, the steps across the sentences' edges
+    included; and the meter holds no frame's weights but the last."""
+    import tracemalloc
+
+    from miketalk.lipsync.motion import StepMeter, measure
+    from miketalk.lipsync.timeline import FrameSample, Timeline
+
+    rng = np.random.default_rng(5)
+
+    def row() -> tuple:
+        names = rng.choice(["p", "t", "f", "ii"], rng.integers(1, 4), replace=False)
+        w = rng.dirichlet(np.ones(len(names))).tolist()
+        return tuple(zip(names.tolist(), w, strict=True))
+
+    weights = [row() for _ in range(120)]
+    weights[36], weights[37] = (("aa", 1.0),), (("w", 1.0),)  # the largest step: an edge
+    exposures = [[w] if k == 37 or rng.random() < 0.6 else [row(), w]
+                 for k, w in enumerate(weights)]  # fmt: skip
+    states = [s for exposure in exposures for s in exposure]
+    timeline = Timeline(30.0, 4.0, (), (), (), tuple(FrameSample(i, i / 30, 0, 0.0)
+                                                     for i in range(120)))  # fmt: skip
+    edges = (0, 37, 80, 120)
+    for with_states in (True, False):
+        meter = StepMeter(_cost)
+        for a, b in pairwise(edges):
+            part = [s for exposure in exposures[a:b] for s in exposure] if with_states else None
+            meter.add(weights[a:b], part)
+        whole = measure(timeline, _cost, natural_duration=4.0, weights=weights,
+                        states=states if with_states else None)  # fmt: skip
+        assert measure(timeline, _cost, natural_duration=4.0, steps=meter) == whole
+        assert whole.largest_frame_motion_px == _cost("aa", "w")
+        assert whole.morphs == (len(states) if with_states else len(weights))
+    meter, held = StepMeter(_cost), []
+    tracemalloc.start()
+    for n in (400, 600):  # 8,000 frames (Python's and numpy's own free lists fill), 12,000
+        for _ in range(n):
+            meter.add([row() for _ in range(20)])
+        held.append(tracemalloc.get_traced_memory()[0])
+    tracemalloc.stop()
+    assert meter.frames == 20_000 and held[1] - held[0] < 20_000  # weights: 300 bytes a frame
 
 
 def test_one_blas_thread_holds_blas_to_one_thread_and_the_fit_is_the_same() -> None:

@@ -263,10 +263,33 @@ def test_a_live_say_streams_the_frames_its_file_holds(server, tmp_path: Path) ->
     assert decoded(tmp_path / "live.mp4", "v") == frames
     timeline = json.loads((folder / "say.json").read_text())
     assert len(timeline["frames"]) == len(frames)
+    # written as it was encoded, the text json.dumps gives
+    assert (folder / "say.json").read_text() == json.dumps(timeline, indent=1)
     cues = json.loads((folder / "cues.json").read_text())
     assert cues["mouthCues"][-1]["end"] == pytest.approx(done["result"]["duration"], abs=0.02)
     # once ended, a late reader gets nothing more: the job's file is its download
     assert _ask(server, "GET", job["live"])[2] == b""
+
+
+def test_a_long_timeline_is_written_without_its_whole_text_in_memory(tmp_path: Path) -> None:
+    """A live job's timeline JSON (an hour's: 108,000 frames, 30 MB of text) is written as
+    it is encoded: json.dumps held every piece of the text in a list before joining them."""
+    import tracemalloc
+
+    from miketalk.serve.work import write_text
+
+    frames = [{"index": i, "time": i / 30, "transition": i // 4, "alpha": 0.5,
+               "samples": [[i // 4, 0.25, 0.5], [i // 4 + 1, 0.0, 0.5]]}
+              for i in range(20_000)]  # fmt: skip
+    doc = {"text": "bin blue at f two now", "frames": frames}
+    text = json.dumps(doc, indent=1)
+    tracemalloc.start()
+    write_text(tmp_path / "say.json", doc)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert (tmp_path / "say.json").read_text() == text
+    assert len(text) > 4_000_000 and peak < len(text) / 20
+    assert [p.name for p in tmp_path.iterdir()] == ["say.json"]
 
 
 def test_a_stop_ends_a_running_live_say_and_its_processes(server) -> None:

@@ -470,3 +470,32 @@ def test_the_live_encoder_keeps_up_with_frames_slower_than_real_time(tmp_path: P
     got = tmp_path / "live.mp4"
     got.write_bytes(bytes(out))
     assert len(decoded(got, "v")) == 40
+
+
+def test_the_sentences_sound_is_held_once_for_the_result() -> None:
+    """The joined utterance's sound (an hour's: 115 MB at 16 kHz) is the sentences' sound
+    appended in one buffer as they are spoken, read without a copy: joining a list of
+    pieces at the end held it twice."""
+    import tracemalloc
+
+    from miketalk.lipsync.timeline import FrameSample, Timeline
+    from miketalk.speech.types import Phone, Utterance
+    from miketalk.talk.sentences import Joined
+
+    rate, fps, n = 16000, 25.0, 50
+    joined, pieces = Joined(fps), []
+    for k in range(30):
+        phones = (Phone("pau", 0.0, n / fps),)
+        samples = np.arange(n * rate // 25, dtype=np.int16) + k  # 2 s a sentence
+        frames = tuple(FrameSample(i, i / fps, 0, 0.0) for i in range(n))
+        joined.add(Utterance(f"s{k}", samples, rate, phones),
+                   Timeline(fps, n / fps, phones, (), (), frames), phones)  # fmt: skip
+        pieces.append(samples)
+    tracemalloc.start()
+    said = joined.utterance("all")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    whole = np.concatenate(pieces)
+    np.testing.assert_array_equal(said.samples, whole)
+    assert said.samples.dtype == np.int16 and said.duration == pytest.approx(60.0)
+    assert whole.nbytes > 1_000_000 and peak < whole.nbytes / 10

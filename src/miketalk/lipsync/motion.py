@@ -170,6 +170,45 @@ def _transport(cost: np.ndarray, supply: np.ndarray, demand: np.ndarray) -> floa
     return float(result.fun)
 
 
+class StepMeter:
+    """The steps of the learned lip-sync's frames measured as they are drawn, sentence by
+    sentence (:meth:`add`), for :func:`measure`: how many states were drawn and the largest
+    step between consecutive frames' weights and between consecutive states, the last of
+    each kept to meet the next. Holding every frame's weights for the end instead held
+    some 2 KB a frame (an hour's text: 108,000 frames, 200 MB).
+
+    Parameters
+    ----------
+    displacement : callable
+        ``displacement(a, b)``: pixels the flow from viseme ``a`` to ``b`` moves.
+    """
+
+    def __init__(self, displacement: Displacement) -> None:
+        self.displacement = displacement
+        self.frames = 0  # weights given (one a frame)
+        self.morphs = 0  # states drawn
+        self.frame_motion = 0.0  # the largest step between consecutive frames' weights
+        self.step: float | None = None  # between consecutive states (None: no states given)
+        self._weights: Weights | None = None
+        self._state: Weights | None = None
+
+    def add(self, weights: Sequence[Weights], states: Sequence[Weights] | None = None) -> None:
+        """Take the next frames' weights and, with them, the states drawn for them (None:
+        the weights are the states drawn)."""
+        before = [] if self._weights is None else [self._weights]
+        for a, b in pairwise([*before, *weights]):
+            self.frame_motion = max(self.frame_motion, weights_step(a, b, self.displacement))
+        self._weights = weights[-1] if weights else self._weights
+        self.frames += len(weights)
+        self.morphs += len(weights if states is None else states)
+        if states is not None:
+            before = [] if self._state is None else [self._state]
+            for a, b in pairwise([*before, *states]):
+                self.step = max(self.step or 0.0, weights_step(a, b, self.displacement))
+            self.step = self.step or 0.0
+            self._state = states[-1] if states else self._state
+
+
 def measure(
     timeline: Timeline,
     displacement: Displacement,
@@ -179,6 +218,7 @@ def measure(
     weights: Sequence[Weights] | None = None,
     own_frames: bool = False,
     states: Sequence[Weights] | None = None,
+    steps: StepMeter | None = None,
 ) -> Motion:
     """The :class:`Motion` of ``timeline`` (and of its frames, measured by ``jerk``).
 
@@ -204,22 +244,22 @@ def measure(
         several (:func:`miketalk.draw.learned.learned_exposures`); the morphs and the
         largest step are counted on them, the largest frame motion on ``weights`` (one
         a frame). None: ``weights`` are the states drawn.
+    steps : StepMeter, optional
+        Instead of ``weights`` and ``states``: what was measured of them as they were
+        drawn (a text spoken sentence by sentence).
     """
+    if steps is None and weights is not None:
+        steps = StepMeter(displacement)
+        steps.add(weights, states)
     if own_frames:
         morphs, step, frame_motion = len(timeline.frames), None, None
-    elif weights is None:
+    elif steps is None:
         morphs = timeline.morph_count
         step = largest_step(timeline, displacement)
         frame_motion = largest_frame_motion(timeline, displacement)
     else:
-        drawn = weights if states is None else states
-        morphs = len(drawn)
-        steps = [weights_step(a, b, displacement) for a, b in pairwise(weights)]
-        frame_motion = max(steps, default=0.0)
-        if states is None:
-            step = frame_motion
-        else:
-            step = max((weights_step(a, b, displacement) for a, b in pairwise(states)), default=0.0)
+        morphs, frame_motion = steps.morphs, steps.frame_motion
+        step = frame_motion if steps.step is None else steps.step
     return Motion(
         natural_duration=natural_duration,
         duration=timeline.duration,

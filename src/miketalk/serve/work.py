@@ -136,7 +136,7 @@ def _played(
                "trajectory": spoken.trajectory, "duration": spoken.duration,
                "words": list(spoken.words)} | spoken.timeline.to_dict() | {
                "motion": spoken.motion.to_dict()}  # fmt: skip
-        write_text(timeline, json.dumps(doc, indent=1, allow_nan=False))
+        write_text(timeline, doc)
         return outcome(said, output, timeline, {})
     except BaseException:
         for path in (output, timeline, stem.with_name("cues.json"), stem.with_name("cues.tsv")):
@@ -207,11 +207,17 @@ def warnings_of(told: Callable[[str], None]) -> Iterator[None]:
         library.removeHandler(handler)
 
 
-def write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file beside it (whole or not at all)."""
+def write_text(path: Path, text: str | dict) -> None:
+    """Write ``text`` to ``path`` through a temporary file beside it (whole or not at all);
+    a ``dict`` as JSON, written as it is encoded (``json.dumps`` would hold an hour's
+    timeline, 30 MB of text, as some 200 MB of pieces before joining them)."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        tmp.write_text(text, encoding="utf-8")
+        with open(tmp, "w", encoding="utf-8") as out:
+            if isinstance(text, str):
+                out.write(text)
+            else:
+                json.dump(text, out, indent=1, allow_nan=False)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

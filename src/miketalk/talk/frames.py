@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # numpy loads after Festival has started (`miketalk say`)
 
     from miketalk.composite.background import Background
     from miketalk.draw.registry import Drawing
-    from miketalk.lipsync.motion import JerkMeter, Motion
+    from miketalk.lipsync.motion import JerkMeter, Motion, StepMeter
     from miketalk.lipsync.timeline import Timeline
     from miketalk.model.face import Model
     from miketalk.speech.acoustic import Recording
@@ -189,15 +189,15 @@ def mouth_compositing(model: Model, background: Background | None):
 
 def measured(
     timeline: Timeline, model: Model, drawing: Drawing, *, natural_duration: float,
-    jerk: JerkMeter, weights, states,
+    jerk: JerkMeter, weights=None, states=None, steps: StepMeter | None = None,
 ) -> Motion:  # fmt: skip
     """The measures of the motion of ``timeline`` as drawn (:func:`~miketalk.lipsync.motion.
-    measure`)."""
+    measure`: the drawing's ``weights`` and ``states``, or ``steps`` measured of them)."""
     from miketalk.lipsync.motion import measure
 
     return measure(
         timeline, model.displacement, natural_duration=natural_duration, jerk=jerk,
-        weights=weights, own_frames=drawing.own_frames, states=states,
+        weights=weights, own_frames=drawing.own_frames, states=states, steps=steps,
     )  # fmt: skip
 
 

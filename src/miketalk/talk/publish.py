@@ -116,13 +116,13 @@ def publish(
                 }
                 | {"mp4": file_record(video_tmp) | {"name": output.name}}
             )
-            try:
-                text = json.dumps(doc, indent=1, allow_nan=False)
+            try:  # written as it is encoded: an hour's timeline is never held as text
+                with open(json_tmp, "w", encoding="utf-8") as out:
+                    json.dump(doc, out, indent=1, allow_nan=False)
             except ValueError as err:
                 raise MiketalkError(
                     f"the timeline of {output} holds a value JSON cannot: {err}"
                 ) from None
-            json_tmp.write_text(text, encoding="utf-8")
     finally:
         stream.close()
     log.info("wrote %s (%d frames)", output, uttered.motion.frames)

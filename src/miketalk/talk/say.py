@@ -198,7 +198,7 @@ def _say_text(
     sentence (:meth:`PendingSpeech.sentences`), the next spoken (:func:`ahead`) while the
     face draws this one, the sentences then joined (:class:`Joined`)."""
     from miketalk.composite.background import background_doc
-    from miketalk.lipsync.motion import JerkMeter
+    from miketalk.lipsync.motion import JerkMeter, StepMeter
 
     started = time.perf_counter()
     max_px_per_frame = settings.max_px_per_frame
@@ -231,6 +231,7 @@ def _say_text(
     joined = Joined(settings.fps)
     compositing = mouth_compositing(model, background)  # once: each frame's placement
     jerk = JerkMeter(compositing.region if compositing is not None else None)
+    steps = StepMeter(model.displacement)  # the learned drawing's, measured as it draws
     bar = None
     if progress:
         from tqdm import tqdm
@@ -265,7 +266,10 @@ def _say_text(
                 drawn.append(draw_utterance(
                     emitter, timeline=in_context(timeline, before, after), part=(head, n),
                     **sentence))  # fmt: skip
-            joined.add(utterance, timeline, planned, *_joined_parts(drawn))
+            weights, states = _joined_parts(drawn)
+            if weights is not None:
+                steps.add(weights, states)
+            joined.add(utterance, timeline, planned)
             before, now = now, after
     timeline, utterance = joined.timeline(), joined.utterance(speech.text)
     planned_duration = (
@@ -280,7 +284,7 @@ def _say_text(
     )  # fmt: skip
     motion = measured(
         timeline, model, drawing, natural_duration=planned_duration, jerk=jerk,
-        weights=joined.weights, states=joined.states,
+        steps=steps if steps.frames else None,
     )  # fmt: skip
     extra = {
         "text": utterance.text,

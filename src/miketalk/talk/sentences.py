@@ -15,14 +15,11 @@ import queue
 import threading
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, TypeVar
+from typing import TypeVar
 
 from miketalk.lipsync.timeline import FrameSample, Keyframe, Timeline, Transition
 from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.frames import sample_bounds
-
-if TYPE_CHECKING:
-    import numpy as np
 
 __all__ = ["Joined", "ahead", "in_context"]
 
@@ -111,10 +108,8 @@ class Joined:
     keyframes: list[Keyframe] = field(default_factory=list)
     transitions: list[Transition] = field(default_factory=list)
     samples: list[FrameSample] = field(default_factory=list)
-    sound: list[np.ndarray] = field(default_factory=list)
+    sound: bytearray = field(default_factory=bytearray)  # int16 samples, grown in place
     chunks: list[tuple[str, int]] = field(default_factory=list)
-    weights: list | None = None
-    states: list | None = None
     first: tuple[Utterance, Timeline] | None = None
 
     def add(
@@ -122,11 +117,9 @@ class Joined:
         utterance: Utterance,
         timeline: Timeline,
         planned: tuple[Phone, ...],
-        weights=None,
-        states=None,
     ) -> None:
         """Append a sentence: its utterance, its timeline drawn from frame :attr:`frames`,
-        its phones at the engine's own timing, the drawing's weights and states."""
+        its phones at the engine's own timing."""
         import numpy as np
 
         if self.first is None and not self.frames:
@@ -159,13 +152,13 @@ class Joined:
                                  end=p.end + self.planned_duration) for p in planned]  # fmt: skip
         self.planned_duration += own
         sound = utterance.samples[: last - first]
-        self.sound.append(np.pad(sound, (0, last - first - len(sound))))
+        # appended in place (no list of pieces joined at the end: an hour's sound, 115 MB,
+        # would be held twice)
+        self.sound += (
+            np.pad(sound, (0, last - first - len(sound))).astype(np.int16, copy=False).tobytes()
+        )
         self.chunks.append((utterance.text, len(utterance.phones)))
         self.rate, self.duration, self.frames = utterance.rate, end, self.frames + n
-        if weights is not None:
-            self.weights = (self.weights or []) + list(weights)
-        if states is not None:
-            self.states = (self.states or []) + list(states)
 
     @property
     def one(self) -> bool:
@@ -190,6 +183,6 @@ class Joined:
         if self.one and self.first is not None:
             return replace(self.first[0], text=text)
         return Utterance(
-            text=text, samples=np.concatenate(self.sound), rate=self.rate,
+            text=text, samples=np.frombuffer(self.sound, np.int16), rate=self.rate,
             phones=tuple(self.phones), chunks=tuple(self.chunks),
         )  # fmt: skip

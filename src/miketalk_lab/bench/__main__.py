@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[3]
 MODULES = (
     "synth_face", "flow", "morph", "pipeline", "sampling", "real_face", "one_video",
     "responsiveness", "anyone", "recognized_phones", "recognized_build", "speed",
-    "live_page", "stop",
+    "live_page", "stop", "hour_memory",
 )  # fmt: skip
 
 
