@@ -35,6 +35,7 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor, wait
 from miketalk.errors import MachineFailure, MiketalkError
 
 __all__ = [
+    "InChild",
     "available_cores",
     "check_workers",
     "default_workers",
@@ -255,11 +256,90 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
         What ``function`` raised (it must pickle: :class:`~miketalk.errors.MiketalkError`
         does), or the parent's :class:`KeyboardInterrupt`.
     """
-    import pickle
-    import select
+    return InChild(function, *args).result()
 
-    if not hasattr(os, "fork"):
-        return function(*args)
+
+class InChild:
+    """``function(*args)`` started now in a forked child process (as :func:`run_in_child`
+    runs it), its result asked for later: the caller works on meanwhile, on another core.
+
+    :meth:`result` waits for it (once); leaving the ``with`` block, or :meth:`cancel`,
+    kills a child whose result was not taken. Where ``fork`` is missing, the function runs
+    in :meth:`result`.
+    """
+
+    def __init__(self, function: Callable[..., object], *args: object) -> None:
+        self._call = (function, args)
+        self._pid: int | None = None
+        self._read_end = -1
+        if hasattr(os, "fork"):
+            self._read_end, self._pid = _forked(function, args)
+
+    def __enter__(self) -> InChild:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.cancel()
+
+    def cancel(self) -> None:
+        """Kill the child and reap it, unless its result was taken."""
+        if self._pid is None:
+            return
+        pid, self._pid = self._pid, None
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        os.close(self._read_end)
+
+    def result(self) -> object:
+        """The function's result, waited for (:func:`run_in_child`).
+
+        Raises
+        ------
+        BaseException
+            What the function raised, or the waiting thread's :class:`KeyboardInterrupt`.
+        """
+        import pickle
+        import select
+
+        if self._pid is None and self._read_end < 0:
+            function, args = self._call
+            return function(*args)
+        if self._pid is None:
+            raise MiketalkError("the child's result was taken, or the child was cancelled")
+        pid = self._pid
+        chunks = []
+        try:
+            with os.fdopen(self._read_end, "rb", closefd=False) as pipe:
+                while True:  # a signal's handler runs during the wait (in slices), may raise
+                    if not select.select([pipe], [], [], 0.1)[0]:
+                        continue
+                    block = os.read(pipe.fileno(), 1 << 20)
+                    if not block:
+                        break
+                    chunks.append(block)
+        except BaseException:
+            self.cancel()
+            raise
+        self._pid = None
+        os.close(self._read_end)
+        _, status = os.waitpid(pid, 0)
+        if not chunks:
+            raise MachineFailure(
+                "the worker process ended without a result (status "
+                f"{os.waitstatus_to_exitcode(status)}): killed when memory ran out?"
+            )
+        ok, value = pickle.loads(b"".join(chunks))
+        if not ok:
+            raise value
+        return value
+
+
+def _forked(function: Callable[..., object], args: tuple) -> tuple[int, int]:
+    """Fork a child that runs ``function(*args)`` and writes its pickled outcome on a pipe:
+    the pipe's read end and the child's pid."""
+    import pickle
+
     read_end, write_end = os.pipe()
     parent = os.getpid()
     pid = os.fork()
@@ -288,28 +368,4 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
         finally:
             os._exit(code)
     os.close(write_end)
-    chunks = []
-    try:
-        with os.fdopen(read_end, "rb") as pipe:
-            while True:  # a signal's handler runs during the wait (in slices), and may raise
-                if not select.select([pipe], [], [], 0.1)[0]:
-                    continue
-                block = os.read(pipe.fileno(), 1 << 20)
-                if not block:
-                    break
-                chunks.append(block)
-    except BaseException:
-        with contextlib.suppress(ProcessLookupError):
-            os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-        raise
-    _, status = os.waitpid(pid, 0)
-    if not chunks:
-        raise MachineFailure(
-            "the worker process ended without a result (status "
-            f"{os.waitstatus_to_exitcode(status)}): killed when memory ran out?"
-        )
-    ok, value = pickle.loads(b"".join(chunks))
-    if not ok:
-        raise value
-    return value
+    return read_end, pid

@@ -11,7 +11,8 @@ forwards (no jump); shorter speech ends the video with it.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -158,8 +159,10 @@ def _dub_stream(
     def produce(emitter: Emitter) -> Uttered:
         from miketalk.composite.for_model import video_background
         from miketalk.media.timing import check_constant_rate
+        from miketalk.talk.recorded import aligning
 
-        with started(speech, settings) as said:  # Festival works while the video registers
+        # Festival works, or a recording is aligned (in a child), while the video registers
+        with started(speech, settings) as said, _started(aligning, said) as pending:
             with opened(model_dir, models, background="still") as (model, _):
                 background = video_background(
                     model, video, progress=progress, check_person=settings.check_person
@@ -167,6 +170,22 @@ def _dub_stream(
                 emitter.check()
                 check_constant_rate(video, fps, len(background))  # shown when they were taken
                 found["background"] = background
-                return engine(said, lipsync, model, background, progress=progress)(emitter)
+                aligned = pending.result if pending is not None else None
+                return engine(said, lipsync, model, background, progress=progress,
+                              aligned=aligned)(emitter)  # fmt: skip
 
     return Stream(produce, name="dub")
+
+
+@contextmanager
+def _started(aligning, said) -> Iterator:
+    """A recording's alignment started (:func:`~miketalk.talk.recorded.aligning`), killed on
+    the way out unless taken; None for typed text, or a recording aligned later."""
+    from miketalk.talk.recorded import Recorded
+
+    pending = aligning(said) if isinstance(said, Recorded) else None
+    if pending is None:
+        yield None
+        return
+    with pending:
+        yield pending

@@ -276,13 +276,14 @@ def own_fps(model: Any, background: Any) -> float:
     return background.fps if in_crop else defaults.FPS
 
 
-def engine(speech, lipsync, model, background, *, progress: bool, table=None):
+def engine(speech, lipsync, model, background, *, progress: bool, table=None, aligned=None):
     """The engine's work on ``speech`` (:func:`miketalk.talk.say.producer`; ``table``: the
-    phone-to-viseme table, None: the paper's)."""
+    phone-to-viseme table, None: the paper's; ``aligned``: a recording's alignment started
+    before)."""
     from miketalk.talk.say import producer
 
     return producer(speech, model=model, settings=lipsync, progress=progress,
-                    background=background, table=table)  # fmt: skip
+                    background=background, table=table, aligned=aligned)  # fmt: skip
 
 
 def voice_of(speech: Speech, settings: SpeechSettings | DubSettings) -> dict:

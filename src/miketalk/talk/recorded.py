@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -307,6 +307,30 @@ def _words_from(aligned: Aligned) -> str:
     return f"given+{aligned.filled_by}" if aligned.filled_by else "given"
 
 
+def _aligned(recorded: Recorded) -> Aligned:
+    """:func:`align_recording` of what ``recorded`` says."""
+    return align_recording(
+        recorded.audio, text=recorded.text, timings=recorded.timings, phones=recorded.phones
+    )
+
+
+def aligning(recorded: Recorded):
+    """``recorded``'s alignment started now in a child process, on another core
+    (:class:`~miketalk.workers.InChild`: a ``with`` block kills it unless its ``result()``
+    was taken), or None where it must be made in this process: its words are recognized,
+    or this process has loaded the recognizer (CTranslate2's threads do not survive a fork:
+    a child of a process that has loaded it hangs; a text's gaps may be filled by it)."""
+    import sys
+
+    from miketalk.workers import InChild
+
+    if recorded.phones == "recognized" or (recorded.text is None and recorded.timings is None):
+        return None
+    if "ctranslate2" in sys.modules or "faster_whisper" in sys.modules:
+        return None
+    return InChild(_aligned, recorded)
+
+
 def say_recording(
     emitter: Emitter,
     recorded: Recorded,
@@ -317,12 +341,14 @@ def say_recording(
     table: VisemeTable,
     progress: bool = False,
     background: Background | None = None,
+    aligned: Callable[[], Aligned] | None = None,
 ) -> Uttered:
     """The stream of :func:`miketalk.talk.say.say` of a recording, once its settings are
     checked: the recording aligned to what it says, the frames drawn along its phones at its
     own timing (motion blur keeps the steps under ``max_px_per_frame``; the paper's
     lengthening cannot apply), with its own sound (:attr:`StreamInfo.sound`; the chunks carry
-    it mono at :data:`RATE`).
+    it mono at :data:`RATE`). ``aligned``: the alignment, asked of it (started before, while
+    the video of a dub registered: :func:`aligning`), instead of made here.
 
     Raises
     ------
@@ -336,9 +362,7 @@ def say_recording(
     from miketalk.talk.frames import Uttered, draw_utterance, measured, mouth_compositing
 
     max_px_per_frame = settings.max_px_per_frame
-    aligned = align_recording(
-        recorded.audio, text=recorded.text, timings=recorded.timings, phones=recorded.phones
-    )
+    aligned = aligned() if aligned is not None else _aligned(recorded)
     emitter.check()
     lead = model_sound_lag(model.directory)  # his mouth leads his sound that much
     phones, heard = led(aligned.phones, aligned.samples, aligned.rate, lead, aligned.duration)

@@ -32,7 +32,7 @@ from miketalk.speech.backend import PendingSpeech, SpeechBackend, get_backend
 from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.frames import Uttered, draw_utterance, measured, mouth_compositing
 from miketalk.talk.output import check_output
-from miketalk.talk.recorded import Recorded, say_recording
+from miketalk.talk.recorded import Aligned, Recorded, say_recording
 from miketalk.talk.sentences import Joined, ahead, in_context
 from miketalk.talk.stream import Emitter, Stream, StreamInfo
 from miketalk.talk.utterance import Spoken, own_frames_doc
@@ -144,9 +144,12 @@ def producer(
     table: VisemeTable | None = None,
     progress: bool = False,
     background: Background | None = None,
+    aligned: Callable[[], Aligned] | None = None,
 ) -> Callable[[Emitter], Uttered]:
     """The work of the face saying ``speech``, for a :class:`~miketalk.talk.stream.Stream`
-    of timed chunks (``Stream(producer(...))``). The parameters are :func:`say`'s.
+    of timed chunks (``Stream(producer(...))``). The parameters are :func:`say`'s;
+    ``aligned``: a recording's alignment, started before (:func:`~miketalk.talk.recorded.
+    aligning`).
 
     Raises
     ------
@@ -174,7 +177,7 @@ def producer(
 
     def produce(emitter: Emitter) -> Uttered:
         if isinstance(speech, Recorded):
-            return say_recording(emitter, speech, **common)
+            return say_recording(emitter, speech, aligned=aligned, **common)
         pending = speech
         if not isinstance(pending, PendingSpeech):
             pending = (backend or get_backend("festival")).start_sentences(str(speech))

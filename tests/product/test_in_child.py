@@ -1,0 +1,101 @@
+"""Work started in a forked child now, its result taken later (:class:`miketalk.workers.
+InChild`): a dub aligns its recording there while its video registers."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import pytest
+
+from miketalk.errors import MiketalkError
+from miketalk.talk.recorded import aligning
+from miketalk.talk.speech import Recorded
+from miketalk.talk.stream import Cancelled, Stream, StreamInfo
+from miketalk.workers import InChild, run_in_child
+
+
+def _pid_and(value: int) -> tuple[int, int]:
+    return os.getpid(), value * 2
+
+
+def _fails(message: str) -> None:
+    raise MiketalkError(message)
+
+
+def _sleeps(seconds: float) -> None:
+    time.sleep(seconds)
+
+
+def _gone(pid: int) -> bool:
+    """Reaped (no such process) or a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
+def _until(condition, within: float = 30.0) -> None:
+    deadline = time.monotonic() + within
+    while not condition():
+        if time.monotonic() > deadline:
+            pytest.fail(f"not within {within} s")
+        time.sleep(0.02)
+
+
+def test_the_result_is_made_in_another_process_and_taken_later():
+    with InChild(_pid_and, 21) as pending:
+        child = pending._pid
+        assert child is not None and child != os.getpid()
+        pid, value = pending.result()
+    assert (pid, value) == (child, 42) and _gone(child)
+    assert run_in_child(_pid_and, 4)[1] == 8
+    with pytest.raises(MiketalkError, match="taken"):
+        pending.result()
+
+
+def test_what_the_child_raises_is_raised_where_the_result_is_taken():
+    with InChild(_fails, "no such word") as pending, pytest.raises(MiketalkError, match="word"):
+        pending.result()
+
+
+def test_a_child_whose_result_was_not_taken_is_killed_on_leaving_the_block():
+    with InChild(_sleeps, 600) as pending:
+        child = pending._pid
+        assert child is not None and not _gone(child)
+    assert _gone(child)
+    pending.cancel()  # again: nothing
+
+
+def test_a_streams_stop_kills_a_child_its_producer_started():
+    """Started from the producer's thread, the child is the stream's to kill (as Festival
+    and ffmpeg are): a stopped dub leaves no aligner running."""
+    started: dict = {}
+
+    def produce(emitter):
+        emitter.info(StreamInfo(fps=10, rate=100))
+        with InChild(_sleeps, 600) as pending:
+            started["pid"] = pending._pid
+            while True:
+                emitter.check()
+                time.sleep(0.01)
+
+    stream = Stream(produce, name="test").start()
+    _until(lambda: "pid" in started)
+    stream.cancel()
+    _until(lambda: _gone(started["pid"]))
+    assert stream.wait(30)
+    with pytest.raises(Cancelled):
+        list(stream)
+    stream.close()
+
+
+def test_a_recording_with_its_text_is_aligned_ahead_and_one_to_recognize_is_not(tmp_path):
+    audio = tmp_path / "a.wav"
+    assert aligning(Recorded(audio)) is None  # its words recognized: here, not forked
+    assert aligning(Recorded(audio, text="bin blue", phones="recognized")) is None
+    with aligning(Recorded(audio, text="bin blue")) as pending:
+        assert isinstance(pending, InChild)
+        with pytest.raises(MiketalkError):  # no such file: said where the result is taken
+            pending.result()
