@@ -150,8 +150,9 @@ def _registered(model: Any, video, progress: bool, check_person: bool) -> Backgr
         from miketalk.composite.tracked import tracked_background
 
         return tracked_background(
-            video, stabilizer, crop, source=str(video), progress=progress, i420=True
-        )
+            video, stabilizer, crop, source=str(video), progress=progress, i420=True,
+            halves=True,
+        )  # fmt: skip
     from miketalk.composite.background import streamed_background
 
     return streamed_background(video, stabilizer, source=str(video), progress=progress)

@@ -60,6 +60,7 @@ def tracked_background(
     smooth: float = defaults.BACKGROUND_SMOOTH,
     shortest: float = MIN_SECONDS,
     i420: bool = False,
+    halves: bool = False,
 ) -> Background:
     """A video of the person registered through its face crops (see the module docstring).
 
@@ -87,6 +88,9 @@ def tracked_background(
         Its frames played in the encoder's colours where the video decodes to them
         (:func:`~miketalk.media.frame_source.played`: a mouth composited into them, each
         frame's box alone converted); False: RGB frames, as ffmpeg converts them.
+    halves : bool
+        The second half's face tracked in a child process, on another core
+        (:func:`~miketalk.track.halves.track_in_halves`).
 
     Returns
     -------
@@ -103,7 +107,8 @@ def tracked_background(
     from miketalk.track.video_crops import crop_video
 
     source = source or str(path)
-    cropped = crop_video(path, crop=crop, start=start, frames=frames, source=source, hold=False)
+    cropped = crop_video(path, crop=crop, start=start, frames=frames, source=source, hold=False,
+                         halves=halves)  # fmt: skip
     fps, n = cropped.fps, len(cropped)
     if n / fps < shortest:
         raise MiketalkError(

@@ -261,6 +261,7 @@ def crop_video(
     frames: int | None = None,
     source: str | None = None,
     hold: bool = True,
+    halves: bool = False,
 ) -> CroppedVideo:
     """Track the face through a video (or ``frames`` of it from ``start``) and crop it.
 
@@ -281,6 +282,9 @@ def crop_video(
     hold : bool
         Hold the crops (an array); False: make them again at each reading
         (:class:`StreamedCrops`), for what reads them a few times in order.
+    halves : bool
+        Track the second half of the frames in a child process, on another core
+        (:func:`~miketalk.track.halves.track_in_halves`).
 
     Returns
     -------
@@ -297,8 +301,13 @@ def crop_video(
     crop = crop or FaceCropSettings()
     source = source or str(path)
     width, height, fps = video_info(path)
-    track = track_frames(iter_video_frames(path, start=start, frames=frames, grey=True),
-                         fps=fps, settings=tracker)  # fmt: skip
+    if halves:
+        from miketalk.track.halves import track_in_halves
+
+        track = track_in_halves(path, fps=fps, settings=tracker, start=start, frames=frames)
+    else:
+        track = track_frames(iter_video_frames(path, start=start, frames=frames, grey=True),
+                             fps=fps, settings=tracker)  # fmt: skip
     if not len(track):
         raise MiketalkError(f"{source}: no frame decoded")
     tracked = track.tracked
