@@ -166,8 +166,15 @@ def grey_frames(frames: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(frames)
     if frames.ndim != 4 or frames.shape[3] != 3:
         raise MiketalkError(f"frames must be (N, H, W) or (N, H, W, 3), not {frames.shape}")
-    luma = frames @ np.array([0.299, 0.587, 0.114], np.float32)
-    return np.ascontiguousarray(np.clip(luma + 0.5, 0, 255).astype(np.uint8))
+    # A frame at a time: the same float32 sums, without a float copy of the whole clip (made at
+    # once, that copy's page faults took 4 s of a .test held-out evaluation's 23).
+    weights = np.array([0.299, 0.587, 0.114], np.float32)
+    grey = np.empty(frames.shape[:3], np.uint8)
+    for k, frame in enumerate(frames):
+        luma = frame @ weights
+        luma += np.float32(0.5)
+        grey[k] = np.clip(luma, 0, 255, out=luma)
+    return grey
 
 
 def mouth_points(points: np.ndarray) -> np.ndarray:
