@@ -368,6 +368,37 @@ def test_sentences_join_into_one_timeline_without_a_jump(learned_face: Path, tmp
     assert abs(video - audio) < 1e-3
 
 
+def test_a_closed_ahead_kills_its_threads_process_and_waits_for_its_clean_up(
+    tmp_path: Path,
+) -> None:
+    """The next sentence's Festival, a child of ahead()'s own thread, is killed when the
+    caller stops, and close() returns once its scratch folder is gone (a say stopped by a
+    signal left it behind: the process ended while the thread was still inside it)."""
+    from miketalk.media.scratch import scratch_dir
+    from miketalk.talk.sentences import ahead
+
+    inside = threading.Event()
+    seen: dict = {}
+
+    def speak(i: int) -> int:  # as Festival runs: a child process inside a scratch folder
+        if i == 0:
+            return i
+        with scratch_dir("festival", directory=tmp_path) as scratch:
+            proc = subprocess.Popen(["sleep", "60"])
+            seen.update(proc=proc, scratch=scratch)
+            inside.set()
+            if proc.wait() != 0:
+                raise RuntimeError("festival was killed")
+        return i
+
+    said = ahead(speak(i) for i in range(3))
+    assert next(said) == 0  # sentence 0 said; the thread now speaks sentence 1
+    assert inside.wait(60)
+    said.close()
+    assert seen["proc"].poll() == -9
+    assert not seen["scratch"].exists() and list(tmp_path.iterdir()) == []
+
+
 def test_the_first_frame_comes_before_the_second_sentence_is_spoken(
     learned_face: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -243,8 +243,11 @@ def _say_text(
     drawn_with = {"drawing": drawing, "progress": progress, "background": background,
                   "max_px_per_frame": max_px_per_frame, "jerk": jerk, "bar": bar,
                   "compositing": compositing}  # fmt: skip
-    with speech, contextlib.closing(bar) if bar is not None else contextlib.nullcontext():
-        said = ahead(spoken(s) for s in speech.sentences())
+    with (
+        speech,
+        contextlib.closing(bar) if bar is not None else contextlib.nullcontext(),
+        contextlib.closing(ahead(spoken(s) for s in speech.sentences())) as said,
+    ):
         before, now = None, next(said, None)
         while now is not None:
             utterance, timeline, planned = now

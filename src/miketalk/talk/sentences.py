@@ -25,6 +25,7 @@ __all__ = ["Joined", "ahead", "in_context"]
 
 T = TypeVar("T")
 _POLL = 0.05
+_JOIN = 5.0  # seconds a closed ahead() waits for its thread to unwind (its Festival killed)
 _DONE = object()
 
 
@@ -32,8 +33,12 @@ def ahead(items: Iterable[T], *, depth: int = 1) -> Iterator[T]:
     """``items`` made by a thread of their own, at most ``depth`` ahead of the caller.
 
     What making an item raises is raised here, in order. When the caller stops early
-    (an error, a stop, ``close()``), the thread makes no more items: it ends at its next
-    hand-over (whatever it is waiting on, a Festival killed by the stream's stop, ends).
+    (an error, a stop, ``close()``), the thread makes no more items: the processes it
+    started (the next sentence's Festival) are killed, and ``close()`` returns once the
+    thread has ended, its scratch files removed (a run stopped by a signal ends the
+    process at once after it: a thread still inside Festival's scratch directory then
+    left it behind). Close the iterator explicitly (``contextlib.closing``): an exception
+    passing through the caller's frame keeps the generator alive until it is dropped.
     """
     handed: queue.Queue = queue.Queue(depth)
     stopped = threading.Event()
@@ -69,6 +74,11 @@ def ahead(items: Iterable[T], *, depth: int = 1) -> Iterator[T]:
             yield item
     finally:
         stopped.set()
+        if thread.is_alive():
+            from miketalk.talk.stream import kill_thread_children
+
+            kill_thread_children(thread)
+            thread.join(_JOIN)
 
 
 def in_context(timeline: Timeline, before: tuple | None, after: tuple | None) -> Timeline:

@@ -276,10 +276,8 @@ class Stream:
         if self._stop.is_set():
             return
         self._stop.set()
-        native = self._thread.native_id
-        if native is not None and not self._done.is_set():
-            for pid in _children(f"/proc/{os.getpid()}/task/{native}/children"):
-                _kill_tree(pid)
+        if not self._done.is_set():
+            kill_thread_children(self._thread)
         with self._lock:
             adopted = list(self._adopted)
         for proc in adopted:
@@ -299,6 +297,18 @@ class Stream:
     def wait(self, timeout: float | None = None) -> bool:
         """Wait for the producer to end (after :meth:`cancel`); whether it did."""
         return self._done.wait(timeout)
+
+
+def kill_thread_children(thread: threading.Thread) -> None:
+    """SIGKILL every process ``thread`` started, and every process under them.
+
+    A child belongs to the thread that forked it (``/proc/<pid>/task/<tid>/children``), so
+    this reaches a helper thread's own children (the Festival of the sentence spoken ahead)
+    and no other job's in the same process (the page's server runs several)."""
+    native = thread.native_id
+    if native is not None and thread.is_alive():
+        for pid in _children(f"/proc/{os.getpid()}/task/{native}/children"):
+            _kill_tree(pid)
 
 
 def _children(path: str) -> list[int]:
