@@ -18,10 +18,12 @@ cut; a build's warnings are shown and logged once, and its messages name the upl
 
 from __future__ import annotations
 
+import contextlib
 import http.client
 import json
 import logging
 import os
+import signal
 import threading
 import time
 from collections.abc import Iterator
@@ -125,6 +127,9 @@ def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator:
             str(tmp_path_factory.mktemp("profile")), executable_path=str(CHROMIUM),
             headless=True, args=FLAGS, viewport={"width": 1280, "height": 860},
         )  # fmt: skip
+        # Playwright waits up to this for an element to be there and ready: a poll's generous
+        # bound (its 30 s default ran out once at a load of 18: a click on a starved page)
+        context.set_default_timeout(180_000)
         yield context
         context.close()
 
@@ -206,13 +211,47 @@ def _build_status(page, status: str, timeout: float) -> None:
 
 @pytest.fixture(scope="module")
 def building(browser, url: str, joined, server):
-    """A tab that has started a build (its first stage done), left to run."""
+    """A tab that has started a build (its first stage done), left to run; a say is made
+    while it builds. The build is held still (SIGSTOP to its process group) until that say
+    is done, so that "while it built" does not depend on which of the two a loaded machine
+    happens to finish first."""
     tab = browser.new_page()
     _open(tab, url)
     _build(tab, joined, "s1 here")
     assert tab.is_disabled("#build-form button[type=submit]")  # one build at a time
     shot(tab, "build")
+    (build,) = _build_processes()
+    os.killpg(build, signal.SIGSTOP)
+    try:
+        body = json.dumps({"kind": "say", "model": "model", "text": "Said while it builds."})
+        status, job = _request(server, "POST", "/api/jobs", body.encode(), X_Miketalk="1",
+                               Content_Type="application/json")  # fmt: skip
+        assert status == 201, job
+        deadline = time.monotonic() + 600  # a poll's generous bound, not a timed assertion
+        waiting = ("queued", "running")
+        while (doc := _request(server, "GET", f"/api/jobs/{job['id']}")[1])["status"] in waiting:
+            if time.monotonic() > deadline:
+                break
+            time.sleep(0.1)
+        assert doc["status"] == "done", doc
+    finally:
+        os.killpg(build, signal.SIGCONT)
     return tab
+
+
+def _build_processes() -> list[int]:
+    """The pids of the page's build processes (``python -m miketalk.serve.build``) under
+    this test process."""
+    found, below = [], [os.getpid()]
+    while below:
+        pid = below.pop()
+        with contextlib.suppress(OSError):
+            for task in Path(f"/proc/{pid}/task").iterdir():
+                below += [int(c) for c in (task / "children").read_text().split()]
+            command = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+            if pid != os.getpid() and b"miketalk.serve.build" in command:
+                found.append(pid)
+    return found
 
 
 def test_the_page_loads_and_lists_the_models(page, url: str) -> None:
