@@ -6,7 +6,8 @@ copies the pipe into the job's ``live.mp4`` as it comes (:class:`LiveFile`), and
 of the page's requests follow that file as it grows (:func:`follow`, ``GET
 /api/jobs/<id>/live``): a tab that opens late, or a second tab, gets the whole stream from its
 start. A slow or gone reader never holds the engine (the file is on disk; the engine's own
-queue holds at most its 16 frames), and memory does not grow with the text's length.
+queue holds at most its 16 frames): the frames held do not grow with the text's length (the
+timeline and the sound the result keeps do: docs/serve.md, "An hour's text").
 
 When the stream has ended the fragments are put into one mp4 with its index at the front
 (``say.mp4``: the same H.264 and AAC packets, copied, not encoded again) for the download
