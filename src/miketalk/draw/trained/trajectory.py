@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -207,11 +208,28 @@ def pause_features(phones: Sequence[Phone], times: np.ndarray, table: VisemeTabl
 
 def ridge(x: np.ndarray, y: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
     """Ridge regression of ``y`` on ``x`` with an unpenalized intercept: (weights, intercept)."""
+    return ridge_path(x, y, (strength,))[0]
+
+
+def ridge_path(
+    x: np.ndarray, y: np.ndarray, strengths: Sequence[float]
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`ridge` at each of ``strengths``, the centred normal equations formed once.
+
+    The same numbers as :func:`ridge` called at each strength (the Gram matrix plus the
+    strength times the identity, solved): forming ``xc.T @ xc`` is most of a fit's work
+    when the clips hold many more frames than features, and a cross-validation asks for
+    six strengths of every fold.
+    """
     mx, my = x.mean(axis=0), y.mean(axis=0)
     xc = x - mx
-    gram = xc.T @ xc + strength * np.eye(x.shape[1])
-    weights = np.linalg.solve(gram, xc.T @ (y - my))
-    return weights, my - mx @ weights
+    gram, moment = xc.T @ xc, xc.T @ (y - my)
+    eye = np.eye(x.shape[1])
+    fits = []
+    for strength in strengths:
+        weights = np.linalg.solve(gram + strength * eye, moment)
+        fits.append((weights, my - mx @ weights))
+    return fits
 
 
 @dataclass(frozen=True)
@@ -323,20 +341,23 @@ def fit_window(
         window_features(context, p, t, table, recording=r, **settings)
         for p, t, r in zip(data.phones, data.times, recordings, strict=True)
     ]
-    errors, held = {}, {}
-    for strength in grid:
-        err, count, held[strength] = 0.0, 0, {}
-        for train, valid in data.folds(folds):
-            w, b = ridge(
-                np.concatenate([xs[i] for i in train]),
-                np.concatenate([data.coords[i] for i in train]),
-                strength,
-            )
+    err: dict[float, Any] = dict.fromkeys(grid, 0.0)
+    held: dict[float, dict[int, np.ndarray]] = {strength: {} for strength in grid}
+    count = 0
+    for train, valid in data.folds(folds):
+        fits = ridge_path(
+            np.concatenate([xs[i] for i in train]),
+            np.concatenate([data.coords[i] for i in train]),
+            grid,
+        )
+        for strength, (w, b) in zip(grid, fits, strict=True):
             for i in valid:
                 held[strength][i] = xs[i] @ w + b
-                err = err + ((held[strength][i] - data.coords[i]) ** 2).sum(axis=0)
-                count += len(data.coords[i])
-        errors[strength] = err / count
+                err[strength] = err[strength] + ((held[strength][i] - data.coords[i]) ** 2).sum(
+                    axis=0
+                )
+        count += sum(len(data.coords[i]) for i in valid)
+    errors = {strength: err[strength] / count for strength in grid}
     best = min(errors, key=lambda s: (float(errors[s].mean()), s))
     if predictions is not None:
         predictions.update(held[best])
