@@ -75,7 +75,7 @@ def cross_validated_r2(
 
 def ridge_fit(strength: float) -> Fit:
     """The ``window`` trajectory's ridge (:func:`miketalk.draw.trained.trajectory.ridge`)."""
-    from miketalk.draw.trained.trajectory import ridge
+    from miketalk.draw.trained.ridge import ridge
 
     def fit(x: np.ndarray, y: np.ndarray, held: Sequence[np.ndarray]) -> list[np.ndarray]:
         w, b = ridge(x, y, strength)
@@ -115,7 +115,7 @@ def opening_ceiling(
     import pandas as pd
 
     from miketalk.corpus.folder import frame_path
-    from miketalk.draw.trained.trajectory import ridge
+    from miketalk.draw.trained.ridge import ridge
     from miketalk.media.images import read_image
     from miketalk.visemes import SILENCE, VisemeTable
     from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening

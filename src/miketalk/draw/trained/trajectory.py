@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from miketalk.draw.trained.ridge import ridge, ridge_path
 from miketalk.draw.trained.training import TrainingSet
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.settings import TRAJECTORIES
@@ -204,32 +205,6 @@ def pause_features(phones: Sequence[Phone], times: np.ndarray, table: VisemeTabl
         bins = np.searchsorted(PAUSE_BINS, gap[ok])
         out[rows[ok], column + bins] = 1.0
     return out
-
-
-def ridge(x: np.ndarray, y: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
-    """Ridge regression of ``y`` on ``x`` with an unpenalized intercept: (weights, intercept)."""
-    return ridge_path(x, y, (strength,))[0]
-
-
-def ridge_path(
-    x: np.ndarray, y: np.ndarray, strengths: Sequence[float]
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """:func:`ridge` at each of ``strengths``, the centred normal equations formed once.
-
-    The same numbers as :func:`ridge` called at each strength (the Gram matrix plus the
-    strength times the identity, solved): forming ``xc.T @ xc`` is most of a fit's work
-    when the clips hold many more frames than features, and a cross-validation asks for
-    six strengths of every fold.
-    """
-    mx, my = x.mean(axis=0), y.mean(axis=0)
-    xc = x - mx
-    gram, moment = xc.T @ xc, xc.T @ (y - my)
-    eye = np.eye(x.shape[1])
-    fits = []
-    for strength in strengths:
-        weights = np.linalg.solve(gram + strength * eye, moment)
-        fits.append((weights, my - mx @ weights))
-    return fits
 
 
 @dataclass(frozen=True)
