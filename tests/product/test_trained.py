@@ -425,7 +425,7 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
 ) -> None:
     corpus = _synthetic_corpus(tmp_path)
     fit_trained(corpus, tmp_path / "model" / "trained", components=6)
-    assert trained_trajectories(tmp_path / "model") == ("window", "regularized", "heard")
+    assert trained_trajectories(tmp_path / "model") == ("window", "regularized", "heard", "pooled")
     # a held-out clip dubbed by a trained face hears the clip's own recording
     assert dub_renderer("trained", tmp_path / "model") == "trained_heard"
     assert dub_renderer("paper", tmp_path / "model") == "morph"
@@ -448,10 +448,21 @@ def test_a_trained_face_hears_a_recording_and_a_face_without_heard_does_not(
     )
     drawn = list(render_trained(model, timeline, trained=face, recording=sound))
     assert len(drawn) == len(timeline.frames)
-    # a face fitted before the heard trajectory: read, drawn from its phones, heard refused
+    # a build that chose the pooled trajectory for a recording: dubbed and drawn along it
     manifest = tmp_path / "model" / "trained" / "trained.json"
     doc = json.loads(manifest.read_text())
+    manifest.write_text(json.dumps(doc | {"recording": "pooled"}))
+    assert dub_renderer("trained", tmp_path / "model") == "trained_pooled"
+    pooled = read_trained(tmp_path / "model" / "trained")
+    assert pooled.kind_for(None, recorded=True) == "pooled"
+    assert pooled.kind_for(None, recorded=False) == "window"
+    assert pooled.cost_weights("pooled").shape == (3,)
+    assert pooled.cost_weights("pooled").min() > 0
+    drawn = list(render_trained(model, timeline, trained=pooled, recording=sound))
+    assert len(drawn) == len(timeline.frames)
+    # a face fitted before the heard trajectory: read, drawn from its phones, heard refused
     del doc["trajectories"]["heard"], doc["fit"]["heard"]
+    del doc["trajectories"]["pooled"], doc["fit"]["pooled"]
     manifest.write_text(json.dumps(doc))
     old = read_trained(tmp_path / "model" / "trained")
     assert tuple(old.trajectories) == ("window", "regularized")

@@ -125,11 +125,11 @@ def test_a_real_face_from_four_clips(run: Path) -> None:
     summary = pd.read_csv(results / "metrics/heldout/s1/summary.csv")
     assert set(summary["renderer"]) == {
         "morph", "still", "flipbook", "dissolve", "learned", "trained", "trained_regularized",
-        "trained_previous", "trained_heard", "real_late1", "real_late2",
+        "trained_previous", "trained_heard", "trained_pooled", "real_late1", "real_late2",
     }  # fmt: skip
     trained = json.loads((results / "model/s1/trained/trained.json").read_text())
     assert trained["default"] == "window" and trained["fit"]["clips"] == len(clips)
-    assert set(trained["trajectories"]) == {"window", "regularized", "heard"}
+    assert set(trained["trajectories"]) == {"window", "regularized", "heard", "pooled"}
     assert (summary["clips"] == 2).all()
     assert summary["eigenlip1_corr_speech_mean"].between(-1, 1).all()
     # the landmark measures: the real mouth late is near, but not the real mouth

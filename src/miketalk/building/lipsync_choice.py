@@ -59,8 +59,9 @@ MIN_SECONDS = 6.0
 MIN_T = 2.0
 #: How many of the description's components the judge reads (the largest).
 JUDGED = 8
-#: The lip-sync models judged, the fallback (the paper's morph) first.
-CANDIDATES = LIPSYNC_MODELS
+#: The lip-sync models judged, the fallback (the paper's morph) first; ``pooled`` is the
+#: trained face along its pooled trajectory (:mod:`miketalk.draw.trained.pooled`).
+CANDIDATES = (*LIPSYNC_MODELS, "pooled")
 
 
 @dataclass(frozen=True)
@@ -97,6 +98,7 @@ class LipsyncChoice:
     t: dict[str, float] = dataclasses.field(default_factory=dict)
     clip_scores: dict[str, list[float]] = dataclasses.field(default_factory=dict)
     trained_fits: dict[str, float] = dataclasses.field(default_factory=dict)
+    trajectory: str | None = None  # with ``trained``: its trajectory for a recording
 
     def to_dict(self) -> dict:
         """JSON-ready form, with its format tag."""
@@ -188,36 +190,46 @@ def held_back_predictions(
             path = predict_trajectory(keys, times, params, targets, rendered=True)
             out["learned"].append(path)
     out["trained"] = _trained_drawn(trained, data, table, centred=centred)
+    if (trained / "trajectory.npz").is_file() and _has_pooled(trained):
+        out["pooled"] = _trained_drawn(trained, data, table, centred=centred, kind="pooled")
     return real, out
 
 
+def _has_pooled(folder: Path) -> bool:
+    from miketalk.draw.trained.build import read_trained
+
+    return "pooled" in read_trained(folder).trajectories
+
+
 def _trained_drawn(
-    folder: Path, data, table: VisemeTable, *, centred: bool = False
+    folder: Path, data, table: VisemeTable, *, centred: bool = False, kind: str = "heard"
 ) -> list[np.ndarray]:
     """Each training clip as the trained face draws it without that clip: its trajectory
-    (heard) predicted by a fit without it, and the training frames of the other clips
-    the selection chooses along it; their descriptions."""
-    from miketalk.draw.trained.build import read_held_out, read_trained
+    (``kind``: heard or pooled) predicted by a fit without it, and the training frames of
+    the other clips the selection chooses along it; their descriptions. The pooled one is
+    the same fitted to the descriptions as they are or centred (it predicts the geometry)."""
+    from miketalk.draw.trained.build import read_trained
+    from miketalk.draw.trained.gains import read_held_out
     from miketalk.draw.trained.selection import select
 
     face = read_trained(folder)
-    frames, kind = face.frames, "heard"
+    frames = face.frames
     kept = read_held_out(folder, kind)
-    if centred and not face.fitting.centred:
+    if centred and not face.fitting.centred and kind == "heard":
         face, held = _heard_centred(face, data, table)
     elif kept is not None:  # the build's own cross-validation kept them
         held = {c: kept[frames.clip == c] for c in range(len(data.coords))}
     else:  # a face fitted before: fitted again, as it was
         held = _heard_again(face, data, table)[2]
     fit = face.report["fit"][kind]
-    weights = fit.get("cv_r2") if face.selection.weighted else None
+    weights = face.cost_weights(kind)
     context = face.trajectories[kind].context
     drawn = []
     for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):
         target = held[c]
         if face.selection.amplitude > 0:
-            target = face.amplified(target, fit)
-        described = face.described().copy()
+            target = face.amplified(target, fit, kind)
+        described = face.described(kind).copy()
         described[frames.clip == c] += _AWAY  # never its own frames
         visemes = None
         if face.frame_visemes is not None and face.selection.viseme > 0:
@@ -252,7 +264,7 @@ def _heard_centred(face, data, table: VisemeTable):
     """``face`` as it would be fitted to each clip less its mean, as far as its heard
     trajectory draws (what :func:`~miketalk.draw.trained.build.fitted_face` fits of it
     with ``centred``), and each clip's cross-validated prediction."""
-    from miketalk.draw.trained.build import amplitude_gain, cv_amplitude_gain
+    from miketalk.draw.trained.gains import amplitude_gain, cv_amplitude_gain
 
     centred = dataclasses.replace(face, fitting=dataclasses.replace(face.fitting, centred=True))
     model, report, held, fitted = _heard_again(centred, data, table)
@@ -323,7 +335,11 @@ def choose_recording_lipsync(
         best = "paper"
     else:
         reason = f"it followed his mouth best {where} (t {t[best]:.1f} against the morph)"
-    return LipsyncChoice(best, scores, clips, seconds, reason, t, per_clip)
+    trajectory = "pooled" if best == "pooled" else None
+    return LipsyncChoice(
+        "trained" if trajectory else best, scores, clips, seconds, reason, t, per_clip, {},
+        trajectory,
+    )  # fmt: skip
 
 
 def fit_and_choose(
@@ -372,6 +388,13 @@ def fit_and_choose(
             )
             choice = dataclasses.replace(centred, reason=reason)
         choice = dataclasses.replace(choice, trained_fits=fits)
+    if choice.trajectory:  # the trained face's own trajectory for a recording
+        from miketalk.draw.trained.build import MANIFEST
+        from miketalk.media.atomic import write_text_atomic
+
+        doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        doc["recording"] = choice.trajectory
+        write_text_atomic(folder / MANIFEST, json.dumps(doc, indent=1, allow_nan=False))
     write_choice(model_dir, choice)
     return choice
 

@@ -54,7 +54,9 @@ def trajectory_option(parser: argparse.ArgumentParser) -> None:
         "window (the phone context), "
         "regularized (MMM's) or heard (the phones and the recording: --audio only, and "
         "for the person's own voice: another speaker's recording is drawn better along "
-        "window). Default: heard with --audio when the face has it, else the face's own",
+        "window) or pooled (a model of the mouth's motion learned from many talkers, "
+        "adapted to the face: --audio only). Default with --audio: the trajectory the "
+        "face's build chose, else heard when the face has it; else the face's own",
     )
 
 

@@ -45,6 +45,9 @@ class Trajectory(StrEnum):
     WINDOW = "window"  #: a ridge over the phone context
     REGULARIZED = "regularized"  #: MMM's per-phone targets
     HEARD = "heard"  #: the phones and the recording (a recording only)
+    #: the person-independent model, adapted to the face (a recording only;
+    #: :mod:`miketalk.draw.trained.pooled`)
+    POOLED = "pooled"
 
 
 #: The vocabularies' values, in their order, as plain strings (command-line choices).
@@ -154,10 +157,10 @@ def check_trajectory(trajectory: str | None, *, lipsync_model: str, recorded: bo
         return
     if lipsync_model != "trained":
         raise _not_trained()
-    if trajectory == "heard" and not recorded:
+    if trajectory in ("heard", "pooled") and not recorded:
         raise SettingError(
-            "the heard trajectory ({trajectory} heard) listens to a recording: give one "
-            "({audio}), or use window or regularized with typed text"
+            f"the {trajectory} trajectory ({{trajectory}} {trajectory}) listens to a recording: "
+            "give one ({audio}), or use window or regularized with typed text"
         )
 
 

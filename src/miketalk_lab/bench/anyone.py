@@ -76,6 +76,7 @@ RENDERERS = {
     "learned": ("--lipsync-model", "learned"),
     "trained": ("--trajectory", "window"),
     "trained_heard": ("--trajectory", "heard"),
+    "pooled": ("--trajectory", "pooled"),
 }
 #: What the summary's ``builds`` say of each fold's model.
 BUILD_FIGURES = ("build_seconds", "sound_lag_frames", "sound_lag_r", "lipsync_choice")

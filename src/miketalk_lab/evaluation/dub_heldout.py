@@ -39,7 +39,8 @@ RENDERER_OF = {
 
 def dub_renderer(lipsync_model: str, model_dir: str | Path) -> str:
     """The renderer a face's lip-sync model dubs with (:data:`RENDERER_OF`); the trained face
-    hears the clip's own recording (``trained_heard``) when it has that trajectory, as
+    draws the clip's own recording along the trajectory its build chose for a recording
+    (``trained_pooled``), else hears it (``trained_heard``) when it has that trajectory, as
     ``miketalk dub --audio`` does (:meth:`~miketalk.draw.trained.TrainedFace.kind_for`).
 
     Raises
@@ -47,11 +48,18 @@ def dub_renderer(lipsync_model: str, model_dir: str | Path) -> str:
     MiketalkError
         For an unknown lip-sync model, naming the known ones.
     """
-    from miketalk.model.parts import trained_trajectories
+    import json
+
+    from miketalk.model.parts import TRAINED_DIRECTORY, TRAINED_MANIFEST, trained_trajectories
 
     model = check_lipsync_model(lipsync_model)
-    hears = model == LipsyncModel.TRAINED and Trajectory.HEARD in trained_trajectories(model_dir)
-    return f"{RENDERER_OF[model]}_heard" if hears else RENDERER_OF[model]
+    kinds = trained_trajectories(model_dir) if model == LipsyncModel.TRAINED else ()
+    if not kinds:
+        return RENDERER_OF[model]
+    manifest = Path(model_dir) / TRAINED_DIRECTORY / TRAINED_MANIFEST
+    chosen = json.loads(manifest.read_text(encoding="utf-8")).get("recording")  # its build's
+    kind = next((k for k in (chosen, Trajectory.HEARD) if k in kinds), None)
+    return f"{RENDERER_OF[model]}_{kind}" if kind else RENDERER_OF[model]
 
 
 def dub_heldout(

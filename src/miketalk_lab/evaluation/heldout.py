@@ -252,8 +252,7 @@ def evaluate_clip(
         if kinds:
             jobs += [(r, baselines_of) for r in ("trained", "trained_regularized")]
             jobs.append(("trained_previous", baselines_of))
-            if "heard" in kinds:
-                jobs.append(("trained_heard", baselines_of))
+            jobs += [(f"trained_{k}", baselines_of) for k in ("heard", "pooled") if k in kinds]
         jobs += [(f"real_late{k}", baselines_of) for k in CALIBRATION_DELAYS]
     summaries, tables, renders = [], [], {}
     speech = speech_frames(heldout.timeline)

@@ -3,8 +3,9 @@
 The paper's morph, the still face (the silence viseme held), the flip-book (the
 nearest viseme held), the cross-dissolve with the morph's alpha, and the models a
 face has learned (``learned``, ``trained``, ``trained_regularized``,
-``trained_previous``, ``trained_heard``). Each is ``(model, timeline, recording)``:
-the recording that drives the timeline, which only ``trained_heard`` hears.
+``trained_previous``, ``trained_heard``, ``trained_pooled``). Each is ``(model, timeline,
+recording)``: the recording that drives the timeline, which only ``trained_heard`` and
+``trained_pooled`` hear.
 """
 
 from __future__ import annotations
@@ -108,6 +109,16 @@ def render_trained_heard(
     return render(model, timeline, kind="heard", recording=recording)
 
 
+def render_trained_pooled(
+    model: Model, timeline: Timeline, recording: Recording | None = None
+) -> Iterator[np.ndarray]:
+    """The trained face along the ``pooled`` trajectory: the person-independent model of
+    the mouth's motion adapted to it (:mod:`miketalk.draw.trained.pooled`)."""
+    from miketalk.draw.trained.draw import render_trained as render
+
+    return render(model, timeline, kind="pooled", recording=recording)
+
+
 #: Renderers of a timeline, by the name the tables use.
 RENDERERS: dict[str, Callable[..., Iterator[np.ndarray]]] = {
     "still": render_still,
@@ -119,4 +130,5 @@ RENDERERS: dict[str, Callable[..., Iterator[np.ndarray]]] = {
     "trained_regularized": render_trained_regularized,
     "trained_previous": render_trained_previous,
     "trained_heard": render_trained_heard,
+    "trained_pooled": render_trained_pooled,
 }

@@ -31,11 +31,18 @@ from typing import Any
 
 import numpy as np
 
+from miketalk.draw.trained.gains import (
+    HELD_OUT,
+    amplitude_gain,
+    cv_amplitude_gain,
+    held_out_rows,
+    read_held_out,
+)
 from miketalk.draw.trained.mouths import MouthFrames, load_frames, measure_frames
+from miketalk.draw.trained.pooled import fit_pooled, frame_geometry, from_arrays, to_arrays
 from miketalk.draw.trained.selection import SelectionSettings, drawn, select
 from miketalk.draw.trained.training import (
     FitSettings,
-    TrainingSet,
     clip_offsets,
     training_set,
 )
@@ -47,8 +54,6 @@ from miketalk.draw.trained.trajectory import (
     WindowRegression,
     fit_regularized,
     fit_window,
-    from_arrays,
-    to_arrays,
 )
 from miketalk.errors import MiketalkError
 from miketalk.lipsync.timeline import Timeline
@@ -60,9 +65,6 @@ log = logging.getLogger(__name__)
 #: Format tag of the trained face's manifest.
 FORMAT = "miketalk-trained/1"
 
-#: The prefix of ``trajectory.npz``'s keys of each trajectory model's cross-validated
-#: predictions of the training frames (each clip by a fit without it).
-HELD_OUT = "held_out."
 
 #: The trained face's manifest in its folder, written last (as
 #: :data:`miketalk.model.parts.TRAINED_MANIFEST` names it).
@@ -107,8 +109,10 @@ class TrainedFace:
         recording (``recorded``) when the face has it, else the face's default."""
         from miketalk.lipsync.settings import check_trajectory
 
-        if kind is None:
-            kind = "heard" if recorded and "heard" in self.trajectories else self.default
+        if kind is None:  # a recording: the build's choice (:func:`choose_trajectory`), else heard
+            chosen = self.report.get("recording", "heard")
+            kind = next((k for k in (chosen, "heard") if recorded and k in self.trajectories),
+                        self.default)  # fmt: skip
         check_trajectory(kind, lipsync_model="trained", recorded=recorded)
         if kind not in self.trajectories:
             raise MiketalkError(
@@ -130,9 +134,12 @@ class TrainedFace:
         """The times the trajectory is read at: each frame's, plus the selection's ``lead``."""
         return np.array([f.time for f in timeline.frames], float) + self.selection.lead
 
-    def described(self) -> np.ndarray:
+    def described(self, kind: str | None = None) -> np.ndarray:
         """The training frames' descriptions as the trajectories predict them: with
-        ``centred``, each less its clip's mean (:func:`clip_offsets`)."""
+        ``centred``, each less its clip's mean (:func:`clip_offsets`); for ``pooled``, the
+        frames' mouth geometry (:func:`~.pooled.frame_geometry`)."""
+        if kind == "pooled":
+            return self.trajectories["pooled"].geometry
         if not self.fitting.centred:
             return self.frames.coords
         return self.frames.coords - clip_offsets(self.frames)[self.frames.clip]
@@ -144,10 +151,19 @@ class TrainedFace:
         kind = self.kind_for(kind, recorded=recording is not None)
         target = self.trajectory(timeline, kind=kind, recording=recording)
         if self.selection.amplitude > 0:
-            target = self.amplified(target, self.report["fit"][kind])
+            target = self.amplified(target, self.report["fit"][kind], kind)
         return target
 
-    def amplified(self, target: np.ndarray, fit: Mapping[str, Any]) -> np.ndarray:
+    def cost_weights(self, kind: str) -> np.ndarray | None:
+        """The selection's weights of the target's components (None: equal)."""
+        r2 = self.report["fit"][kind].get("cv_r2") if self.selection.weighted else None
+        if kind == "pooled":  # the geometry's few dimensions weigh as the description does
+            return self.trajectories["pooled"].cost_weights(self.frames.variance)
+        return r2
+
+    def amplified(
+        self, target: np.ndarray, fit: Mapping[str, Any], kind: str | None = None
+    ) -> np.ndarray:
         """``target`` with its deviation from the frames' mean scaled by each component's gain.
 
         The gain is ``1 + amplitude (g_d - 1) min(1, R^2_d / gain_r2)``: ``g_d``
@@ -159,8 +175,10 @@ class TrainedFace:
         g = np.asarray(fit["amplitude_gain_cv" if s.cv_gain else "amplitude_gain"])
         r2 = np.asarray(fit["cv_r2"])
         share = np.minimum(1.0, r2 / s.gain_r2) if s.gain_r2 > 0 else np.ones_like(r2)
+        if kind == "pooled":  # its geometry's scatter is measurement, not unpredicted motion
+            share = np.ones_like(r2)
         gain = 1.0 + s.amplitude * (g - 1.0) * share
-        mean = self.described().mean(axis=0)
+        mean = self.described(kind).mean(axis=0)
         return mean + gain * (target - mean)
 
     def plan(
@@ -174,7 +192,7 @@ class TrainedFace:
         """Each frame's training frames and weights (:func:`~.selection.drawn`), aiming at
         ``target`` (default :meth:`target`, when the caller has it already)."""
         kind = self.kind_for(kind, recorded=recording is not None)
-        weights = self.report["fit"][kind].get("cv_r2") if self.selection.weighted else None
+        weights = self.cost_weights(kind)
         if target is None:
             target = self.target(timeline, kind=kind, recording=recording)
         visemes = None
@@ -183,7 +201,7 @@ class TrainedFace:
             shown = context.labels(timeline.phones, self.read_at(timeline), self.table)[1]
             visemes = (shown, self.frame_visemes)
         path = select(
-            self.frames, target, self.selection, weights=weights, described=self.described(),
+            self.frames, target, self.selection, weights=weights, described=self.described(kind),
             visemes=visemes,
         )  # fmt: skip
         return drawn(self.frames, path, self.selection)
@@ -312,10 +330,13 @@ def fitted_face(
         "heard": fit_window(
             data, context, table, half=fitting.half, heard=HEARD_HALF, predictions=held["heard"]
         ),
+        "pooled": fit_pooled(data, table, frame_geometry(frames), predictions=held["pooled"]),
     }
     if predictions is not None:
         predictions.update(held)
     for name, (model, report) in fitted.items():
+        if name == "pooled":  # its gains are the geometry's, fitted with it
+            continue
         report["amplitude_gain"] = amplitude_gain(model, data, table)
         report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
     report = {"fit": {name: report for name, (_, report) in fitted.items()}}
@@ -324,57 +345,6 @@ def fitted_face(
     for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):
         shown[frames.clip == c] = context.labels(phones, times, table)[1]
     return TrainedFace(frames, models, default, selection, table, report, shown, fitting)
-
-
-def held_out_rows(frames: MouthFrames, by_clip: Mapping[int, np.ndarray]) -> np.ndarray:
-    """``(N, n)``: each training frame's row of its clip's array in ``by_clip``."""
-    rows = np.zeros_like(frames.coords)
-    for c, predicted in by_clip.items():
-        rows[frames.clip == c] = predicted
-    return rows
-
-
-def read_held_out(folder: str | os.PathLike[str], name: str) -> np.ndarray | None:
-    """What :func:`fit_trained` kept of trajectory model ``name``'s cross-validated
-    predictions (:func:`held_out_rows`), or None (a face fitted before they were kept)."""
-    with np.load(Path(folder) / "trajectory.npz", allow_pickle=False) as z:
-        key = f"{HELD_OUT}{name}"
-        return z[key] if key in z.files else None
-
-
-def cv_amplitude_gain(predictions: Mapping[int, np.ndarray], data: TrainingSet) -> list[float]:
-    """Per component, the real spread over the spread of the cross-validated predictions
-    (each clip predicted by a model fitted without it; >= 1): the shrinkage a new sentence's
-    trajectory has, whatever the number of training clips."""
-    return _spread_ratio([predictions[i] for i in range(len(data.coords))], data)
-
-
-def amplitude_gain(
-    model: WindowRegression | RegularizedTrajectory, data: TrainingSet, table: VisemeTable
-) -> list[float]:
-    """Per component, the real spread over the predicted one on the training clips (>= 1).
-
-    A least-squares prediction is shrunk towards the mean where the phones
-    leave the mouth uncertain; the selection, aiming at it, would then choose
-    frames that move less than he does. Scaling the predicted deviation from
-    the mean by this gain gives the target his own amplitude.
-    """
-    recordings = data.recordings or (None,) * len(data.phones)
-    return _spread_ratio(
-        [
-            model.predict(p, t, table, r)
-            for p, t, r in zip(data.phones, data.times, recordings, strict=True)
-        ],
-        data,
-    )
-
-
-def _spread_ratio(predicted: list[np.ndarray], data: TrainingSet) -> list[float]:
-    """Per component, the clips' real spread over ``predicted``'s (one array per clip),
-    clipped to 1 to 4."""
-    spread = np.concatenate(predicted).std(axis=0)
-    gain = np.concatenate(data.coords).std(axis=0) / np.where(spread > 0, spread, 1.0)
-    return [round(float(g), 6) for g in np.clip(gain, 1.0, 4.0)]
 
 
 def read_trained(folder: str | os.PathLike[str]) -> TrainedFace:
@@ -407,6 +377,8 @@ def read_trained(folder: str | os.PathLike[str]) -> TrainedFace:
             for name in TRAJECTORIES
             if name in doc["trajectories"]  # a face fitted before ``heard`` has not got it
         }
+        # adapted to another pooled model than the package's: without it (None)
+        trajectories = {k: v for k, v in trajectories.items() if v is not None}
         # a face fitted before the cross-validated gain has no amplitude_gain_cv: it keeps
         # the fitted gain it was made with, and one fitted before morphed joins its
         # cross-fades (its other later settings default to the old ways)
