@@ -39,7 +39,8 @@ from miketalk.draw.trained.pooled import (
     frame_geometry,
     read_pooled,
 )
-from miketalk.draw.trained.trajectory import HEARD_HALF, HEARD_STEP, ridge
+from miketalk.draw.trained.ridge import ridge
+from miketalk.draw.trained.trajectory import HEARD_HALF, HEARD_STEP
 from miketalk.visemes import VisemeTable
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -44,13 +44,9 @@ from importlib import resources
 
 import numpy as np
 
+from miketalk.draw.trained.ridge import ridge
 from miketalk.draw.trained.training import TrainingSet
-from miketalk.draw.trained.trajectory import (
-    RIDGE_GRID,
-    Context,
-    ridge,
-    window_features,
-)
+from miketalk.draw.trained.trajectory import RIDGE_GRID, Context, window_features
 from miketalk.draw.trained.trajectory import from_arrays as trajectory_from_arrays
 from miketalk.draw.trained.trajectory import to_arrays as trajectory_to_arrays
 from miketalk.errors import MiketalkError
