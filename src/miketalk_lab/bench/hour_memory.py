@@ -307,7 +307,7 @@ def plot(runs: dict[str, dict], path: pathlib.Path, *, size: tuple[int, int] = (
         draw.line([at(0, mb), at(x_max, mb)], fill=(225, 225, 225))
         draw.text((5, at(0, mb)[1] - 6), f"{mb} MB", fill="black")
     draw.line([at(0, 1536), at(x_max, 1536)], fill=(255, 0, 0))
-    draw.text((at(0, 1536)[0] + 5, at(0, 1536)[1] - 14), "1.5 GB target", fill=(255, 0, 0))
+    draw.text((at(x_max, 1536)[0] - 90, at(0, 1536)[1] - 14), "1.5 GB target", fill=(255, 0, 0))
     step = max(1, round(x_max / 10))
     for minute in range(0, int(x_max) + 1, step):
         draw.text((at(minute, 0)[0] - 5, height - bottom + 8), f"{minute}", fill="black")
