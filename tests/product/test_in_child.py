@@ -91,7 +91,14 @@ def test_a_streams_stop_kills_a_child_its_producer_started():
     stream.close()
 
 
-def test_a_recording_with_its_text_is_aligned_ahead_and_one_to_recognize_is_not(tmp_path):
+def test_a_recording_with_its_text_is_aligned_ahead_and_one_to_recognize_is_not(
+    tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sys
+
+    # whether this worker loaded the recognizer depends on the tests it ran before: both ways
+    for name in ("ctranslate2", "faster_whisper"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
     audio = tmp_path / "a.wav"
     assert aligning(Recorded(audio)) is None  # its words recognized: here, not forked
     assert aligning(Recorded(audio, text="bin blue", phones="recognized")) is None
@@ -99,3 +106,6 @@ def test_a_recording_with_its_text_is_aligned_ahead_and_one_to_recognize_is_not(
         assert isinstance(pending, InChild)
         with pytest.raises(MiketalkError):  # no such file: said where the result is taken
             pending.result()
+    # once the recognizer is loaded, no fork (CTranslate2's threads do not survive one)
+    monkeypatch.setitem(sys.modules, "ctranslate2", object())
+    assert aligning(Recorded(audio, text="bin blue")) is None
