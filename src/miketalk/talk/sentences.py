@@ -20,6 +20,7 @@ from typing import TypeVar
 from miketalk.lipsync.timeline import FrameSample, Keyframe, Timeline, Transition
 from miketalk.speech.types import Phone, Utterance
 from miketalk.talk.frames import sample_bounds
+from miketalk.talk.stream import kill_thread_children
 
 __all__ = ["Joined", "ahead", "in_context"]
 
@@ -75,8 +76,6 @@ def ahead(items: Iterable[T], *, depth: int = 1) -> Iterator[T]:
     finally:
         stopped.set()
         if thread.is_alive():
-            from miketalk.talk.stream import kill_thread_children
-
             kill_thread_children(thread)
             thread.join(_JOIN)
 
