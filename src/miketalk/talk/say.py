@@ -246,7 +246,9 @@ def _say_text(
     with (
         speech,
         contextlib.closing(bar) if bar is not None else contextlib.nullcontext(),
-        contextlib.closing(ahead(spoken(s) for s in speech.sentences())) as said,
+        contextlib.closing(
+            ahead((spoken(s) for s in speech.sentences()), check=emitter.check)
+        ) as said,
     ):
         before, now = None, next(said, None)
         while now is not None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import queue
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
@@ -30,7 +30,9 @@ _JOIN = 5.0  # seconds a closed ahead() waits for its thread to unwind (its Fest
 _DONE = object()
 
 
-def ahead(items: Iterable[T], *, depth: int = 1) -> Iterator[T]:
+def ahead(
+    items: Iterable[T], *, depth: int = 1, check: Callable[[], None] | None = None
+) -> Iterator[T]:
     """``items`` made by a thread of their own, at most ``depth`` ahead of the caller.
 
     What making an item raises is raised here, in order. When the caller stops early
@@ -40,6 +42,9 @@ def ahead(items: Iterable[T], *, depth: int = 1) -> Iterator[T]:
     process at once after it: a thread still inside Festival's scratch directory then
     left it behind). Close the iterator explicitly (``contextlib.closing``): an exception
     passing through the caller's frame keeps the generator alive until it is dropped.
+    ``check`` (a stream's :meth:`~miketalk.talk.stream.Emitter.check`) is called while the
+    caller waits for the next item: a stop raises there, so a caller waiting on a sentence
+    Festival is still making is not held until it ends.
     """
     handed: queue.Queue = queue.Queue(depth)
     stopped = threading.Event()
@@ -67,7 +72,13 @@ def ahead(items: Iterable[T], *, depth: int = 1) -> Iterator[T]:
     thread.start()
     try:
         while True:
-            item, error = handed.get()
+            while True:
+                try:
+                    item, error = handed.get(timeout=_POLL)
+                    break
+                except queue.Empty:
+                    if check is not None:
+                        check()
             if error is not None:
                 raise error
             if item is _DONE:
