@@ -248,7 +248,10 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
     another thread (an utterance's stream, :mod:`miketalk.talk.stream`) the child is forked
     the same way: the thread waits on the pipe without holding the interpreter, so the main
     thread still handles a signal, and the stream's stop kills the child. Where ``fork`` is
-    missing, the function runs here.
+    missing, or this process is itself such a child (:class:`InChild`'s: the default
+    action of Ctrl-C and SIGTERM ends it at once, and its parent kills it), the function
+    runs here: a dub's alignment keeps the aligner it loaded (1 s of CPU) for the text's
+    guided pass instead of loading it again in a grandchild.
 
     Raises
     ------
@@ -256,6 +259,8 @@ def run_in_child(function: Callable[..., object], *args: object) -> object:
         What ``function`` raised (it must pickle: :class:`~miketalk.errors.MiketalkError`
         does), or the parent's :class:`KeyboardInterrupt`.
     """
+    if _forked_child:
+        return function(*args)
     return InChild(function, *args).result()
 
 
@@ -335,6 +340,10 @@ class InChild:
         return value
 
 
+#: True in a child forked by :func:`_forked` (its stopping signals' default actions kill it).
+_forked_child = False
+
+
 def _forked(function: Callable[..., object], args: tuple) -> tuple[int, int]:
     """Fork a child that runs ``function(*args)`` and writes its pickled outcome on a pipe:
     the pipe's read end and the child's pid."""
@@ -344,6 +353,8 @@ def _forked(function: Callable[..., object], args: tuple) -> tuple[int, int]:
     parent = os.getpid()
     pid = os.fork()
     if pid == 0:  # the child: no Python handler for the signals, no way back
+        global _forked_child
+        _forked_child = True
         code = 0
         try:
             os.close(read_end)

@@ -20,6 +20,11 @@ def _pid_and(value: int) -> tuple[int, int]:
     return os.getpid(), value * 2
 
 
+def _pid_of_nested() -> tuple[int, int]:
+    """This process's pid and the pid ``run_in_child`` ran its function in."""
+    return os.getpid(), run_in_child(_pid_and, 1)[0]
+
+
 def _fails(message: str) -> None:
     raise MiketalkError(message)
 
@@ -53,6 +58,17 @@ def test_the_result_is_made_in_another_process_and_taken_later():
     assert run_in_child(_pid_and, 4)[1] == 8
     with pytest.raises(MiketalkError, match="taken"):
         pending.result()
+
+
+def test_run_in_child_inside_a_child_runs_there_and_forks_again_elsewhere():
+    """A forked child (killed by its parent, its signals' default actions) runs
+    run_in_child's function itself: a dub's alignment keeps its loaded aligner."""
+    with InChild(_pid_of_nested) as pending:
+        child = pending._pid
+        outer, inner = pending.result()
+    assert outer == child == inner
+    outer, inner = _pid_of_nested()  # here, not in such a child: a child of its own
+    assert outer == os.getpid() and inner not in (outer, child)
 
 
 def test_what_the_child_raises_is_raised_where_the_result_is_taken():

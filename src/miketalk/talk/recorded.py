@@ -362,6 +362,8 @@ def say_recording(
     from miketalk.talk.frames import Uttered, draw_utterance, measured, mouth_compositing
 
     max_px_per_frame = settings.max_px_per_frame
+    # where each frame puts the mouth, found while a child aligns the recording (a dub's)
+    compositing = mouth_compositing(model, background) if aligned is not None else None
     aligned = aligned() if aligned is not None else _aligned(recorded)
     emitter.check()
     lead = model_sound_lag(model.directory)  # his mouth leads his sound that much
@@ -379,7 +381,8 @@ def say_recording(
             frames=len(timeline.frames),
         )
     )
-    compositing = mouth_compositing(model, background)
+    if compositing is None:
+        compositing = mouth_compositing(model, background)
     jerk = JerkMeter(compositing.region if compositing is not None else None)
     weights, states = draw_utterance(
         emitter,
