@@ -125,3 +125,34 @@ def test_a_recording_with_its_text_is_aligned_ahead_and_one_to_recognize_is_not(
     # once the recognizer is loaded, no fork (CTranslate2's threads do not survive one)
     monkeypatch.setitem(sys.modules, "ctranslate2", object())
     assert aligning(Recorded(audio, text="bin blue")) is None
+
+
+def test_a_dub_aligns_its_recording_from_the_start_and_a_failed_check_leaves_no_child(
+    tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """api.dub starts the alignment before its checks (it runs while they are made and the
+    video registers); a check that fails kills it on the way out."""
+    import sys
+
+    from miketalk import api
+    from miketalk.api.settings import DubSettings
+    from miketalk.talk import recorded
+
+    for name in ("ctranslate2", "faster_whisper"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
+    started: list[int] = []
+
+    def watched(said):
+        pending = aligning(said)
+        started.append(pending._pid)
+        return pending
+
+    monkeypatch.setattr(recorded, "aligning", watched)
+    video, audio = tmp_path / "v.mp4", tmp_path / "a.wav"
+    video.write_bytes(b"not looked at: the model is refused first")
+    audio.write_bytes(b"")
+    speech = Recorded(audio, text="bin blue at f two now")
+    with pytest.raises(MiketalkError):
+        api.dub(video, speech, tmp_path / "out.mp4", DubSettings(model=tmp_path / "no-model"))
+    assert len(started) == 1 and started[0] is not None and _gone(started[0])
+    assert not list(tmp_path.glob("out*"))

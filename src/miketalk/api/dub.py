@@ -93,12 +93,17 @@ def dub(
 
         settings = with_video_model(video, speech, output, settings, inputs=tuple(inputs),
                                     progress=progress)  # fmt: skip
+    from miketalk.talk.recorded import aligning
+
     plan = None
-    if not isinstance(output, int):
-        plan = checked(speech, output, settings, inputs=(*inputs, video), dub=True)
     found: dict = {}
-    stream = _dub_stream(video, speech, settings, models, progress, plan, found)
-    spoken = write(stream, output, plan)
+    # a recording's alignment started first, in a child, while the checks are made and the
+    # video registers (killed on the way out unless taken: a failed check leaves nothing)
+    with _started(aligning, speech) as pending:
+        if not isinstance(output, int):
+            plan = checked(speech, output, settings, inputs=(*inputs, video), dub=True)
+        stream = _dub_stream(video, speech, settings, models, progress, plan, found, pending)
+        spoken = write(stream, output, plan)
     background = found["background"]
     return DubResult(
         spoken, spoken.timeline.fps, settings.sampling, settings.step_limit,
@@ -136,9 +141,12 @@ def _dub_stream(
     progress: bool,
     plan: Checked | None,
     found: dict,
+    pending=None,
 ) -> Stream:
     """:func:`dub_stream`, its checks made (``plan``) or made here; ``found`` gets the
-    registered ``background``."""
+    registered ``background``; ``pending``: a recording's alignment started before
+    (:func:`~miketalk.talk.recorded.aligning`; None: started by the stream's producer, whose
+    stop then kills it)."""
     from miketalk.lipsync.settings import check_fps
     from miketalk.media.decode import video_info
     from miketalk.talk.stream import Stream
@@ -162,7 +170,7 @@ def _dub_stream(
         from miketalk.talk.recorded import aligning
 
         # Festival works, or a recording is aligned (in a child), while the video registers
-        with started(speech, settings) as said, _started(aligning, said) as pending:
+        with started(speech, settings) as said, _started(aligning, said, pending) as ahead:
             with opened(model_dir, models, background="still") as (model, _):
                 background = video_background(
                     model, video, progress=progress, check_person=settings.check_person
@@ -170,7 +178,7 @@ def _dub_stream(
                 emitter.check()
                 check_constant_rate(video, fps, len(background))  # shown when they were taken
                 found["background"] = background
-                aligned = pending.result if pending is not None else None
+                aligned = ahead.result if ahead is not None else None
                 return engine(said, lipsync, model, background, progress=progress,
                               aligned=aligned)(emitter)  # fmt: skip
 
@@ -178,11 +186,15 @@ def _dub_stream(
 
 
 @contextmanager
-def _started(aligning, said) -> Iterator:
+def _started(aligning, said, before=None) -> Iterator:
     """A recording's alignment started (:func:`~miketalk.talk.recorded.aligning`), killed on
-    the way out unless taken; None for typed text, or a recording aligned later."""
+    the way out unless taken; None for typed text, or a recording aligned later. ``before``:
+    one started earlier, used as it is (its starter's block kills it)."""
     from miketalk.talk.recorded import Recorded
 
+    if before is not None:
+        yield before
+        return
     pending = aligning(said) if isinstance(said, Recorded) else None
     if pending is None:
         yield None
