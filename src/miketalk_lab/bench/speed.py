@@ -22,6 +22,11 @@ Issue 51's targets (2 cores, warm, medians of 5 whole-command runs):
   bench's own, ``OUT/work/cache``; its words recognized), the second time, **at most 10 s**
   (``hd_dub_10s_own_model_again``).
 
+The 720p dub's CPU is also split by part, one run of the first dub and one of the second
+(:mod:`miketalk_lab.bench.dub_parts`: the producer's registration and compositing, the
+drawing's threads, the alignment's child, x264, the decoders; ``*_cpu_part_*`` figures and
+a table in ``summary.md``): what holds the dub above its target.
+
 Each command runs once unmeasured (warm: the model's check and decoded frames kept in the
 user's cache, :mod:`miketalk.media.user_cache`; the page cache full), then :data:`RUNS`
 times; each figure is the median with its min and max, its wall time from start to exit
@@ -241,6 +246,9 @@ def measure(out_dir: Path, obama: Path, *, runs: int = RUNS, s1: Path | None = N
            "-o", str(out / "dub.mp4"), "--force"]  # fmt: skip
     rows["hd_dub_10s"] = timed(dub, runs, before_each=forget_registrations)
     rows["hd_dub_10s_again"] = timed(dub, runs)  # its registration kept from the run before
+    forget_registrations()  # where the CPU goes, part by part: one run of each
+    parts = {name: dub_parts(dub[len(miketalk) :], work / f"parts_{name}.json")
+             for name in ("hd_dub_10s", "hd_dub_10s_again")}  # fmt: skip
     # issue 53: no --model, no --text: the video's own model (built by the unmeasured first
     # run into a cache of the bench's own) and its words recognized
     own = {**os.environ, "MIKETALK_CACHE": str(work / "cache")}
@@ -268,10 +276,47 @@ def measure(out_dir: Path, obama: Path, *, runs: int = RUNS, s1: Path | None = N
     figures["hd_dub_video_s"] = dubbed_seconds  # fmt: skip
     for name, row in encoders.items():
         figures |= {f"x264_{name}_{k}": v for k, v in row.items()}
+    for name, found in parts.items():
+        figures |= {f"{name}_cpu_part_{_slug(part)}": v for part, v in found["parts"].items()}
     (out_dir / "summary.md").write_text(
-        summary(rows, throughput, dubbed_seconds, runs, encoders), encoding="utf-8"
+        summary(rows, throughput, dubbed_seconds, runs, encoders) + parts_table(parts),
+        encoding="utf-8",
     )
     return figures
+
+
+def dub_parts(args: Sequence[str], out: Path) -> dict:
+    """One run of ``miketalk`` ``args`` under :mod:`miketalk_lab.bench.dub_parts`: the CPU
+    seconds of each part (written to ``out``)."""
+    import json
+
+    subprocess.run([sys.executable, "-m", "miketalk_lab.bench.dub_parts", str(out), "--", *args],
+                   check=True, capture_output=True)  # fmt: skip
+    return json.loads(out.read_text("utf-8"))
+
+
+def _slug(part: str) -> str:
+    """A part's name as a figure's: ``x264 encoder (ffmpeg)`` -> ``x264_encoder``."""
+    return "_".join(part.split(" (")[0].replace(",", "").split())
+
+
+def parts_table(parts: dict[str, dict]) -> str:
+    """The 720p dub's CPU by part, first and again (one run each)."""
+    names = list(parts)
+    order = list(dict.fromkeys(p for found in parts.values() for p in found["parts"]))
+    lines = [
+        "720p dub of 10 s: CPU seconds by part, one run of each under a sampler "
+        "(`miketalk_lab.bench.dub_parts`; unattributed: CPU after a part's last reading)",
+        "",
+        "| part | " + " | ".join(names) + " |",
+        "| --- |" + " --- |" * len(names),
+        *(f"| {p} | " + " | ".join(f"{parts[n]['parts'].get(p, 0.0):.2f}" for n in names) + " |"
+          for p in order),
+        "| unattributed | " + " | ".join(f"{parts[n]['unattributed']:.2f}" for n in names) + " |",
+        "| **total** | " + " | ".join(f"**{parts[n]['total']:.2f}**" for n in names) + " |",
+        "",
+    ]  # fmt: skip
+    return "\n".join(lines)
 
 
 def summary(rows: dict, throughput: dict, dubbed_seconds: float, runs: int, encoders: dict) -> str:
