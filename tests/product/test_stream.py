@@ -94,11 +94,36 @@ def zombie(pid: int) -> bool:
 
 
 # ---------------------------------------------------------------------------
-# live is the file: the same frames
+# live is the file: the same frames (live's x264 settings on the pipe)
 # ---------------------------------------------------------------------------
 
 
+def rgb_frames(path: Path, side: int) -> np.ndarray:
+    """Every decoded video frame of ``path`` (``side`` x ``side``), RGB, as one array."""
+    proc = subprocess.run(
+        [ffmpeg_exe(), "-v", "error", "-i", str(path), "-map", "0:v", "-f", "rawvideo",
+         "-pix_fmt", "rgb24", "-"],
+        capture_output=True, check=True,
+    )  # fmt: skip
+    return np.frombuffer(proc.stdout, np.uint8).reshape(-1, side, side, 3)
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
+    return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
+
+
+def x264_options(path: Path) -> dict[str, str]:
+    """The settings x264 wrote into the stream's first SEI ("... bframes=3 ... crf=18.0")."""
+    data = path.read_bytes()
+    start = data.index(b"x264 - core")
+    text = data[start : data.index(b"\0", start)].decode("ascii", "replace")
+    return dict(item.split("=", 1) for item in text.split() if "=" in item)
+
+
 def test_the_frames_of_o_dash_are_those_of_the_file(face: Path, tmp_path: Path) -> None:
+    # -o - is the live stream: x264's live settings (no look-ahead, no B-frames); -o FILE
+    # keeps the file's. The frames are the same ones, each within the live encoding's loss.
     made = cli("say", TEXT, "-o", "file.mp4", "--model", face, cwd=tmp_path)
     assert made.returncode == 0, made.stderr
     with (tmp_path / "pipe.mp4").open("wb") as out:
@@ -107,9 +132,25 @@ def test_the_frames_of_o_dash_are_those_of_the_file(face: Path, tmp_path: Path) 
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file.json", "file.mp4", "pipe.mp4"]
     assert b"moof" in (tmp_path / "pipe.mp4").read_bytes()  # fragmented: playable as it comes
     assert b"moof" not in (tmp_path / "file.mp4").read_bytes()
-    frames = decoded(tmp_path / "file.mp4", "v")
-    assert len(frames) > 30 and len(set(frames)) > 5  # a face that moves
-    assert decoded(tmp_path / "pipe.mp4", "v") == frames
+    live, kept = x264_options(tmp_path / "pipe.mp4"), x264_options(tmp_path / "file.mp4")
+    assert (live["bframes"], live["mbtree"], live["crf"]) == ("0", "0", "20.0")
+    assert "rc_lookahead" not in live  # ultrafast: no look-ahead to wait for
+    assert (kept["bframes"], kept["rc_lookahead"], kept["crf"]) == ("3", "10", "18.0")
+    frames, piped_frames = (
+        rgb_frames(tmp_path / "file.mp4", 64),
+        rgb_frames(tmp_path / "pipe.mp4", 64),
+    )
+    assert len(frames) > 30 and len(set(decoded(tmp_path / "file.mp4", "v"))) > 5  # it moves
+    assert piped_frames.shape == frames.shape
+    # this face's texture is noise: 31-35 dB between the two encodings at 64x64 (45 dB at 720p)
+    assert min(psnr(a, b) for a, b in zip(piped_frames, frames, strict=True)) > 28
+    # each is its own frame, not a neighbour: where the face moves, the frame of the same
+    # index is nearer than the next one
+    moving = [k for k in range(len(frames) - 1) if psnr(frames[k], frames[k + 1]) < 30]
+    assert len(moving) > 5
+    assert all(
+        psnr(piped_frames[k], frames[k]) > psnr(piped_frames[k], frames[k + 1]) for k in moving
+    )
     # the sound too, up to the file's end (the fragments keep the last AAC packet whole)
     sound = decoded(tmp_path / "file.mp4", "a")[0]
     assert decoded(tmp_path / "pipe.mp4", "a")[0][: len(sound)] == sound

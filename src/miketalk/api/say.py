@@ -231,24 +231,26 @@ def _stream(
 
 
 def write(stream: Stream, output: Path | int, plan: Checked | None = None) -> Spoken:
-    """``stream`` written: to the file pair ``plan`` checked, or on the descriptor
-    ``output`` (:func:`~miketalk.talk.publish.pipe_out`)."""
+    """``stream`` written: to the file pair ``plan`` checked (x264's file settings), or on the
+    descriptor ``output`` (:func:`~miketalk.talk.publish.pipe_out`, ``-o -``: the live
+    stream, x264's live settings)."""
     from miketalk.talk.publish import pipe_out, publish
 
     if plan is None:
         if not isinstance(output, int):
             raise TypeError("a file output is written once checked")
-        return pipe_out(stream, output)
+        return pipe_out(stream, output, live=True)
     return publish(stream, plan.output, overwrite=plan.overwrite, inputs=plan.inputs)
 
 
-def write_fragmented(stream: Stream, fd: int, *, live: bool = False) -> Spoken:
+def write_fragmented(stream: Stream, fd: int, *, live: bool = True) -> Spoken:
     """Write a :func:`say_stream` (or :func:`~miketalk.api.dub.dub_stream`) on the file
     descriptor ``fd`` as a fragmented MP4, as it is made (what ``say -o -`` does); a
     ``stream.cancel()`` from another thread stops it, and this raises
-    :class:`~miketalk.talk.stream.Cancelled`. ``live``: x264's live settings
-    (:data:`~miketalk.media.x264.LIVE_X264`: no look-ahead, a third of the CPU; the frames
-    then differ slightly from the file's), else the file's (``-o -``: the file's frames).
+    :class:`~miketalk.talk.stream.Cancelled`. ``live`` (``-o -`` and the page): x264's live
+    settings (:data:`~miketalk.media.x264.LIVE_X264`: no look-ahead, half the encoder's CPU;
+    the frames then differ slightly from the file's); False: the file's
+    (:data:`~miketalk.media.x264.FILE_X264`: the file's H.264 stream, fragmented).
 
     Returns
     -------

@@ -78,9 +78,9 @@ class StreamEncoder:
     on_start : callable, optional
         Given the ffmpeg process once started (a stream adopts it, to kill it on a stop).
     x264 : X264
-        x264's settings (:data:`~miketalk.media.x264.FILE_X264`, the file's, by default: the
-        same H.264 stream in the file and on the pipe; :data:`~miketalk.media.x264.LIVE_X264`
-        for a stream watched as it is made, faster, whose frames then differ slightly).
+        x264's settings (:data:`~miketalk.media.x264.FILE_X264`, the file's, by default;
+        :data:`~miketalk.media.x264.LIVE_X264` for a stream watched as it is made: ``-o -``
+        and the page; faster, its frames then differ slightly).
     """
 
     def __init__(

@@ -129,11 +129,11 @@ def publish(
     return uttered.spoken(output, json_path)
 
 
-def pipe_out(stream: Stream, fd: int, *, live: bool = False) -> Spoken:
+def pipe_out(stream: Stream, fd: int, *, live: bool = True) -> Spoken:
     """Write ``stream`` as a fragmented MP4 on the file descriptor ``fd`` (a pipe, a
-    terminal's redirection, a socket) as it is made; no JSON. ``live``: x264's live settings
-    (no look-ahead: each frame leaves the encoder at once; its frames then differ slightly
-    from the file's), else the file's (the same frames as the file).
+    terminal's redirection, a socket) as it is made; no JSON. ``live`` (``-o -``, the page):
+    x264's live settings (no look-ahead: each frame leaves the encoder at once; its frames
+    then differ slightly from the file's); False: the file's (the same frames as the file).
 
     Raises
     ------
