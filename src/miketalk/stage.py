@@ -17,7 +17,8 @@ def run_stage(smk: Any, stage: Callable[[], object]) -> None:
     Log records go to the rule's ``log`` file (and stderr). A
     :class:`MiketalkError` (a user mistake: bad config, missing file) is
     reported as one line and ends the job with exit status 1; any other error
-    keeps its traceback, in the log.
+    keeps its traceback, in the log. The work runs with one BLAS thread, as the command
+    line's (:func:`miketalk.workers.one_blas_thread`).
     """
     handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
     if smk.log:
@@ -29,8 +30,11 @@ def run_stage(smk: Any, stage: Callable[[], object]) -> None:
         force=True,
     )
     log = logging.getLogger(f"miketalk.rule.{smk.rule}")
+    from miketalk.workers import one_blas_thread
+
     try:
-        stage()
+        with one_blas_thread():  # as the command line runs: OpenBLAS's threads only spin
+            stage()
     except MiketalkError as err:
         log.error("%s", err)
         sys.exit(1)

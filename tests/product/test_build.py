@@ -34,6 +34,43 @@ def test_the_build_flows_are_the_workflows_defaults() -> None:
     assert flow["mixed_window"]["default"] == defaults.BUILD_MIXED_WINDOW
 
 
+def _blas_threads() -> list[int]:
+    from threadpoolctl import threadpool_info
+
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+
+def test_a_build_and_a_workflow_stage_run_with_one_blas_thread(tmp_path, monkeypatch) -> None:
+    """As the command line runs: a build called from Python (the page's build, a test's
+    fixture) and the workflow's stages hold numpy's BLAS to one thread whatever the caller
+    set (OpenBLAS's threads spin: the trained face's fits took 7.6 s of CPU with two and
+    0.9 s with one), and give the caller's setting back."""
+    from types import SimpleNamespace
+
+    from threadpoolctl import threadpool_limits
+
+    import miketalk.corpus.one_video as one_video
+    from miketalk.building.from_video import build_model_from_video
+    from miketalk.errors import MiketalkError
+    from miketalk.stage import run_stage
+
+    seen: list[list[int]] = []
+
+    def stop_at_the_checks(*args, **kwargs):
+        seen.append(_blas_threads())
+        raise MiketalkError("stopped here")
+
+    monkeypatch.setattr(one_video, "check_video_inputs", stop_at_the_checks)
+    video = tmp_path / "in.mp4"
+    video.write_bytes(b"")
+    with threadpool_limits(limits=2, user_api="blas"):
+        with pytest.raises(MiketalkError, match="stopped here"):
+            build_model_from_video(video, tmp_path / "model", transcript="a b", progress=False)
+        run_stage(SimpleNamespace(log=[], rule="r"), lambda: seen.append(_blas_threads()))
+        assert _blas_threads() and set(_blas_threads()) == {2}
+    assert seen == [[1] * len(_blas_threads())] * 2
+
+
 def test_the_frame_a_face_is_built_in() -> None:
     """``--frame``/``--crop-size`` and the workflow's ``frame``/``crop_size``, read alike."""
     from miketalk.building.frame import FrameSettings

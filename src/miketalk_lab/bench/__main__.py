@@ -50,8 +50,10 @@ def main() -> int:
         start = time.monotonic()
         code = (
             "import json, pathlib, sys\n"
+            "from miketalk.workers import one_blas_thread\n"
             f"from miketalk_lab.bench.{name} import run\n"
-            f"figures = run(pathlib.Path({str(args.out / name)!r}))\n"
+            "with one_blas_thread():  # as the command line runs\n"
+            f"    figures = run(pathlib.Path({str(args.out / name)!r}))\n"
             "print('@@' + json.dumps(figures))\n"
         )
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
