@@ -151,8 +151,9 @@ def test_feathered_composite_has_no_seam() -> None:
     frames = _frames(np.zeros((1, 1)), np.zeros(1, int))
     frames = MouthFrames(**{**frames.__dict__, "patches": patches, "border": np.full((1, 3), 160.0),
                             "patch": (10, 10, 50, 40)})  # fmt: skip
-    out = PatchCompositor(frames, face).frame(((0, 1.0),))
-    # light matched: the patch's 160 becomes the face's 100 at the border and inside
+    out = PatchCompositor(frames, face, light="border").frame(((0, 1.0),))
+    # light matched by the border's offset: the patch's 160 becomes the face's 100 at the
+    # border and inside (the default's CIELAB transfer: test_patch_light)
     assert np.abs(out.astype(int) - 100)[:, :, 0][out[..., 0] > 50].max() <= 1
     assert out[30, 35, 0] < 50  # the mouth is drawn
     assert (out[:10] == 100).all() and (out[:, :10] == 100).all()

@@ -1,6 +1,7 @@
 """The mouth on people other than s1: leave-clips-out on the weekly addresses, dubbed and judged.
 
-``python -m miketalk_lab.bench.anyone --obama DIR --out OUT [--fold A,B ...] [--renderer R ...]``
+``python -m miketalk_lab.bench.anyone --obama DIR --out OUT [--fold A,B ...] [--renderer R ...]
+[--colour offset|gain|lips] [--patch-light border|session]``
 
 For each fold (default :data:`FOLDS`: every address held out once, two at a time, the
 issue's ``wa06,wa08`` first), the other addresses of ``DIR`` (``video/waNN.mp4``,
@@ -35,7 +36,8 @@ divided by the eye distance (:func:`opening`), compared frame by frame:
 ``lip_dE``, ``lip_da``
     the lips' colour (inside the outer lip line, outside the inner one, each video's own
     landmarks): the CIELAB distance of the dub's mean colour from the real one's, and the
-    difference in a* (positive: redder), over the speech.
+    difference in a* (positive: redder), over the speech (``lip_dE_sd``: the distance's sd
+    over those frames, how much the lips' colour changes).
 
 The calibration row ``real_late1`` is the real landmarks one frame late (a perfect mouth
 drawn a frame late). Writes ``OUT/clips.csv`` (one row per clip and renderer),
@@ -43,7 +45,8 @@ drawn a frame late). Writes ``OUT/clips.csv`` (one row per clip and renderer),
 clips and each clip), ``OUT/strip_CLIP.png`` (every tenth frame, mouth region: the
 source above each dub) and ``OUT/summary.md``. Models and dubs stay under ``OUT/work``
 (each made again only when missing). ``run(out_dir)`` (``python -m miketalk_lab.bench
-anyone``) runs it on ``.bench/anyone/config.yaml``'s ``obama`` folder.
+anyone``) runs it on ``.bench/anyone/config.yaml``'s ``obama`` folder. ``--colour`` and
+``--patch-light`` dub with other colour defaults (:mod:`miketalk_lab.bench.colour_dub`).
 """
 
 from __future__ import annotations
@@ -91,8 +94,8 @@ STRIP_EVERY = 10
 
 
 def _miketalk(colour: str | None = None) -> list[str]:
-    """The ``miketalk`` command (with the mouth's colour matched by ``colour``:
-    :mod:`miketalk_lab.bench.colour_dub`)."""
+    """The ``miketalk`` command (with the mouth's colour matched by ``colour``, a
+    :mod:`miketalk_lab.bench.colour_dub` ``HOW``)."""
     if colour:
         return [sys.executable, "-m", "miketalk_lab.bench.colour_dub", colour]
     return [str(Path(sys.executable).parent / "miketalk")]
@@ -370,6 +373,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--renderer", action="append", choices=list(RENDERERS), default=None)
     parser.add_argument("--colour", choices=("offset", "gain", "lips"), default=None,
                         help="the mouth's colour match (default: the product's)")  # fmt: skip
+    parser.add_argument("--patch-light", choices=("border", "session"), default=None,
+                        help="how the trained face's patches are brought to its light "
+                        "(default: the product's)")  # fmt: skip
     return run_bench(parser, argv, _work)
 
 
@@ -381,6 +387,9 @@ def _work(args) -> str:
     folds = [tuple(f.split(",")) for f in args.fold] if args.fold else list(FOLDS)
     folds = folds[: args.limit] if args.limit else folds
     renderers = args.renderer or list(RENDERERS)
+    parts = [args.colour] if args.colour else []
+    parts += [f"patches={args.patch_light}"] if args.patch_light else []
+    colour = "+".join(parts) or None  # colour_dub's HOW
     work = args.out / "work"
     work.mkdir(parents=True, exist_ok=True)
     rows, frames, builds, refused = [], [], [], []
@@ -393,7 +402,7 @@ def _work(args) -> str:
         for address in held:
             clip = args.obama / "video" / f"{address}.mp4"
             try:
-                dubs = _dubs(clip, captions[address], fold["model"], work, renderers, args.colour)
+                dubs = _dubs(clip, captions[address], fold["model"], work, renderers, colour)
             except MiketalkError as err:  # a caption the recording does not say: refused
                 refused.append(f"{address}: {err}")
                 continue

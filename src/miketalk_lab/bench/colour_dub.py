@@ -1,7 +1,10 @@
 """``python -m miketalk_lab.bench.colour_dub HOW ARGS...``: ``miketalk ARGS...`` with the
-dubbed mouth's colour matched to its frames by ``HOW`` (``gain`` or ``offset``,
-:mod:`miketalk.composite.colour`) instead of :data:`miketalk.defaults.BLEND_COLOUR`: the
-held-out bench's switch (:mod:`miketalk_lab.bench.anyone` ``--colour``), so both ways are
+dubbed mouth's colour matched by ``HOW`` instead of the defaults: ``HOW`` is a compositor's
+match (``offset``, ``gain`` or ``lips``, :mod:`miketalk.composite.colour`, for
+:data:`miketalk.defaults.BLEND_COLOUR`), or ``patches=LIGHT`` (``border`` or ``session``,
+:mod:`miketalk.draw.trained.light`, for :data:`miketalk.defaults.PATCH_LIGHT`), or both
+joined by ``+`` (``lips+patches=session``): the held-out bench's switch
+(:mod:`miketalk_lab.bench.anyone` ``--colour`` and ``--patch-light``), so both ways are
 measured on the same clips through the product's own command.
 """
 
@@ -10,19 +13,52 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
+#: The prefix of a ``HOW`` part naming the trained face's patches' light.
+PATCHES = "patches="
+
+
+def switches(how: str) -> dict[str, str]:
+    """``HOW``'s settings of :mod:`miketalk.defaults` (name: value).
+
+    Raises
+    ------
+    ValueError
+        When a part of ``how`` is neither a colour match nor ``patches=LIGHT``.
+    """
+    from miketalk.composite.colour import COLOUR_MATCHES
+    from miketalk.draw.trained.light import PATCH_LIGHTS
+
+    out = {}
+    for part in how.split("+"):
+        if part in COLOUR_MATCHES:
+            out["BLEND_COLOUR"] = part
+        elif part.startswith(PATCHES) and part[len(PATCHES) :] in PATCH_LIGHTS:
+            out["PATCH_LIGHT"] = part[len(PATCHES) :]
+        else:
+            raise ValueError(
+                f"{part!r} is none of {', '.join(COLOUR_MATCHES)}, "
+                + ", ".join(PATCHES + light for light in PATCH_LIGHTS)
+            )
+    return out
+
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Switch the colour match for this process, then run the command line."""
     from miketalk import defaults
     from miketalk.cli import main as cli
-    from miketalk.composite.colour import COLOUR_MATCHES
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in COLOUR_MATCHES:
-        print(f"colour_dub: the first argument is one of {', '.join(COLOUR_MATCHES)}",
+    try:
+        settings = switches(argv[0]) if argv else None
+    except ValueError as err:
+        print(f"colour_dub: {err}", file=sys.stderr)
+        return 2
+    if not settings:
+        print("colour_dub: the first argument says how (a colour match or patches=LIGHT)",
               file=sys.stderr)  # fmt: skip
         return 2
-    defaults.BLEND_COLOUR = argv[0]
+    for name, value in settings.items():
+        setattr(defaults, name, value)
     return cli(argv[1:])
 
 

@@ -7,7 +7,8 @@ Reads :mod:`miketalk_lab.bench.anyone`'s ``clips.csv`` of two runs (``--colour o
 ``--colour gain``: the same models, clips and renderers) and prints, per renderer, each
 measure's mean in both, and the paired difference (second minus first): its mean, sd, 95 %
 interval (normal, over the clips) and the clips where the second is nearer the real lips
-(for ``lip_dE``: smaller; for the signed ``lip_dL``, ``lip_da``, ``lip_db``: nearer 0).
+(for ``lip_dE`` and ``lip_dE_sd``: smaller; for the signed ``lip_dL``, ``lip_da``,
+``lip_db``: nearer 0).
 """
 
 from __future__ import annotations
@@ -21,7 +22,9 @@ import numpy as np
 import pandas as pd
 
 #: The measures paired: the lips' colour against the real lips', then the mouth's motion.
-MEASURES = ("lip_dE", "lip_dL", "lip_da", "lip_db", "r", "amplitude", "lmd")
+#: ``lip_dE_sd``: how much the lips' distance from his changes from frame to frame over a
+#: clip (frames drawn from other days' light change colour).
+MEASURES = ("lip_dE", "lip_dL", "lip_da", "lip_db", "lip_dE_sd", "r", "amplitude", "lmd")
 
 
 def colour_pairs(first: pd.DataFrame, second: pd.DataFrame) -> pd.DataFrame:
@@ -34,7 +37,7 @@ def colour_pairs(first: pd.DataFrame, second: pd.DataFrame) -> pd.DataFrame:
         for m in (m for m in MEASURES if m in a and m in b):
             x, y = a.loc[common, m].astype(float), b.loc[common, m].astype(float)
             d = y - x
-            nearer = y < x if m in ("lip_dE", "lmd") else y.abs() < x.abs()
+            nearer = y < x if m in ("lip_dE", "lip_dE_sd", "lmd") else y.abs() < x.abs()
             half = 1.96 * d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else np.nan
             rows.append({
                 "renderer": renderer, "measure": m, "clips": len(d), "first": x.mean(),

@@ -24,8 +24,8 @@ its ``candidates`` nearest training frames.
 
 :class:`PatchCompositor` draws frame ``s_t``'s colour patch onto the face with a
 feathered mask (:func:`miketalk.draw.trained.mouths.feather_mask`), the patch
-first shifted to the face's light: the mean colour of the border band over the
-frame's clip (its recording session) made the face's own. Where the selection
+first brought to the face's light, clip by clip (its recording session:
+:mod:`miketalk.draw.trained.light`). Where the selection
 jumps (``s_t`` does not follow ``s_{t-1}``), the two frames about the jump are
 blended with the frames that continue each side (``s_{t-1} + 1`` and
 ``s_t - 1`` in the recording), ``fade`` of the way on each side, so that no
@@ -43,6 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from miketalk import defaults
+from miketalk.draw.trained.light import patch_light
 from miketalk.draw.trained.mouths import MouthFrames, feather_mask
 from miketalk.errors import MiketalkError
 
@@ -272,7 +274,10 @@ class PatchCompositor:
     """Draws rows of weighted training frames onto a face (see the module docstring).
 
     ``joins`` blends the frames of a row (:data:`JOINS`); ``morph_options`` are the
-    face's settings of :class:`~miketalk.render.morph.Morpher` for ``"morph"``.
+    face's settings of :class:`~miketalk.render.morph.Morpher` for ``"morph"``; ``light``
+    how each clip's patches are brought to the face's light
+    (:data:`~miketalk.draw.trained.light.PATCH_LIGHTS`; None:
+    :data:`miketalk.defaults.PATCH_LIGHT`).
     """
 
     def __init__(
@@ -282,6 +287,7 @@ class PatchCompositor:
         *,
         joins: str = SelectionSettings.joins,
         morph_options: dict | None = None,
+        light: str | None = None,
     ) -> None:
         if joins not in JOINS:
             raise MiketalkError(f"joins must be one of {', '.join(JOINS)}, not {joins!r}")
@@ -290,18 +296,8 @@ class PatchCompositor:
         self.frames = frames
         self.face = np.ascontiguousarray(face)
         self.mask = feather_mask(h, w)[..., None]
-        band = (self.mask[..., 0] > 0.02) & (self.mask[..., 0] < 0.98)
-        under = self.face[y : y + h, x : x + w].astype(np.float32)
-        self.face_border = under[band].mean(axis=0)
-        self.under = under
-        # each clip's mean border colour: its session's light (a frame's own border
-        # moves with the jaw, and matching it would cancel the mouth's own shading)
-        count = np.bincount(frames.clip, minlength=len(frames.clip_ids)).astype(np.float64)
-        sums = np.stack(
-            [np.bincount(frames.clip, frames.border[:, c], len(frames.clip_ids)) for c in range(3)],
-            axis=1,
-        )
-        self.shift = (self.face_border - sums / np.maximum(count, 1.0)[:, None]).astype(np.float32)
+        self.under = self.face[y : y + h, x : x + w].astype(np.float32)
+        self.light = patch_light(frames, self.face, light or defaults.PATCH_LIGHT)
         # the flows between two training frames, both ways: a join morphs the same two
         # frames over several output frames, at other weights (12 minutes of s1's recording
         # drew 1280 morphs; DIS was 30 % of the main process's CPU)
@@ -311,7 +307,7 @@ class PatchCompositor:
 
     def lit(self, s: int) -> np.ndarray:
         """Training frame ``s``'s patch brought to the face's light (float32)."""
-        return np.asarray(self.frames.patches[s], np.float32) + self.shift[self.frames.clip[s]]
+        return self.light.apply(self.frames.patches[s], int(self.frames.clip[s]))
 
     def patch(self, row) -> np.ndarray:
         """The blended, light-matched patch of one output frame (float32)."""

@@ -1,0 +1,187 @@
+"""The trained face's patches brought to the light of the face they are drawn onto.
+
+A face built from clips draws each output frame's mouth from a training frame, and its clips
+were filmed on different days (a weekly address each): each clip's patches carry their day's
+light. Drawn onto the model's silence image (whose light the compositor then matches to the
+frames the mouth is pasted into: :mod:`miketalk.composite.colour`), a patch from another day
+shows lips of another colour (pink lips from a brighter, pinker light among grey-brown ones).
+Two ways, :data:`PATCH_LIGHTS` (:data:`miketalk.defaults.PATCH_LIGHT` is the default):
+
+- ``"border"`` (:func:`border_shift`): each clip's patches shifted by one RGB offset, the
+  face's mean colour on the patch's feathered border band minus the clip's mean border
+  colour. The band holds the patch's corners too, where the backdrop and the collar show,
+  and an offset moves the lips as much as the skin (the lips keep their day's redness).
+- ``"session"`` (:class:`SessionLight`): each clip's colour transfer in CIELAB (Reinhard et
+  al. 2001: each channel's median and spread made the face's), estimated on the lower face
+  about the mouth (an ellipse inside the patch: skin and lips, no backdrop) between the
+  face's own pixels and the clip's frames whose mouth is shaped most like the face's (its
+  description's nearest :data:`REST_FRAMES`; each frame's statistics, their median over those
+  frames: a median image would be blurred): the same mouth shape,
+  another day's light, so what differs is the light. The spread's ratio keeps the lips'
+  contrast to the skin the face's. It is held within ``[1 / SPREAD_LIMIT, SPREAD_LIMIT]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from miketalk.draw.trained.mouths import PATCH_EXTENT, MouthFrames, feather_mask, grey
+from miketalk.errors import MiketalkError
+
+__all__ = [
+    "PATCH_LIGHTS",
+    "PatchLight",
+    "SessionLight",
+    "border_shift",
+    "lower_face",
+    "patch_light",
+]
+
+#: The ways a training frame's patch is brought to the face's light (the module docstring).
+PATCH_LIGHTS = ("border", "session")
+
+#: ``"session"``: a clip's frames nearest the face's mouth shape, whose statistics are compared.
+REST_FRAMES = 15
+
+#: ``"session"``: a channel's spread is scaled by at most this (or its inverse).
+SPREAD_LIMIT = 1.5
+
+#: ``"session"``: the lower face's ellipse about the mouth's centre, in mouth widths: half
+#: its width, how far it reaches above and below the centre.
+LOWER_FACE = (0.75, 0.5, 0.6)
+
+
+def _lab(rgb: np.ndarray) -> np.ndarray:
+    """CIELAB of float RGB in [0, 255] (float32; L* 0-100)."""
+    return cv2.cvtColor(np.clip(rgb, 0, 255).astype(np.float32) / 255.0, cv2.COLOR_RGB2Lab)
+
+
+def _rgb(lab: np.ndarray) -> np.ndarray:
+    """Float RGB in [0, 255] of CIELAB (float32)."""
+    return cv2.cvtColor(lab.astype(np.float32), cv2.COLOR_Lab2RGB) * np.float32(255.0)
+
+
+@dataclass(frozen=True)
+class PatchLight:
+    """``"border"``: each clip's way to the face's light, ``patch + shift`` in RGB.
+
+    Attributes
+    ----------
+    shift : numpy.ndarray
+        (clips, 3) float32.
+    """
+
+    shift: np.ndarray
+
+    def apply(self, patch: np.ndarray, clip: int) -> np.ndarray:
+        """``patch`` (uint8 or float RGB) of clip ``clip`` in the face's light (float32)."""
+        return np.asarray(patch, np.float32) + self.shift[clip]
+
+
+def border_shift(frames: MouthFrames, under: np.ndarray) -> PatchLight:
+    """``"border"``: the face's mean border colour minus each clip's (the module docstring).
+
+    Parameters
+    ----------
+    frames : MouthFrames
+        The trained face's frames (their ``border`` colours).
+    under : numpy.ndarray
+        (ph, pw, 3) the face's own pixels under the patch.
+    """
+    h, w = under.shape[:2]
+    mask = feather_mask(h, w)
+    band = (mask > 0.02) & (mask < 0.98)
+    face_border = np.asarray(under, np.float32)[band].mean(axis=0)
+    # each clip's mean border colour: its session's light (a frame's own border moves with
+    # the jaw, and matching it would cancel the mouth's own shading)
+    count = np.bincount(frames.clip, minlength=len(frames.clip_ids)).astype(np.float64)
+    sums = np.stack(
+        [np.bincount(frames.clip, frames.border[:, c], len(frames.clip_ids)) for c in range(3)],
+        axis=1,
+    )
+    return PatchLight((face_border - sums / np.maximum(count, 1.0)[:, None]).astype(np.float32))
+
+
+def _centre_spread(lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each channel's median and half its 16th-84th percentile range (a standard deviation
+    that a few pixels of collar or shadow do not move), of (n, 3) pixels."""
+    low, mid, high = np.percentile(lab, (16, 50, 84), axis=0)
+    return mid.astype(np.float32), ((high - low) / 2).astype(np.float32)
+
+
+def lower_face(frames: MouthFrames) -> np.ndarray:
+    """(ph, pw) bool: the ellipse of :data:`LOWER_FACE` about the mouth region's centre,
+    inside the patch's feathered mask (the whole of that inside where the ellipse misses it: a
+    patch not cut about its mouth region)."""
+    px, py, pw, ph = frames.patch
+    rx, ry, rw, rh = frames.region
+    width = pw / (2.0 * PATCH_EXTENT[0])  # the mouth's width the patch was cut by
+    cx, cy = rx - px + rw / 2.0, ry - py + rh / 2.0
+    half, above, below = (v * width for v in LOWER_FACE)
+    yy, xx = np.mgrid[0:ph, 0:pw].astype(np.float32)
+    reach = np.where(yy < cy, above, below)
+    inside = ((xx - cx) / half) ** 2 + ((yy - cy) / reach) ** 2 <= 1.0
+    masked = feather_mask(ph, pw) > 0.5
+    return inside & masked if (inside & masked).any() else masked
+
+
+class SessionLight:
+    """``"session"``: each clip's CIELAB transfer to the face's light (the module docstring),
+    found the first time one of the clip's patches is drawn (a sentence draws from a few of
+    a long build's clips; each costs the reading of :data:`REST_FRAMES` patches).
+
+    Parameters
+    ----------
+    frames : MouthFrames
+        The trained face's frames.
+    face : numpy.ndarray
+        (H, W, 3) uint8 RGB, the image the patches are drawn onto.
+    """
+
+    def __init__(self, frames: MouthFrames, face: np.ndarray) -> None:
+        px, py, pw, ph = frames.patch
+        rx, ry, rw, rh = frames.region
+        self.frames = frames
+        self.where = lower_face(frames)
+        self.target = _centre_spread(_lab(face[py : py + ph, px : px + pw])[self.where])
+        self.shape = frames.project(grey(face[None, ry : ry + rh, rx : rx + rw]))[0]
+        self._clips: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def transfer(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
+        """Clip ``clip``'s ``(scale, shift)``, (3,) float32 each: ``lab * scale + shift``."""
+        if clip in self._clips:
+            return self._clips[clip]
+        idx = np.flatnonzero(self.frames.clip == clip)
+        if not len(idx):
+            raise MiketalkError(f"the trained face has no frame of clip {clip}")
+        distance = np.linalg.norm(self.frames.coords[idx] - self.shape, axis=1)
+        idx = idx[np.argsort(distance, kind="stable")[:REST_FRAMES]]
+        # each frame's own statistics, their median over the frames (a median image
+        # would be blurred: its spread under the face's sharp one)
+        stats = [_centre_spread(_lab(self.frames.patches[i])[self.where]) for i in np.sort(idx)]
+        s_mean = np.median([m for m, _ in stats], axis=0)
+        s_sd = np.median([d for _, d in stats], axis=0)
+        t_mean, t_sd = self.target
+        ratio = np.divide(t_sd, s_sd, out=np.ones(3, np.float32), where=s_sd > 1e-3)
+        scale = np.clip(ratio, 1.0 / SPREAD_LIMIT, SPREAD_LIMIT).astype(np.float32)
+        self._clips[clip] = scale, (t_mean - s_mean * scale).astype(np.float32)
+        return self._clips[clip]
+
+    def apply(self, patch: np.ndarray, clip: int) -> np.ndarray:
+        """``patch`` (uint8 or float RGB) of clip ``clip`` in the face's light (float32)."""
+        scale, shift = self.transfer(clip)
+        return _rgb(_lab(np.asarray(patch, np.float32)) * scale + shift)
+
+
+def patch_light(frames: MouthFrames, face: np.ndarray, how: str) -> PatchLight | SessionLight:
+    """The light of ``how`` (:data:`PATCH_LIGHTS`): :class:`SessionLight` or
+    :func:`border_shift`'s, from ``frames`` to ``face`` ((H, W, 3) uint8 RGB)."""
+    if how == "session":
+        return SessionLight(frames, face)
+    if how == "border":
+        x, y, w, h = frames.patch
+        return border_shift(frames, face[y : y + h, x : x + w])
+    raise MiketalkError(f"the patches' light must be {' or '.join(PATCH_LIGHTS)}, not {how!r}")
