@@ -35,10 +35,15 @@ speech (:data:`COLUMNS`):
 the build's own code) on build ``FRAMES``'s training frames (its corpus, eigenlips and
 reference) with build ``LABELS``'s phones, mapped through the joined video's frames
 (:func:`relabelled`): which of the two (the frames or the phones) moves the amplitude.
+``--without-unsure BUILD`` fits ``BUILD``'s ``heard`` trajectory again without the frames of
+the words its recognizer heard without confidence (:func:`without_unsure`), in memory.
 ``--window`` takes ``LABELS``'s phones only inside those spans of the joined video (seconds),
 ``FRAMES``'s own elsewhere; ``--shift`` moves every phone of ``LABELS`` by ``S`` seconds (a
 null: a transcript's phones a frame's half later). ``FRAMES:FRAMES`` fits the build's own face
 again: its figures must be the build's to the digit.
+
+``--draw`` also draws ``trained_heard`` of every face for real and measures it as the
+held-out evaluation does (``drawn_*``: for a build's own face, its ``clips.csv`` figures).
 
 Writes ``OUT/clips.csv`` (one row per face and clip) and ``OUT/summary.md`` (each face
 minus the base: the mean difference, its sd and 95 % interval).
@@ -48,7 +53,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import itertools
 import json
 import sys
 from collections.abc import Mapping, Sequence
@@ -59,6 +63,7 @@ import pandas as pd
 
 from miketalk.errors import MiketalkError
 from miketalk_lab.bench.command import bench_parser, run_bench
+from miketalk_lab.bench.relabelled import relabelled, unsure_frames
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -71,81 +76,6 @@ VARIANTS: dict[str, dict] = {
 
 #: The per-clip figures (over the real opening's spread in the speech), in table order.
 COLUMNS = ("measured", "trajectory", "target", *VARIANTS)
-
-
-def joined_phones(corpus: Path) -> list[tuple[float, float, str]]:
-    """A corpus's phones as ``(start, end, name)`` in the time of the video its clips were
-    cut from (``sources.tsv``'s first frame of each clip, ``phones.tsv``'s clip times)."""
-    sources = pd.read_csv(corpus / "sources.tsv", sep="\t", dtype={"clip": str}).set_index("clip")
-    phones = pd.read_csv(corpus / "phones.tsv", sep="\t", dtype={"clip": str})
-    out = []
-    for p in phones.itertuples():
-        start = float(sources.loc[p.clip, "first_frame"]) / float(sources.loc[p.clip, "fps"])
-        out.append((start + float(p.clip_start), start + float(p.clip_end), str(p.phone)))
-    return out
-
-
-def _pieces(phones, lo: float, hi: float, windows, inside: bool) -> list[list]:
-    """``phones`` cut to ``[lo, hi)`` and to the parts inside (or outside) ``windows``."""
-    out = []
-    for start, end, name in phones:
-        start, end = max(start, lo), min(end, hi)
-        if end <= start:
-            continue
-        if windows is None:
-            if inside:
-                out.append([start, end, name])
-            continue
-        edges = sorted({start, end, *(x for w in windows for x in w if start < x < end)})
-        for a, b in itertools.pairwise(edges):
-            middle = (a + b) / 2
-            if any(w0 <= middle < w1 for w0, w1 in windows) == inside:
-                out.append([a, b, name])
-    return out
-
-
-def clip_phones(ours, theirs, lo: float, hi: float, windows=None) -> list[tuple[float, float, str]]:
-    """The phones of one clip ``[lo, hi)`` of the joined video: ``theirs`` (inside
-    ``windows`` only, when given; ``ours`` elsewhere), the gaps filled with ``pau``, a phone
-    cut by a window's edge joined again."""
-    segs = _pieces(theirs, lo, hi, windows, True)
-    if windows is not None:
-        segs += _pieces(ours, lo, hi, windows, False)
-    filled, t = [], lo
-    for start, end, name in sorted(segs):
-        if start > t + 1e-9:
-            filled.append([t, start, "pau"])
-        filled.append([start, end, name])
-        t = end
-    if t < hi - 1e-9:
-        filled.append([t, hi, "pau"])
-    merged: list[list] = []
-    for start, end, name in filled:
-        joins = windows is not None or name == "pau"
-        if merged and merged[-1][2] == name and abs(merged[-1][1] - start) < 1e-9 and joins:
-            merged[-1][1] = end
-        else:
-            merged.append([start, end, name])
-    return [(a, b, n) for a, b, n in merged]
-
-
-def relabelled(target: Path, source: Path, dest: Path, *, windows=None, shift: float = 0.0) -> Path:
-    """Corpus ``target`` with ``source``'s phones (:func:`clip_phones`; ``shift`` seconds
-    later), as a folder ``dest`` of links to ``target``'s files and a new ``phones.tsv``."""
-    dest.mkdir(parents=True, exist_ok=True)
-    for f in target.iterdir():
-        if f.name != "phones.tsv" and not (dest / f.name).exists():
-            (dest / f.name).symlink_to(f.resolve())
-    theirs = [(a + shift, b + shift, n) for a, b, n in joined_phones(source)]
-    ours = joined_phones(target)
-    rows = []
-    for c in pd.read_csv(target / "sources.tsv", sep="\t", dtype={"clip": str}).itertuples():
-        lo, hi = c.first_frame / c.fps, (c.first_frame + c.frames) / c.fps
-        for k, (a, b, name) in enumerate(clip_phones(ours, theirs, lo, hi, windows)):
-            rows.append({"clip": c.clip, "index": k, "phone": name, "start": a, "end": b,
-                         "clip_start": round(a - lo, 6), "clip_end": round(b - lo, 6)})  # fmt: skip
-    pd.DataFrame(rows).to_csv(dest / "phones.tsv", sep="\t", index=False)
-    return dest
 
 
 def frame_openings(model, face) -> np.ndarray:
@@ -183,10 +113,14 @@ def spread(values: np.ndarray, real: np.ndarray, speech: slice) -> float:
     return float(np.std(values[speech]) / sd) if sd > 0 else float("nan")
 
 
-def face_rows(name: str, build: Path, clips, options: Mapping, face=None) -> list[dict]:
+def face_rows(
+    name: str, build: Path, clips, options: Mapping, face=None, *, draw: bool = False
+) -> list[dict]:
     """Every held-out clip's figures (:data:`COLUMNS`) for one face: ``build``'s own, or
     ``face`` (a refit) drawn with ``build``'s model and measured in its corpus's frame (a
-    refit's ``measured`` and ``proxy_r`` are NaN: the evaluation drew the build's own)."""
+    refit's ``measured`` and ``proxy_r`` are NaN: the evaluation drew the build's own).
+    ``draw``: also draw ``trained_heard`` for real and measure it as the held-out evaluation
+    does (:data:`DRAWN`; for the build's own face, its ``clips.csv`` figures)."""
     from miketalk.corpus.clips import corpus_decoder, corpus_stabilizer
     from miketalk.model.face import Model
     from miketalk.speech.acoustic import Recording
@@ -231,8 +165,30 @@ def face_rows(name: str, build: Path, clips, options: Mapping, face=None) -> lis
             row[v] = spread(proxy, real, speech)
             if v == "drawn":
                 row["proxy_r"] = float(np.corrcoef(proxy, drawn)[0, 1]) if own else float("nan")
+        if draw:
+            row |= _drawn_measures(model, face, held, recording, speech)
         rows.append(row)
     return rows
+
+
+#: The held-out evaluation's measures of ``trained_heard`` drawn for real (``--draw``).
+DRAWN = ("lip_opening_corr_speech", "mouth_lmd", "lip_opening_amplitude_speech")
+
+
+def _drawn_measures(model, face, held, recording, speech: slice) -> dict[str, float]:
+    """``trained_heard`` of ``face`` drawn along a held-out clip and marked as the held-out
+    evaluation marks it (:func:`~miketalk_lab.evaluation.heldout.evaluate_clip`)."""
+    from miketalk.draw.trained.draw import render_trained
+    from miketalk_lab.evaluation.heldout import MAX_LAG
+    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
+    from miketalk_lab.evaluation.landmarks import face_landmarks
+
+    marks = ClipLandmarks(face_landmarks(), held.real)
+    drawn = render_trained(model, held.timeline, trained=face, kind="heard", recording=recording)
+    _, measures = landmark_scores(
+        marks.real, marks.of(np.stack(list(drawn))), speech=speech, max_lag=MAX_LAG
+    )
+    return {f"drawn_{k}": float(measures[k]) for k in DRAWN}
 
 
 def refit(frames_of: Path, labels_of: Path, dest: Path, *, windows=None, shift: float = 0.0):
@@ -251,6 +207,38 @@ def refit(frames_of: Path, labels_of: Path, dest: Path, *, windows=None, shift: 
     )  # fmt: skip
 
 
+def without_unsure(build: Path):
+    """``build``'s own trained face with its ``heard`` trajectory fitted again without the
+    frames of the words heard without confidence (:func:`unsure_frames`; in memory, the
+    build's own code and settings; every frame can still be drawn)."""
+    from miketalk.draw.trained.gains import amplitude_gain, cv_amplitude_gain
+    from miketalk.draw.trained.training import TrainingSet, training_set
+    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, fit_window
+    from miketalk.model.face import Model
+
+    face = Model(build / "model").trained_face
+    frames, table = face.frames, face.table
+    left_out = unsure_frames(build, frames)
+    data = training_set(build / "corpus", frames)
+    keep = [~left_out[frames.clip == c] for c in range(len(frames.clip_ids))]
+    data = TrainingSet(
+        data.phones, tuple(t[k] for t, k in zip(data.times, keep, strict=True)),
+        tuple(x[k] for x, k in zip(data.coords, keep, strict=True)), data.recordings,
+    )  # fmt: skip
+    held: dict = {}
+    heard, report = fit_window(
+        data, Context.of(data.phones, table), table, half=face.fitting.half, heard=HEARD_HALF,
+        predictions=held,
+    )  # fmt: skip
+    report |= {"amplitude_gain": amplitude_gain(heard, data, table),
+               "amplitude_gain_cv": cv_amplitude_gain(held, data),
+               "frames_left_out": int(left_out.sum())}  # fmt: skip
+    return dataclasses.replace(
+        face, trajectories={**face.trajectories, "heard": heard},
+        report={**face.report, "fit": {**face.report["fit"], "heard": report}},
+    )  # fmt: skip
+
+
 def paired(table: pd.DataFrame, base: str) -> pd.DataFrame:
     """Each face minus ``base``, clip by clip, per :data:`COLUMNS` figure: both means, the
     difference's mean, sd and 95 % interval (normal, over the clips)."""
@@ -259,7 +247,7 @@ def paired(table: pd.DataFrame, base: str) -> pd.DataFrame:
     for name in [f for f in dict.fromkeys(table["face"]) if f != base]:
         b = table[table["face"] == name].set_index("clip")
         common = a.index.intersection(b.index)
-        for column in COLUMNS:
+        for column in [c for c in (*COLUMNS, *(f"drawn_{k}" for k in DRAWN)) if c in table]:
             diff = (b.loc[common, column] - a.loc[common, column]).dropna()
             half = 1.96 * diff.std(ddof=1) / np.sqrt(len(diff)) if len(diff) > 1 else np.nan
             rows.append({
@@ -282,6 +270,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--refit", action="append", default=[], metavar="FRAMES:LABELS[:TAG]")
     parser.add_argument("--window", action="append", default=[], metavar="LO,HI")
     parser.add_argument("--shift", type=float, default=0.0)
+    parser.add_argument(
+        "--without-unsure",
+        action="append",
+        default=[],
+        metavar="BUILD",
+        help="BUILD's face, heard fitted without its unsure words' frames",
+    )
+    parser.add_argument("--draw", action="store_true",
+                        help="also draw trained_heard for real and measure it")  # fmt: skip
     return run_bench(parser, argv, _work, check=_check)
 
 
@@ -297,6 +294,8 @@ def _check(args: argparse.Namespace) -> str | None:
         parts = spec.split(":")
         if len(parts) not in (2, 3) or not set(parts[:2]) <= set(builds):
             return f"--refit {spec}: FRAMES:LABELS[:TAG], both among the --build names"
+    if not set(args.without_unsure) <= set(builds):
+        return "--without-unsure BUILD: one of the --build names"
     try:
         windows = [tuple(float(x) for x in w.split(",")) for w in args.window]
     except ValueError:
@@ -320,13 +319,17 @@ def _work(args: argparse.Namespace) -> str:
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for name, folder in builds.items():
-        rows += face_rows(name, folder, clips, options)
+        rows += face_rows(name, folder, clips, options, draw=args.draw)
     for spec in args.refit:
         frames_of, labels_of, *tag = spec.split(":")
         name = tag[0] if tag else f"{frames_of}+{labels_of}_phones"
         face = refit(builds[frames_of], builds[labels_of], args.out / f"corpus_{name}",
                      windows=windows, shift=args.shift)  # fmt: skip
-        rows += face_rows(name, builds[frames_of], clips, options, face=face)
+        rows += face_rows(name, builds[frames_of], clips, options, face=face, draw=args.draw)
+    for name in args.without_unsure:
+        face = without_unsure(builds[name])
+        rows += face_rows(f"{name}_without_unsure", builds[name], clips, options, face=face,
+                          draw=args.draw)  # fmt: skip
     table = pd.DataFrame(rows)
     table.to_csv(args.out / "clips.csv", index=False, float_format="%.5f")
     return _summary(args, table, next(iter(builds)))
@@ -351,7 +354,8 @@ def _summary(args: argparse.Namespace, table: pd.DataFrame, base: str) -> str:
     (args.out / "summary.md").write_text(summary, "utf-8")
     (args.out / "settings.json").write_text(
         json.dumps({"build": args.build, "refit": args.refit, "window": args.window,
-                    "shift": args.shift, "limit": args.limit}, indent=1) + "\n",
+                    "shift": args.shift, "limit": args.limit, "draw": args.draw,
+                    "without_unsure": args.without_unsure}, indent=1) + "\n",
         "utf-8",
     )  # fmt: skip
     return summary
