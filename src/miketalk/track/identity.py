@@ -16,7 +16,8 @@ own 5 landmarks, to 128 numbers whose distance is small for one person and large
 :func:`person_distance` is the median, over :data:`~miketalk.stabilize.faces.SAMPLES`
 frames spread over the video, of the distance of the frame's face to the model's reference
 face; :func:`check_person` refuses, in one line, a video whose distance is over
-:data:`MAX_DISTANCE` (measured: the table in ``docs/dub.md``).
+:data:`MAX_DISTANCE` (measured: the table in ``docs/dub.md``). The distance is kept in the
+user's cache for the next run of the same video and model (:mod:`miketalk.track.kept_identity`).
 """
 
 from __future__ import annotations
@@ -129,7 +130,9 @@ def person_distance(reference: np.ndarray, video: str | os.PathLike[str]) -> flo
 def check_person(
     reference: np.ndarray, video: str | os.PathLike[str], *, source: str | None = None
 ) -> float | None:
-    """Refuse a video whose face is not the model's person (:func:`person_distance`).
+    """Refuse a video whose face is not the model's person (:func:`person_distance`; kept
+    in the user's cache for the same video and reference, :mod:`miketalk.track.kept_identity`:
+    a second run does not measure it again, and refuses the same video as the first).
 
     Returns
     -------
@@ -141,7 +144,9 @@ def check_person(
     MiketalkError
         One line when the distance is over :data:`MAX_DISTANCE`.
     """
-    distance = person_distance(reference, video)
+    from miketalk.track.kept_identity import kept_distance
+
+    distance = kept_distance(reference, video, lambda: person_distance(reference, video))
     if distance is not None and distance > MAX_DISTANCE:
         raise MiketalkError(
             f"{source or Path(video)}: its face is not the model's person (face descriptor "
