@@ -14,10 +14,12 @@ own 5 landmarks, to 128 numbers whose distance is small for one person and large
 (trained to put each identity in a ball of radius 0.6).
 
 :func:`person_distance` is the median, over :data:`~miketalk.stabilize.faces.SAMPLES`
-frames spread over the video, of the distance of the frame's face to the model's reference
-face; :func:`check_person` refuses, in one line, a video whose distance is over
-:data:`MAX_DISTANCE` (measured: the table in ``docs/dub.md``). The distance is kept in the
-user's cache for the next run of the same video and model (:mod:`miketalk.track.kept_identity`).
+frames spread over the video (in one decoding pass where that decodes less than seeking to
+each: :mod:`miketalk.track.sampled_frames`), of the distance of the frame's face to the
+model's reference face; :func:`check_person` refuses, in one line, a video whose distance is
+over :data:`MAX_DISTANCE` (measured: the table in ``docs/dub.md``). The distance is kept in
+the user's cache for the next run of the same video and model
+(:mod:`miketalk.track.kept_identity`).
 """
 
 from __future__ import annotations
@@ -108,20 +110,18 @@ def person_distance(reference: np.ndarray, video: str | os.PathLike[str]) -> flo
         None when the reference or no frame looked at shows a face (nothing to compare:
         the tracker says so of the video).
     """
-    from miketalk.media.decode import read_video, stated_seconds
+    from miketalk.media.decode import stated_seconds
     from miketalk.stabilize.faces import SAMPLES
+    from miketalk.track.sampled_frames import sampled_frames
 
     model = face_descriptor(reference)
     duration = stated_seconds(video)
     if model is None or not duration or duration <= 0:
         return None
     distances = []
-    for t in (np.arange(SAMPLES) + 0.5) * duration / SAMPLES:
-        try:
-            frames, _ = read_video(video, start=float(t), frames=1)
-        except MiketalkError:  # a stated length longer than the stream
-            break
-        found = face_descriptor(frames[0])
+    # each the first frame shown at or after its time; in one decoding pass where cheaper
+    for frame in sampled_frames(video, (np.arange(SAMPLES) + 0.5) * duration / SAMPLES):
+        found = face_descriptor(frame)
         if found is not None:
             distances.append(float(np.linalg.norm(found - model)))
     return float(np.median(distances)) if distances else None
