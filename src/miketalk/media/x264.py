@@ -42,8 +42,8 @@ FILE_X264 = X264("veryfast", 18)
 #: (n9.0.2) stopped reading both pipes for good once the frames came slower than real time
 #: (360x288 and 1280x720 alike; ``ultrafast`` alone never did). Its frames decode to other
 #: bytes than the file's (45 dB from them on a 720p say). ``say -o -`` and ``dub -o -`` use it
-#: too: on 2 minutes of a 720p say it took 12.9 s of CPU outside Python against the file's
-#: 25.5 s, and its first bytes came 0.8 s sooner (docs/serve.md).
+#: too: on 2 minutes of a 720p say, ffmpeg and Festival took 13.5 s of CPU against the
+#: file's 27.3 s (the whole run 41.0 against 55.5 s; docs/serve.md, "An hour's text").
 LIVE_X264 = X264("ultrafast", 20)
 
 
