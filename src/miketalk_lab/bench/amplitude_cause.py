@@ -42,6 +42,8 @@ the words its recognizer heard without confidence (:func:`without_unsure`), in m
 null: a transcript's phones a frame's half later). ``FRAMES:FRAMES`` fits the build's own face
 again: its figures must be the build's to the digit.
 
+``--patch-light`` lights the drawn patches as the held-out evaluation that made the builds'
+``clips.csv`` did (``border`` before the ``session`` light became the default).
 ``--draw`` also draws ``trained_heard`` of every face for real and measures it as the
 held-out evaluation does (``drawn_*``: for a build's own face, its ``clips.csv`` figures).
 
@@ -61,6 +63,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from miketalk.draw.trained.light import PATCH_LIGHTS
 from miketalk.errors import MiketalkError
 from miketalk_lab.bench.command import bench_parser, run_bench
 from miketalk_lab.bench.relabelled import relabelled, unsure_frames
@@ -78,14 +81,17 @@ VARIANTS: dict[str, dict] = {
 COLUMNS = ("measured", "trajectory", "target", *VARIANTS)
 
 
-def frame_openings(model, face) -> np.ndarray:
+def frame_openings(model, face, light: str | None = None) -> np.ndarray:
     """``(N,)``: each training frame drawn alone onto ``model``'s face (as the trained face
-    draws it) and its inner-lip opening marked, pixels."""
+    draws it, its patch brought to the face's light by ``light``: None, the default) and its
+    inner-lip opening marked, pixels."""
     from miketalk.draw.trained.selection import PatchCompositor
     from miketalk.visemes import SILENCE
     from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening
 
-    draw = PatchCompositor(face.frames, model.image(SILENCE), joins=face.selection.joins)
+    draw = PatchCompositor(
+        face.frames, model.image(SILENCE), joins=face.selection.joins, light=light
+    )
     frames = np.stack([draw.frame(((s, 1.0),)) for s in range(len(face.frames.coords))])
     marks = face_landmarks()
     return lip_opening(marks.points(frames, marks.face_box(frames)))
@@ -114,13 +120,21 @@ def spread(values: np.ndarray, real: np.ndarray, speech: slice) -> float:
 
 
 def face_rows(
-    name: str, build: Path, clips, options: Mapping, face=None, *, draw: bool = False
+    name: str,
+    build: Path,
+    clips,
+    options: Mapping,
+    face=None,
+    *,
+    draw: bool = False,
+    light: str | None = None,
 ) -> list[dict]:
     """Every held-out clip's figures (:data:`COLUMNS`) for one face: ``build``'s own, or
     ``face`` (a refit) drawn with ``build``'s model and measured in its corpus's frame (a
     refit's ``measured`` and ``proxy_r`` are NaN: the evaluation drew the build's own).
     ``draw``: also draw ``trained_heard`` for real and measure it as the held-out evaluation
-    does (:data:`DRAWN`; for the build's own face, its ``clips.csv`` figures)."""
+    does (:data:`DRAWN`; for the build's own face, its ``clips.csv`` figures when ``light``
+    is the patch light its evaluation drew with)."""
     from miketalk.corpus.clips import corpus_decoder, corpus_stabilizer
     from miketalk.model.face import Model
     from miketalk.speech.acoustic import Recording
@@ -130,7 +144,7 @@ def face_rows(
     model = Model(build / "model", morph_options=options["morph_options"])
     own = face is None  # the build's own face: what the evaluation drew and measured
     face = face or model.trained_face
-    opening = frame_openings(model, face)
+    opening = frame_openings(model, face, light)
     beta, fit = opening_map(face.frames.coords, opening)
     frames = pd.read_csv(build / "heldout" / "frames.csv")
     frames = frames[frames["renderer"] == "trained_heard"]
@@ -166,7 +180,7 @@ def face_rows(
             if v == "drawn":
                 row["proxy_r"] = float(np.corrcoef(proxy, drawn)[0, 1]) if own else float("nan")
         if draw:
-            row |= _drawn_measures(model, face, held, recording, speech)
+            row |= _drawn_measures(model, face, held, recording, speech, light)
         rows.append(row)
     return rows
 
@@ -175,16 +189,23 @@ def face_rows(
 DRAWN = ("lip_opening_corr_speech", "mouth_lmd", "lip_opening_amplitude_speech")
 
 
-def _drawn_measures(model, face, held, recording, speech: slice) -> dict[str, float]:
-    """``trained_heard`` of ``face`` drawn along a held-out clip and marked as the held-out
-    evaluation marks it (:func:`~miketalk_lab.evaluation.heldout.evaluate_clip`)."""
-    from miketalk.draw.trained.draw import render_trained
+def _drawn_measures(model, face, held, recording, speech: slice, light) -> dict[str, float]:
+    """``trained_heard`` of ``face`` drawn along a held-out clip (as
+    :func:`~miketalk.draw.trained.draw.render_trained` draws it, with the patch ``light``)
+    and marked as the held-out evaluation marks it."""
+    from miketalk.draw.trained.selection import PatchCompositor
+    from miketalk.visemes import SILENCE
     from miketalk_lab.evaluation.heldout import MAX_LAG
     from miketalk_lab.evaluation.landmark_scores import ClipLandmarks, landmark_scores
     from miketalk_lab.evaluation.landmarks import face_landmarks
 
     marks = ClipLandmarks(face_landmarks(), held.real)
-    drawn = render_trained(model, held.timeline, trained=face, kind="heard", recording=recording)
+    compositor = PatchCompositor(
+        face.frames, model.image(SILENCE), joins=face.selection.joins,
+        morph_options=getattr(model, "morph_options", None), light=light,
+    )  # fmt: skip
+    rows = face.plan(held.timeline, kind="heard", recording=recording)
+    drawn = [compositor.frame(row) for row in rows]
     _, measures = landmark_scores(
         marks.real, marks.of(np.stack(list(drawn))), speech=speech, max_lag=MAX_LAG
     )
@@ -277,6 +298,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="BUILD",
         help="BUILD's face, heard fitted without its unsure words' frames",
     )
+    parser.add_argument("--patch-light", choices=PATCH_LIGHTS, default=None,
+                        help="how patches are lit (default: the product's; the builds' "
+                        "evaluation's own to compare with their clips.csv)")  # fmt: skip
     parser.add_argument("--draw", action="store_true",
                         help="also draw trained_heard for real and measure it")  # fmt: skip
     return run_bench(parser, argv, _work, check=_check)
@@ -319,17 +343,18 @@ def _work(args: argparse.Namespace) -> str:
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for name, folder in builds.items():
-        rows += face_rows(name, folder, clips, options, draw=args.draw)
+        rows += face_rows(name, folder, clips, options, draw=args.draw, light=args.patch_light)
     for spec in args.refit:
         frames_of, labels_of, *tag = spec.split(":")
         name = tag[0] if tag else f"{frames_of}+{labels_of}_phones"
         face = refit(builds[frames_of], builds[labels_of], args.out / f"corpus_{name}",
                      windows=windows, shift=args.shift)  # fmt: skip
-        rows += face_rows(name, builds[frames_of], clips, options, face=face, draw=args.draw)
+        rows += face_rows(name, builds[frames_of], clips, options, face=face, draw=args.draw,
+                          light=args.patch_light)  # fmt: skip
     for name in args.without_unsure:
         face = without_unsure(builds[name])
         rows += face_rows(f"{name}_without_unsure", builds[name], clips, options, face=face,
-                          draw=args.draw)  # fmt: skip
+                          draw=args.draw, light=args.patch_light)  # fmt: skip
     table = pd.DataFrame(rows)
     table.to_csv(args.out / "clips.csv", index=False, float_format="%.5f")
     return _summary(args, table, next(iter(builds)))
@@ -352,12 +377,9 @@ def _summary(args: argparse.Namespace, table: pd.DataFrame, base: str) -> str:
         )
     summary = "\n".join(lines) + "\n"
     (args.out / "summary.md").write_text(summary, "utf-8")
-    (args.out / "settings.json").write_text(
-        json.dumps({"build": args.build, "refit": args.refit, "window": args.window,
-                    "shift": args.shift, "limit": args.limit, "draw": args.draw,
-                    "without_unsure": args.without_unsure}, indent=1) + "\n",
-        "utf-8",
-    )  # fmt: skip
+    keys = ("build", "refit", "window", "shift", "limit", "draw", "patch_light", "without_unsure")
+    settings = {k: getattr(args, k) for k in keys}
+    (args.out / "settings.json").write_text(json.dumps(settings, indent=1) + "\n", "utf-8")
     return summary
 
 
