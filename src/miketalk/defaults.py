@@ -119,14 +119,14 @@ BLEND_INTERPOLATION = "cubic"
 BLEND_COLOUR = "lips"
 
 #: How the trained face brings each clip's patches to the light of the face they are drawn
-#: onto (:mod:`miketalk.draw.trained.light`): ``"session"`` (a CIELAB transfer per clip,
-#: learned on the lower face between the face and the clip's frames of the same mouth shape)
-#: or ``"border"`` (an RGB offset per clip from the patch's border band, the way before). On
-#: the 8 weekly addresses held out, dubbed by the trained face hearing their own recordings
+#: onto (:mod:`miketalk.draw.trained.light`): ``"session"`` (a CIELAB shift per clip, learned
+#: on the lower face between the face and the clip's frames of the same mouth shape) or
+#: ``"border"`` (an RGB offset per clip from the patch's border band, the way before). On the 8
+#: weekly addresses held out, dubbed by the trained face hearing their own recordings
 #: (docs/anyone.md, "The trained face's patches"), paired with ``"border"``: the lips' CIELAB
-#: distance from his 4.43 -> 2.77 (8 of 8 nearer), its spread over a clip's frames 1.97 ->
-#: 1.32 (7 of 8 steadier); opening r +0.01, amplitude +0.01, LMD +0.02 px. On s1's 40
-#: held-out sentences (8-clip model): mouth PSNR +0.81 dB (39 of 40), opening r -0.014.
+#: distance from his 4.43 -> 2.70 (8 of 8 nearer), its spread over a clip's frames 1.97 ->
+#: 1.25 (8 of 8 steadier); opening r +0.02, amplitude +0.00, LMD -0.00 px. On s1's 40
+#: held-out sentences (8-clip model): mouth PSNR +0.69 dB (39 of 40), opening r -0.004.
 PATCH_LIGHT = "session"
 
 #: Keep the blend off the reference's backdrop and clothes

@@ -18,10 +18,13 @@ H, W = 64, 92  # the patch: a mouth 40 px wide (W / 2.3), its centre 30 px down
 REGION = (26, 20, 40, 20)
 SKIN, LIPS, DARK = (180, 130, 105), (150, 80, 85), (40, 20, 20)
 
-#: Another day's light and camera, in CIELAB: darker, more saturated (the lips pinker against
-#: the skin, which turns more orange) and warmer: ``lab * SCALE + SHIFT``.
+#: Another day's light, in CIELAB: darker, pinker and warmer (``lab + SHIFT``), and its collar
+#: and suit across the patch's bottom (in the border band, outside the lower face).
+SHIFT = np.array([-8.0, 8.0, 6.0], np.float32)
+SUIT = (35, 35, 45)
+
+#: A day's camera that also spreads the colours: ``lab * SCALE + SHIFT`` (more saturated).
 SCALE = np.array([0.85, 1.3, 1.25], np.float32)
-SHIFT = np.array([4.0, 3.0, -4.0], np.float32)
 
 
 def _mouth(opening: int, rng: np.random.Generator) -> np.ndarray:
@@ -48,20 +51,27 @@ def _frames(patches: np.ndarray, clip: np.ndarray) -> MouthFrames:
     )  # fmt: skip
 
 
-@pytest.fixture(scope="module")
-def two_days() -> tuple[MouthFrames, np.ndarray, np.ndarray]:
-    """The same 30 mouths filmed on two days (the second in :data:`SCALE` and
-    :data:`SHIFT`'s light), the face (day 1's closed mouth) and day 1's patches (what day 2's
-    should become)."""
+def _two_days(scale: np.ndarray, shift: np.ndarray, suit: bool) -> tuple:
+    """The same 30 mouths filmed on two days (the second ``lab * scale + shift``, with the
+    :data:`SUIT` at its bottom when ``suit``), the face (day 1's closed mouth) and day 1's
+    patches (what day 2's should become)."""
     rng = np.random.default_rng(4)
     openings = np.tile(np.arange(0, 15), 2)
     day1 = np.clip(np.stack([_mouth(int(k), rng) for k in openings]), 0, 255)
-    lab = cv2.cvtColor(day1.reshape(-1, W, 3) / 255, cv2.COLOR_RGB2Lab) * SCALE + SHIFT
+    lab = cv2.cvtColor(day1.reshape(-1, W, 3) / 255, cv2.COLOR_RGB2Lab) * scale + shift
     day2 = (cv2.cvtColor(lab, cv2.COLOR_Lab2RGB) * 255).reshape(day1.shape)
+    if suit:
+        day2[:, -11:] = SUIT
     patches = np.clip(np.rint(np.concatenate([day1, day2])), 0, 255).astype(np.uint8)
     frames = _frames(patches, np.repeat([0, 1], len(openings)))
     face = np.clip(np.rint(_mouth(0, np.random.default_rng(9))), 0, 255).astype(np.uint8)
     return frames, face, patches[: len(openings)]
+
+
+@pytest.fixture(scope="module")
+def two_days() -> tuple[MouthFrames, np.ndarray, np.ndarray]:
+    """:func:`_two_days` of another day's light (:data:`SHIFT`) and suit."""
+    return _two_days(np.ones(3, np.float32), SHIFT, suit=True)
 
 
 def _error(light: str, two_days, where: np.ndarray) -> float:
@@ -72,23 +82,43 @@ def _error(light: str, two_days, where: np.ndarray) -> float:
     return float(np.abs(lit - truth.astype(np.float32))[:, where].mean())
 
 
+def _lips() -> np.ndarray:
+    lips = np.zeros((H, W), np.uint8)
+    cv2.ellipse(lips, (46, 30), (20, 12), 0, 0, 360, 1, -1)
+    return lips.astype(bool)
+
+
 def test_session_light_undoes_another_days_light_where_a_border_offset_does_not(
     two_days,
 ) -> None:
     frames, face, truth = two_days
-    lips = np.zeros((H, W), np.uint8)
-    cv2.ellipse(lips, (46, 30), (20, 12), 0, 0, 360, 1, -1)
-    lips = lips.astype(bool)
-    assert lower_face(frames)[lips].all() and not lower_face(frames)[:4].any()
+    lips = _lips()
+    assert lower_face(frames)[lips].all() and not lower_face(frames)[-11:].any()
     raw = float(np.abs(frames.patches[30:].astype(np.float32) - truth)[:, lips].mean())
     border, session = _error("border", two_days, lips), _error("session", two_days, lips)
-    assert raw > 6  # the second day's lips are another colour (9.4 levels)
-    assert session < 2  # 0.9
-    assert border > 6  # 8.3: the border's offset leaves the lips their day's colour
+    assert raw > 10  # the second day's lips are another colour (20 levels)
+    assert session < 3  # 2.1
+    assert border > 10  # 15.3: the suit in the border band darkened the offset
     # day 1's own patches (the face's light) are nearly unchanged
     match = patch_light(frames, face, "session")
     first = np.stack([match.apply(p, 0) for p in frames.patches[:30]])
-    assert np.abs(first - truth)[:, lips].mean() < 2  # 1.0
+    assert np.abs(first - truth)[:, lips].mean() < 1  # 0.2
+
+
+def test_a_spread_limit_lets_the_transfer_undo_a_camera_that_spreads_the_colours(
+    monkeypatch,
+) -> None:
+    """The default holds each channel's spread (:data:`SPREAD_LIMIT` 1); a limit above one
+    scales it too, and undoes a day whose colours are more saturated."""
+    from miketalk.draw.trained import light
+
+    days = _two_days(SCALE, np.array([4.0, 3.0, -4.0], np.float32), suit=False)
+    lips = _lips()
+    assert light.SPREAD_LIMIT == 1.0
+    held = _error("session", days, lips)
+    monkeypatch.setattr(light, "SPREAD_LIMIT", 1.5)
+    scaled = _error("session", days, lips)
+    assert scaled < 2 < 6 < held  # 0.9 against 8.4
 
 
 def test_border_light_is_the_offset_before_and_a_light_is_named(two_days) -> None:
