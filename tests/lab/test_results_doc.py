@@ -165,3 +165,14 @@ def test_the_page_is_written_and_the_bench_writes_it(
     monkeypatch.setattr(sys, "argv", ["bench", "--out", "results/bench", "--no-results-doc"])
     page.unlink()
     assert bench_main.main() == 0 and not page.exists()
+
+
+def test_the_page_points_at_the_hand_timed_runs_it_does_not_hold(tmp_path: Path) -> None:
+    """The runs timed by hand live in docs/timings.md, which no command rewrites; the page
+    ``make bench`` rewrites links to it, and the link is to a page that exists."""
+    results, bench = _tables(tmp_path)
+    page = results_doc.results_markdown(results, bench, tmp_path / "none", date="2000-01-01")
+    assert "[timings.md](timings.md)" in page
+    docs = Path(results_doc.__file__).resolve().parents[3] / "docs"
+    assert (docs / "timings.md").is_file()
+    assert "[timings.md](timings.md)" in (docs / "results.md").read_text("utf-8")

@@ -39,6 +39,8 @@ ROOT = Path(__file__).resolve().parents[3]
 #: training-clips sweep face (``.bench/config.yaml``: ``sweeps.training_clips``).
 FACES = ("s1",)
 BENCH_FACES = ("s1", "s1-n160")
+#: The link to the runs timed by hand, kept in a page no command rewrites.
+HAND_TIMED = "Runs timed by hand, quiet or paired before and after: [timings.md](timings.md)."
 
 #: The bench workflow, as the held-out tables of the bench are made.
 BENCH_SNAKEMAKE = (
@@ -395,7 +397,7 @@ def results_markdown(
         f"{run} results/metrics/sync_sweep.csv",
         SYNC_COLUMNS,
     )
-    lines += ["## `make bench`", ""]
+    lines += ["## `make bench`", "", HAND_TIMED, ""]
     lines += _markdown_file("Speed: say, dub and the 720p render (issue 51's targets)",
                             bench_out / "speed" / "summary.md", f"{bench} speed")  # fmt: skip
     lines += bench_section(bench_out)
