@@ -28,8 +28,8 @@ KIND = "video-models"
 
 
 def video_digest(video: str | os.PathLike[str]) -> str:
-    """The SHA-256 of the video file's bytes, in hex (``model.manifest.file_digest``)."""
-    from miketalk.model.manifest import file_digest  # (numpy: not for say's checks)
+    """The SHA-256 of the video file's bytes, in hex."""
+    from miketalk.media.user_cache import file_digest
 
     return file_digest(video)
 

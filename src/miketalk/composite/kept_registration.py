@@ -39,6 +39,7 @@ import numpy as np
 
 from miketalk import defaults
 from miketalk.composite.background import Background
+from miketalk.media.user_cache import ffmpeg_stamp, file_digest, source_digest
 
 __all__ = ["KIND", "kept_background", "registration_key", "untracked_warning"]
 
@@ -66,34 +67,6 @@ def untracked_warning(source: str, left_out: tuple[str, ...], untracked: int, n:
     )  # fmt: skip
 
 
-def _file_digest(path: str | os.PathLike[str]) -> str:
-    """The SHA-256 of a file's bytes, in hex."""
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
-
-
-def _code_digest() -> str:
-    """The SHA-256 of the source files of :data:`_MAKERS`, in order of their paths."""
-    root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    for part in _MAKERS:
-        where = root / part
-        files = sorted(where.rglob("*.py")) if where.is_dir() else [where]
-        for path in files:
-            digest.update(str(path.relative_to(root)).encode())
-            digest.update(path.read_bytes())
-    return digest.hexdigest()
-
-
-def _ffmpeg_stamp() -> list:
-    """ffmpeg's path, size and modification time (what decodes the frames)."""
-    from miketalk.media.x264 import ffmpeg_exe
-
-    exe = ffmpeg_exe()
-    stat = os.stat(exe)
-    return [str(exe), stat.st_size, stat.st_mtime_ns]
-
-
 def registration_key(
     model: Any, video: str | os.PathLike[str], *, check_person: bool
 ) -> list | None:
@@ -108,7 +81,7 @@ def registration_key(
         json.dumps(manifest, sort_keys=True, separators=(",", ":")).encode("utf-8")
     ).hexdigest()
     return [
-        FORMAT, __version__, _code_digest(), _ffmpeg_stamp(), _file_digest(video),
+        FORMAT, __version__, source_digest(_MAKERS), ffmpeg_stamp(), file_digest(video),
         model_digest, bool(check_person), float(defaults.BACKGROUND_SMOOTH),
     ]  # fmt: skip
 

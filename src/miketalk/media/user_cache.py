@@ -13,7 +13,7 @@ Entries are named by what they are made from (:func:`entry_name`: a SHA-256 of t
 never by a path a user gave, and hold nothing a later run trusts beyond what its key
 names: what was checked, and the stat of the files it was checked on.
 
-Only the standard library is used.
+Only the standard library is used (and, for :func:`ffmpeg_stamp`, the ffmpeg it names).
 """
 
 from __future__ import annotations
@@ -27,7 +27,17 @@ from typing import Any
 
 from miketalk.media.atomic import write_text_atomic
 
-__all__ = ["CACHE_ENV", "cache_dir", "cache_root", "entry_name", "read_record", "write_record"]
+__all__ = [
+    "CACHE_ENV",
+    "cache_dir",
+    "cache_root",
+    "entry_name",
+    "ffmpeg_stamp",
+    "file_digest",
+    "read_record",
+    "source_digest",
+    "write_record",
+]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +67,34 @@ def cache_dir(kind: str) -> Path | None:
         log.debug("no cache at %s (%s): nothing is kept", where, err)
         return None
     return where if os.access(where, os.W_OK | os.X_OK) else None
+
+
+def file_digest(path: str | os.PathLike[str]) -> str:
+    """The SHA-256 of a file's bytes, in hex (read in blocks; the hash runs without the GIL)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def source_digest(parts: tuple[str, ...]) -> str:
+    """The SHA-256 of the source of ``parts`` (paths under the ``miketalk`` package: a
+    module, or a folder's modules in order of their paths): what made an entry, in its key."""
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for part in parts:
+        where = root / part
+        for path in sorted(where.rglob("*.py")) if where.is_dir() else [where]:
+            digest.update(str(path.relative_to(root)).encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def ffmpeg_stamp() -> list:
+    """ffmpeg's path, size and modification time (what decodes an entry's frames)."""
+    from miketalk.media.x264 import ffmpeg_exe
+
+    exe = ffmpeg_exe()
+    stat = os.stat(exe)
+    return [str(exe), stat.st_size, stat.st_mtime_ns]
 
 
 def entry_name(*key: Any) -> str:

@@ -15,7 +15,7 @@ from typing import Any
 
 from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
-from miketalk.media.user_cache import read_record, write_record
+from miketalk.media.user_cache import file_digest, read_record, write_record
 
 FORMAT = "miketalk-model/1"
 
@@ -153,14 +153,6 @@ def check_complete(flows: FlowDatabase, visemes: tuple[str, ...] | list[str]) ->
         path = flows.path_for(a, b)
         if not path.exists():
             raise MiketalkError(f"flow file {path} for visemes {a!r} and {b!r} is missing")
-
-
-def file_digest(path: str | os.PathLike[str]) -> str:
-    """The SHA-256 of a file's bytes, in hex (read in blocks; the hash runs without the GIL)."""
-    import hashlib
-
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def file_entry(path: str | os.PathLike[str], *, in_parts: bool = False) -> dict:

@@ -28,7 +28,6 @@ import logging
 import math
 import os
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
@@ -49,16 +48,6 @@ _MAKERS = (
 )  # fmt: skip
 
 
-def _code_digest() -> str:
-    """The SHA-256 of the source files of :data:`_MAKERS`, in order."""
-    root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    for part in _MAKERS:
-        digest.update(part.encode())
-        digest.update((root / part).read_bytes())
-    return digest.hexdigest()
-
-
 def _array_digest(image: np.ndarray) -> str:
     """The SHA-256 of an array's dtype, shape and pixels."""
     array = np.ascontiguousarray(image)
@@ -72,15 +61,11 @@ def identity_key(reference: np.ndarray, video: str | os.PathLike[str]) -> list:
     import dlib
 
     from miketalk import __version__
-    from miketalk.media.x264 import ffmpeg_exe
+    from miketalk.media.user_cache import ffmpeg_stamp, file_digest, source_digest
 
-    exe = ffmpeg_exe()
-    stat = os.stat(exe)
-    with open(video, "rb") as f:
-        video_digest = hashlib.file_digest(f, "sha256").hexdigest()
     return [
-        FORMAT, __version__, _code_digest(), dlib.__version__,
-        [str(exe), stat.st_size, stat.st_mtime_ns], video_digest, _array_digest(reference),
+        FORMAT, __version__, source_digest(_MAKERS), dlib.__version__, ffmpeg_stamp(),
+        file_digest(video), _array_digest(reference),
     ]  # fmt: skip
 
 
