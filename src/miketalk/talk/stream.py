@@ -16,6 +16,7 @@ on a pipe; the page reads it the same way.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import os
 import queue
@@ -313,24 +314,25 @@ def release_free_memory() -> bool:
     stream of 24 minutes of speech on s1: 206 MB resident, 12 MB of it in use in glibc's
     arenas and 55 MB free in them; 154 MB after this (docs/serve.md, "An hour's text").
     """
-    global _TRIM
-    if _TRIM is None:
-        import ctypes
-        import ctypes.util
-
-        try:
-            trim = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
-            trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
-        except (OSError, AttributeError):
-            trim = False
-        _TRIM = trim
-    if _TRIM is False:
+    trim = _malloc_trim()
+    if trim is None:
         return False
-    _TRIM(0)
+    trim(0)
     return True
 
 
-_TRIM: Any = None  # glibc's malloc_trim once looked up; False: none
+@functools.cache
+def _malloc_trim() -> Any:
+    """glibc's ``malloc_trim``, looked up once (None: the C library has none)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        trim = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+    except (OSError, AttributeError):
+        return None
+    trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
+    return trim
 
 
 def kill_thread_children(thread: threading.Thread) -> None:
