@@ -478,3 +478,67 @@ def test_bridge_strategy_joins_far_visemes_through_rest(tmp_path):
     assert bridged < 0.7 < 10.0 < np.linalg.norm(direct - truth, axis=-1)[inner].mean()  # 18.7
     back = FlowDatabase(tmp_path / "bridge").flow("B", "A")
     assert np.linalg.norm(back - true_flow(peak_b, peak_a), axis=-1)[inner].mean() < 0.7
+
+
+# --- chains of flows estimated in a region, computed in its box -------------------------
+
+
+def _flows_in_box(rng, shape, box, scale, n):
+    x, y, w, h = box
+    flows = []
+    for _ in range(n):
+        flow = np.zeros((*shape, 2), np.float32)
+        smooth = cv2.GaussianBlur(rng.normal(0, scale * 4, (h, w, 2)).astype(np.float32), (0, 0), 2)
+        flow[y : y + h, x : x + w] = smooth + rng.normal(0, scale / 10, (h, w, 2))
+        flows.append(flow)
+    return flows
+
+
+@pytest.mark.parametrize("scale", [0.2, 2.0, 15.0])
+@pytest.mark.parametrize(
+    "box", [(40, 30, 50, 20), (0, 0, 60, 40), (70, 50, 50, 30), (1, 1, 118, 78)]
+)
+def test_a_chain_of_flows_zero_outside_a_box_is_computed_in_the_box_to_the_bit(scale, box):
+    """Concatenation in the support box gives the whole concatenation's numbers (equal
+    arrays, not close ones), for small and large flows and boxes at the frame's edges."""
+    from miketalk.flow.warp import _remap, warp_flow_in_box
+
+    rng = np.random.default_rng(int(scale * 10) + box[0])
+    shape = (80, 120)
+    flows = _flows_in_box(rng, shape, box, scale, 6)
+    x, y, w, h = box
+    warped = warp_flow_in_box(flows[1], flows[0][y : y + h, x : x + w], (x, y))
+    assert np.array_equal(warped, _remap(flows[1], flows[0])[y : y + h, x : x + w])
+    whole = concatenate_up_flows(flows)
+    boxed = concatenate_up_flows(flows, support=box)
+    assert np.abs(whole).max() > scale / 2
+    assert np.array_equal(boxed, whole)
+
+
+def test_a_recordings_folds_and_chains_in_its_region_are_those_of_the_whole_frame(tmp_path):
+    from miketalk.flow.strategies.base import Recording
+
+    rng = np.random.default_rng(5)
+    shape, box = (64, 96), (20, 14, 48, 30)
+    forward = np.stack(_flows_in_box(rng, shape, box, 1.5, 12))
+    backward = np.stack(_flows_in_box(rng, shape, box, 1.5, 12))
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    cv2.imwrite(str(frames / "000000.png"), np.zeros((*shape, 3), np.uint8))
+
+    def recording(support):
+        return Recording(
+            estimate=bergen_flow, frames_dir=frames, n_frames=13, consecutive=(forward, backward),
+            slots={k: k for k in range(12)}, viseme_frames=(0, 5, 12), support=support,
+        )  # fmt: skip
+
+    whole, boxed = recording(None), recording(box)
+    whole.frame, boxed.frame = (lambda k: np.zeros((*shape, 3), np.uint8),) * 2
+    for start in (0, 5, 12):
+        folds = whole.fold_from(start)
+        assert folds.keys() == boxed.fold_from(start).keys()
+        for end, flow in folds.items():
+            assert np.array_equal(boxed.fold_from(start)[end], flow)
+    assert np.array_equal(boxed.fold_of_steps(9, 2), whole.fold_of_steps(9, 2))
+    steps = boxed.steps(3, 11)
+    assert np.array_equal(boxed.chain(steps, 3), whole.chain(steps, 3))

@@ -175,6 +175,7 @@ def build_flow_database(
         rest=rest,
         mixed=None if mixed is None else str(mixed),
         viseme_frames=tuple(frame_of.values()),
+        support=None if region is None else tuple(int(v) for v in region),
     )
     with tempfile.TemporaryDirectory(dir=out.parent, prefix=".consecutive-") as tmp:
         if steps:

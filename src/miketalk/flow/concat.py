@@ -24,9 +24,13 @@ import numpy as np
 
 from miketalk.checks import check_flow
 from miketalk.errors import MiketalkError
-from miketalk.flow.warp import _remap
+from miketalk.flow.warp import _remap, warp_flow_in_box
 
 FlowEstimator = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+#: ``(x, y, w, h)``: a box outside which every flow of a chain is zero (flows estimated in
+#: a region, :func:`~miketalk.flow.registry.in_region`).
+Support = tuple[int, int, int, int]
 
 
 def concat_flows(flow_ab: np.ndarray, flow_bc: np.ndarray) -> np.ndarray:
@@ -90,7 +94,7 @@ def _check_flows(flows: Sequence[np.ndarray]) -> list[np.ndarray]:
     ]
 
 
-def concatenate_up_flows(flows: Sequence[np.ndarray]) -> np.ndarray:
+def concatenate_up_flows(flows: Sequence[np.ndarray], support: Support | None = None) -> np.ndarray:
     """CONCATENATION-UP (Fig. 11) of precomputed consecutive flows into ``C_{0n}``.
 
     ``C_{0i} = C_{0(i-1)} + backward_warp(C_{(i-1)i}, C_{0(i-1)})`` for ``i = 2..n``.
@@ -99,6 +103,10 @@ def concatenate_up_flows(flows: Sequence[np.ndarray]) -> np.ndarray:
     ----------
     flows : sequence of ndarray, shape (H, W, 2)
         ``C_{01}, C_{12}, ..., C_{(n-1)n}``.
+    support : (x, y, w, h), optional
+        A box outside which every flow is zero (estimated in a region). The chain is
+        then zero there too, and only the box is computed (:func:`concat_in_box`): the
+        same numbers, the work of the box's pixels.
 
     Returns
     -------
@@ -106,10 +114,40 @@ def concatenate_up_flows(flows: Sequence[np.ndarray]) -> np.ndarray:
         ``C_{0n}``.
     """
     flows = _check_flows(flows)
+    if support is not None:
+        inner = support_slices(support, flows[0].shape)
+        total = flows[0][inner].copy()
+        for step in flows[1:]:
+            total = concat_in_box(total, step, inner)
+        return whole_field(total, inner, flows[0].shape)
     total = flows[0].copy()
     for step in flows[1:]:
         total = _concat(total, step)
     return total
+
+
+def support_slices(support: Support, shape: tuple[int, ...]) -> tuple[slice, slice]:
+    """The rows and columns of the box ``support`` ``(x, y, w, h)`` within ``shape``."""
+    x, y, w, h = (int(v) for v in support)
+    rows, cols = shape[:2]
+    return slice(max(0, y), min(rows, y + h)), slice(max(0, x), min(cols, x + w))
+
+
+def concat_in_box(total: np.ndarray, step: np.ndarray, inner: tuple[slice, slice]) -> np.ndarray:
+    """:func:`concat_flows` over the box ``inner`` only: ``total`` is the first flow's box,
+    ``step`` the whole second flow; the box of ``C_ac``, the same numbers as the whole.
+
+    Outside a box where both flows are zero, ``C_ac(p) = 0 + C_bc(p) = 0``: a chain of flows
+    zero outside one box is zero there too, so only the box is computed.
+    """
+    return total + warp_flow_in_box(step, total, (inner[1].start, inner[0].start))
+
+
+def whole_field(box: np.ndarray, inner: tuple[slice, slice], shape: tuple[int, ...]) -> np.ndarray:
+    """The whole ``(H, W, 2)`` float32 flow of ``shape``: ``box`` over ``inner``, zero elsewhere."""
+    out = np.zeros((*shape[:2], 2), np.float32)
+    out[inner] = box
+    return out
 
 
 def concatenate_down_flows(flows: Sequence[np.ndarray]) -> list[np.ndarray]:

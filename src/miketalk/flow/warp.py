@@ -58,6 +58,33 @@ def backward_warp(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     return _remap(image, flow)
 
 
+def warp_flow_in_box(
+    field: np.ndarray, flow_in_box: np.ndarray, corner: tuple[int, int]
+) -> np.ndarray:
+    """``_remap(field, flow)`` over one box of the output: a flow field warped along a flow.
+
+    ``field`` is a whole ``(H, W, 2)`` float32 flow field, sampled as :func:`backward_warp`
+    samples it (its borders replicated); ``flow_in_box`` is the warping flow over the box
+    whose top-left corner is ``corner`` ``(x, y)``. The result is the box of the whole
+    warp, to the bit: OpenCV rounds a relative map to its fixed-point grid (1/32 pixel)
+    before it adds each pixel's position, so the box's map is rounded the same way
+    (``cv2.convertMaps``) and its positions added as integers. (Checked for two-channel
+    float32 fields only: OpenCV rounds images of one, three or four channels otherwise.)
+    """
+    x, y = corner
+    h, w = flow_in_box.shape[:2]
+    whole, fraction = cv2.convertMaps(np.ascontiguousarray(flow_in_box), None, cv2.CV_16SC2)
+    grid = np.empty((h, w, 2), np.int32)
+    grid[..., 0] = np.arange(x, x + w, dtype=np.int32)[None, :]
+    grid[..., 1] = np.arange(y, y + h, dtype=np.int32)[:, None]
+    grid += whole
+    whole = np.clip(grid, -32768, 32767).astype(np.int16)
+    return cv2.remap(
+        np.ascontiguousarray(field, np.float32), whole, fraction, cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
+    )  # fmt: skip
+
+
 def _remap(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     """Bilinear ``image(p + flow(p))`` with replicated borders; no checks."""
     if image.dtype != np.uint8:

@@ -16,7 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from miketalk.flow.concat import concat_flows, concatenate_up_flows
+from miketalk.flow.concat import (
+    Support,
+    concat_flows,
+    concat_in_box,
+    concatenate_up_flows,
+    support_slices,
+    whole_field,
+)
 from miketalk.flow.database import FlowDatabase
 from miketalk.flow.mixed import window_chains
 from miketalk.media.images import read_image
@@ -70,6 +77,8 @@ class Recording:
         The mixed database of the same method, which the bridge refines.
     viseme_frames : tuple of int
         The frames the visemes were taken from (where chains end).
+    support : (x, y, w, h), optional
+        The region the flows are estimated in (zero outside): chains are computed there.
     """
 
     estimate: Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -82,6 +91,7 @@ class Recording:
     rest: np.ndarray | None = None
     mixed: FlowDatabase | None = None
     viseme_frames: tuple[int, ...] = ()
+    support: Support | None = None
     _frames: dict[int, np.ndarray] = field(default_factory=dict, repr=False)
     _chains: dict[int, list[np.ndarray]] = field(default_factory=dict, repr=False)
     _folds: dict[int, dict[int, np.ndarray]] = field(default_factory=dict, repr=False)
@@ -110,7 +120,7 @@ class Recording:
         """CONCATENATION-UP of ``flows``; zero flow (frame ``like``'s size) when empty."""
         if not flows:
             return np.zeros((*self.frame(like).shape[:2], 2), np.float32)
-        return concatenate_up_flows(list(flows))
+        return concatenate_up_flows(list(flows), self.support)
 
     def fold_of_steps(self, start: int, end: int) -> np.ndarray | None:
         """The chain of consecutive flows from frame ``start`` to ``end`` (None: the same frame).
@@ -122,7 +132,7 @@ class Recording:
             return None
         key = (start, end)
         if key not in self._prefixes:
-            self._prefixes[key] = concatenate_up_flows(self.steps(start, end))
+            self._prefixes[key] = concatenate_up_flows(self.steps(start, end), self.support)
         return self._prefixes[key]
 
     def fold_from(self, start: int) -> dict[int, np.ndarray]:
@@ -140,14 +150,23 @@ class Recording:
         out: dict[int, np.ndarray] = {}
         later = sorted(e for e in set(self.viseme_frames) if e > start)
         earlier = sorted((e for e in set(self.viseme_frames) if e < start), reverse=True)
+        shape = self.frame(start).shape
+        inner = None if self.support is None else support_slices(self.support, shape)
         for targets, sign in ((later, 1), (earlier, -1)):
             total, k = None, start
             for end in targets:
                 while k != end:
                     step = np.asarray(self.step(k, sign))
-                    total = step.copy() if total is None else concat_flows(total, step)
+                    if inner is not None:
+                        total = (
+                            step[inner].copy()
+                            if total is None
+                            else concat_in_box(total, step, inner)
+                        )
+                    else:
+                        total = step.copy() if total is None else concat_flows(total, step)
                     k += sign
-                out[end] = total
+                out[end] = total if inner is None else whole_field(total, inner, shape)
         self._folds[start] = out
         return out
 

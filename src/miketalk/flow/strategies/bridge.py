@@ -39,7 +39,7 @@ def bridge_flow(recording: Recording, start: int, rest_start: int, rest_end: int
     first = recording.fold_of_steps(start, rest_start)
     if first is None:
         return recording.chain(flows, start)
-    return concatenate_up_flows([first, *flows]) if flows else first.copy()
+    return concatenate_up_flows([first, *flows], recording.support) if flows else first.copy()
 
 
 def bridge_flows(pair: Pair, recording: Recording) -> PairFlows:
