@@ -56,7 +56,9 @@ def no_face_line(source: str, none: int, looked: int) -> str:
 
 def _detector():
     try:
-        import dlib
+        import dlib  # noqa: F401
     except ImportError:
         return None
-    return dlib.get_frontal_face_detector()
+    from miketalk.track.kept_detector import frontal_face_detector
+
+    return frontal_face_detector()
