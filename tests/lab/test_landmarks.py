@@ -64,7 +64,7 @@ def test_the_mouth_points_land_on_the_mouth(s1_clip) -> None:
 
 def test_a_frame_is_at_no_distance_from_itself(s1_clip) -> None:
     frames, marks = s1_clip
-    again = marks.of(frames[:10])
+    again = face_landmarks().points(frames[:10], marks.box)  # marked again, not remembered
     np.testing.assert_array_equal(again, marks.real[:10])  # the same box, the same points
     assert (mouth_lmd(again, marks.real[:10]) == 0).all()
     _, summary = landmark_scores(marks.real, marks.real, speech=slice(15, 60), max_lag=5)
@@ -72,6 +72,33 @@ def test_a_frame_is_at_no_distance_from_itself(s1_clip) -> None:
     assert summary["lip_opening_corr_speech"] == pytest.approx(1)
     assert summary["lip_opening_amplitude_speech"] == pytest.approx(1)
     assert summary["lip_opening_lag"] == 0
+
+
+def test_a_frame_drawn_again_is_marked_once(s1_clip) -> None:
+    """A clip's repeated frames (a held pose, a still renderer, the real frames) are marked
+    once and given the points the predictor gave them."""
+    frames, marks = s1_clip
+    landmarks = face_landmarks()
+    calls = []
+    predictor = landmarks._predictor
+    landmarks._predictor = lambda frame, rect: calls.append(1) or predictor(frame, rect)
+    try:
+        held = np.concatenate([frames[3:4].repeat(5, axis=0), frames[:4]])
+        points = marks.of(held)
+    finally:
+        landmarks._predictor = predictor
+    assert calls == []  # every one of them is one of the real frames, marked already
+    np.testing.assert_array_equal(points, marks.real[[3, 3, 3, 3, 3, 0, 1, 2, 3]])
+    fresh = landmarks.points(held, marks.box, known={})
+    np.testing.assert_array_equal(fresh, points)
+    brighter = np.clip(held.astype(int) + 9, 0, 255).astype(np.uint8)
+    known: dict = {}
+    landmarks._predictor = lambda frame, rect: calls.append(1) or predictor(frame, rect)
+    try:
+        landmarks.points(brighter, marks.box, known=known)
+    finally:
+        landmarks._predictor = predictor
+    assert len(calls) == len(known) == 4  # nine frames, four of them distinct
 
 
 def test_the_real_mouth_late_is_near_but_not_the_real_mouth(s1_clip) -> None:

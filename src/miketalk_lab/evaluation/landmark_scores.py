@@ -71,11 +71,12 @@ class ClipLandmarks:
     def __init__(self, landmarks: FaceLandmarks, real: np.ndarray) -> None:
         self._landmarks = landmarks
         self.box = landmarks.face_box(real)
-        self.real = landmarks.points(real, self.box)
+        self._known: dict = {}  # points by grey frame: a frame two renderers draw is marked once
+        self.real = landmarks.points(real, self.box, self._known)
 
     def of(self, frames: np.ndarray) -> np.ndarray:
         """The landmarks ``(N, 68, 2)`` of synthesized frames of the clip."""
-        return self._landmarks.points(frames, self.box)
+        return self._landmarks.points(frames, self.box, self._known)
 
     def late(self, frames: int) -> np.ndarray:
         """The real frames' landmarks ``frames`` frames late (the real frames delayed:

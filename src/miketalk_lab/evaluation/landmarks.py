@@ -19,6 +19,7 @@ shape is then the same for both, and only the pixels differ).
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 from functools import lru_cache
 from pathlib import Path
@@ -128,7 +129,7 @@ class FaceLandmarks:
         face = max(found, key=lambda r: (r.width() * r.height(), -r.left(), -r.top()))
         return (int(face.left()), int(face.top()), int(face.width()), int(face.height()))
 
-    def points(self, frames: np.ndarray, box: Box) -> np.ndarray:
+    def points(self, frames: np.ndarray, box: Box, known: dict | None = None) -> np.ndarray:
         """The 68 landmarks of every frame, marked from one face box.
 
         Parameters
@@ -137,6 +138,11 @@ class FaceLandmarks:
             RGB or grey frames.
         box : (x, y, w, h)
             The face box (:meth:`face_box`).
+        known : dict, optional
+            Points already marked from this box, by the grey frame's digest; frames found
+            there are not marked again, and those marked here are added. The predictor
+            marks one frame and box the same every time, so a clip's repeated frames (a
+            held pose, a still renderer) give the same points for one run of it.
 
         Returns
         -------
@@ -146,10 +152,14 @@ class FaceLandmarks:
         grey = grey_frames(frames)
         x, y, w, h = box
         rect = self._dlib.rectangle(int(x), int(y), int(x + w - 1), int(y + h - 1))
+        known = {} if known is None else known
         out = np.empty((len(grey), 68, 2))
         for k, frame in enumerate(grey):
-            shape = self._predictor(frame, rect)
-            out[k] = [(p.x, p.y) for p in shape.parts()]
+            digest = hashlib.blake2b(frame.data, digest_size=16).digest()
+            if digest not in known:
+                shape = self._predictor(frame, rect)
+                known[digest] = [(p.x, p.y) for p in shape.parts()]
+            out[k] = known[digest]
         return out
 
 
