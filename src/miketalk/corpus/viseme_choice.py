@@ -61,6 +61,10 @@ SEARCH_FRACTION = 0.25
 
 _NUCLEI = {1: (0.5,), 2: (0.25, 0.75)}
 
+#: The feathered edge of a viseme image's frame laid onto the reference (:func:`composite`),
+#: in widths of the mouth region (:func:`miketalk.mouth.mouth_region`).
+PASTE_FEATHER = 0.1
+
 
 def read_fallbacks(path: str | Path | None = None) -> dict[str, tuple[str, ...]]:
     """``viseme -> fallbacks in order``, from ``data/viseme_fallbacks.tsv`` or ``path``."""
@@ -251,15 +255,23 @@ def _donor(viseme: str, fallbacks: dict[str, tuple[str, ...]], chosen: dict) -> 
     return None
 
 
+def paste_weight(
+    shape: tuple[int, int], box: tuple[int, int, int, int], *, feather: float
+) -> np.ndarray:
+    """``(H, W)`` float32: how much of :func:`composite`'s image is the frame's (1 inside
+    ``box``, 0 outside, over a Gaussian edge of ``feather`` px)."""
+    x, y, w, h = box
+    weight = np.zeros(shape, np.float32)
+    inset = round(feather)
+    weight[y + inset : y + h - inset, x + inset : x + w - inset] = 1.0
+    return cv2.GaussianBlur(weight, (0, 0), max(feather / 2, 0.5))
+
+
 def composite(
     frame: np.ndarray, reference: np.ndarray, box: tuple[int, int, int, int], *, feather: float
 ) -> np.ndarray:
     """``frame`` inside ``box``, ``reference`` outside, over a Gaussian edge of ``feather`` px."""
-    x, y, w, h = box
-    weight = np.zeros(frame.shape[:2], np.float32)
-    inset = round(feather)
-    weight[y + inset : y + h - inset, x + inset : x + w - inset] = 1.0
-    weight = cv2.GaussianBlur(weight, (0, 0), max(feather / 2, 0.5))[..., None]
+    weight = paste_weight(frame.shape[:2], box, feather=feather)[..., None]
     out = weight * frame.astype(np.float32) + (1 - weight) * reference.astype(np.float32)
     return np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
@@ -321,7 +333,7 @@ def choose_visemes_stage(*, corpus_dir: Path, grouping: dict, out: object) -> li
     images_dir.mkdir(parents=True, exist_ok=True)
     rows, images, labels = [], [], []
     for c in choices:
-        image = composite(video.frame(c.frame), reference, region, feather=0.1 * w)
+        image = composite(video.frame(c.frame), reference, region, feather=PASTE_FEATHER * w)
         name = f"{viseme_slug(c.viseme)}.png"
         write_png(images_dir / name, image)
         where = frames.iloc[c.frame]

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from miketalk import defaults
 from miketalk.errors import MiketalkError
 from miketalk.flow import FlowDatabase
 from miketalk.media.images import read_image
@@ -76,6 +77,10 @@ class Model(Morphs):
     morph_options : dict, optional
         Some of :class:`miketalk.render.morph_settings.MorphSettings` by name, checked here (an
         unknown one is a one-line error).
+    viseme_light : str, optional
+        How its viseme images are brought to its face's light before they are drawn
+        (:data:`miketalk.draw.trained.light.VISEME_LIGHTS`; None:
+        :data:`miketalk.defaults.VISEME_LIGHT`): a face built from clips only.
 
     Raises
     ------
@@ -90,9 +95,18 @@ class Model(Morphs):
         *,
         cache_size: int = 24,
         morph_options: dict | None = None,
+        viseme_light: str | None = None,
     ) -> None:
+        from miketalk.draw.trained.light import VISEME_LIGHTS
+
         self.directory = Path(directory)
         MorphSettings.of(morph_options)  # checked before anything is read
+        self.viseme_light = viseme_light or defaults.VISEME_LIGHT
+        if self.viseme_light not in VISEME_LIGHTS:
+            raise MiketalkError(
+                f"the viseme images' light must be {' or '.join(VISEME_LIGHTS)}, "
+                f"not {self.viseme_light!r}"
+            )
         manifest = read_manifest(self.directory)
         self.manifest = manifest
         visemes = tuple(manifest["visemes"])
@@ -138,6 +152,24 @@ class Model(Morphs):
         self.close()
 
     # --- how its mouth is drawn -------------------------------------------------------
+
+    def image(self, viseme: str) -> np.ndarray:
+        """The viseme's image as drawn, (H, W, 3) uint8: in its face's light
+        (:attr:`lit_images`)."""
+        self._check(viseme)
+        return self.lit_images[viseme]
+
+    @cached_property
+    def lit_images(self) -> dict[str, np.ndarray]:
+        """Its viseme images brought to its face's light (the silence image's) by
+        :attr:`viseme_light` (:func:`miketalk.draw.trained.light.lit_visemes`), found when
+        first drawn; as built for a model without a trained face (its frames tell each
+        image's clip) or with ``"built"``."""
+        if self.viseme_light == "built" or "trained" not in self.lipsync_models:
+            return self._images
+        from miketalk.draw.trained.light import lit_visemes
+
+        return lit_visemes(self._images, self.trained_face.frames, self.viseme_light)
 
     @property
     def lipsync_models(self) -> tuple[str, ...]:

@@ -17,8 +17,16 @@ Box = tuple[int, int, int, int]
 #: The file in a clip corpus where the corpus stage records its regions (mouth box, size).
 REGIONS = "regions.json"
 
+#: :func:`mouth_region`'s box about the mouth box's centre, in mouth widths: side, above, below.
+REGION_EXTENT = (0.65, 0.45, 0.55)
+
+#: :func:`flow_region`'s box about the mouth box's centre, in mouth widths: side, above, below.
+FLOW_EXTENT = (1.5, 0.6, 1.3)
+
 __all__ = [
+    "FLOW_EXTENT",
     "REGIONS",
+    "REGION_EXTENT",
     "Box",
     "flow_region",
     "grey_mouths",
@@ -41,7 +49,7 @@ def mouth_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
     lips' meeting line); the region is centred on it, 1.3 mouth widths wide
     and one high, so that it holds both lips and the open mouth between them.
     """
-    return _about_mouth(corpus_dir, side=0.65, above=0.45, below=0.55)
+    return _about_mouth(corpus_dir, REGION_EXTENT)
 
 
 def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
@@ -51,13 +59,15 @@ def flow_region(corpus_dir: str | Path) -> tuple[int, int, int, int]:
     above (to the nose, below the eyes, which blink) and 1.3 below (the chin,
     which follows the jaw), clipped to the frame.
     """
-    return _about_mouth(corpus_dir, side=1.5, above=0.6, below=1.3)
+    return _about_mouth(corpus_dir, FLOW_EXTENT)
 
 
 def _about_mouth(
-    corpus_dir: str | Path, *, side: float, above: float, below: float
+    corpus_dir: str | Path, extent: tuple[float, float, float]
 ) -> tuple[int, int, int, int]:
-    """A box about the mouth box's centre, in mouth widths each way, clipped to the frame."""
+    """A box about the mouth box's centre, in mouth widths each way (``extent``: side, above,
+    below), clipped to the frame."""
+    side, above, below = extent
     regions = json.loads((Path(corpus_dir) / REGIONS).read_text())
     x, y, w, h = regions["mouth_box"]
     height, width = regions["size"]

@@ -1,7 +1,8 @@
 """The mouth on people other than s1: leave-clips-out on the weekly addresses, dubbed and judged.
 
 ``python -m miketalk_lab.bench.anyone --obama DIR --out OUT [--fold A,B ...] [--renderer R ...]
-[--colour offset|gain|lips] [--patch-light border|session]``
+[--colour offset|gain|lips] [--patch-light border|session]
+[--viseme-light built|session]``
 
 For each fold (default :data:`FOLDS`: every address held out once, two at a time, the
 issue's ``wa06,wa08`` first), the other addresses of ``DIR`` (``video/waNN.mp4``,
@@ -45,8 +46,9 @@ drawn a frame late). Writes ``OUT/clips.csv`` (one row per clip and renderer),
 clips and each clip), ``OUT/strip_CLIP.png`` (every tenth frame, mouth region: the
 source above each dub) and ``OUT/summary.md``. Models and dubs stay under ``OUT/work``
 (each made again only when missing). ``run(out_dir)`` (``python -m miketalk_lab.bench
-anyone``) runs it on ``.bench/anyone/config.yaml``'s ``obama`` folder. ``--colour`` and
-``--patch-light`` dub with other colour defaults (:mod:`miketalk_lab.bench.colour_dub`).
+anyone``) runs it on ``.bench/anyone/config.yaml``'s ``obama`` folder. ``--colour``,
+``--patch-light`` and ``--viseme-light`` dub with other colour defaults
+(:mod:`miketalk_lab.bench.colour_dub`).
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from miketalk.draw.trained.light import PATCH_LIGHTS, VISEME_LIGHTS
 from miketalk.errors import MiketalkError
 from miketalk.media.atomic import write_text_atomic
 from miketalk.model.parts import built_choice
@@ -242,22 +245,9 @@ def _dubs(
         if not video.is_file():
             text = UNRELATED if name == "unrelated" else line
             audio = [] if name == "unrelated" else ["--audio", str(clip), *RENDERERS[name]]
-            _run(
-                [
-                    *_miketalk(colour),
-                    "dub",
-                    str(clip),
-                    *audio,
-                    "--text",
-                    text,
-                    "--model",
-                    str(model),
-                    "-o",
-                    str(video),
-                    "--force",
-                ],
-                video.with_suffix(".log"),
-            )
+            command = [*_miketalk(colour), "dub", str(clip), *audio, "--text", text,
+                       "--model", str(model), "-o", str(video), "--force"]  # fmt: skip
+            _run(command, video.with_suffix(".log"))
         out[name] = video
     return out
 
@@ -364,18 +354,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = bench_parser(__name__, __doc__, limit_help="the first N folds only")
     parser.add_argument("--obama", type=Path, required=True, help="the weekly addresses' folder")
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument(
-        "--fold",
-        action="append",
-        default=None,
-        help="addresses held out together, comma-separated (repeatable)",
-    )
+    parser.add_argument("--fold", action="append", default=None,
+                        help="addresses held out together, comma-separated (repeat)")  # fmt: skip
     parser.add_argument("--renderer", action="append", choices=list(RENDERERS), default=None)
     parser.add_argument("--colour", choices=("offset", "gain", "lips"), default=None,
                         help="the mouth's colour match (default: the product's)")  # fmt: skip
-    parser.add_argument("--patch-light", choices=("border", "session"), default=None,
-                        help="how the trained face's patches are brought to its light "
-                        "(default: the product's)")  # fmt: skip
+    for option, what, choices in (
+        ("--patch-light", "the trained face's patches", PATCH_LIGHTS),
+        ("--viseme-light", "the viseme images", VISEME_LIGHTS),
+    ):
+        parser.add_argument(option, choices=choices, default=None, help=f"how {what} are "
+                            "brought to the face's light (default: the product's)")  # fmt: skip
     return run_bench(parser, argv, _work)
 
 
@@ -389,6 +378,7 @@ def _work(args) -> str:
     renderers = args.renderer or list(RENDERERS)
     parts = [args.colour] if args.colour else []
     parts += [f"patches={args.patch_light}"] if args.patch_light else []
+    parts += [f"visemes={args.viseme_light}"] if args.viseme_light else []
     colour = "+".join(parts) or None  # colour_dub's HOW
     work = args.out / "work"
     work.mkdir(parents=True, exist_ok=True)

@@ -18,29 +18,48 @@ Two ways, :data:`PATCH_LIGHTS` (:data:`miketalk.defaults.PATCH_LIGHT` is the def
   whose mouth is shaped most like the face's (its description's nearest :data:`REST_FRAMES`;
   each frame's statistics, their median over those frames: a median image would be
   blurred): the same mouth shape, another day's light, so what differs is the light.
+
+The paper's morph (and the learned coarticulation, which draws through its images) draws
+viseme images that the build cut from frames of those same clips: each image is its frame's
+lower face laid onto the reference (:func:`miketalk.corpus.viseme_choice.composite`), so it
+keeps its day's light too (a red frame among brown ones). :func:`lit_visemes` brings them to
+the face's light the same way, :data:`VISEME_LIGHTS` (:data:`miketalk.defaults.VISEME_LIGHT`
+is the default): ``"session"`` finds each image's own training frame among the trained face's
+(:func:`source_frames`: the build pasted it unchanged), so its clip, and applies that clip's
+:class:`SessionLight` transfer where the image is the frame's (:func:`pasted`); ``"built"``
+leaves the images as the build made them.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from miketalk.draw.trained.mouths import PATCH_EXTENT, MouthFrames, feather_mask, grey
+from miketalk.draw.trained.mouths import PATCH_EXTENT, MouthFrames, feather_mask, grey, patch_box
 from miketalk.errors import MiketalkError
+from miketalk.visemes import SILENCE
 
 __all__ = [
     "PATCH_LIGHTS",
+    "VISEME_LIGHTS",
     "PatchLight",
     "SessionLight",
     "border_shift",
+    "lit_visemes",
     "lower_face",
+    "pasted",
     "patch_light",
+    "source_frames",
 ]
 
 #: The ways a training frame's patch is brought to the face's light (the module docstring).
 PATCH_LIGHTS = ("border", "session")
+
+#: The ways the morph's viseme images are brought to the face's light (the module docstring).
+VISEME_LIGHTS = ("built", "session")
 
 #: ``"session"``: a clip's frames nearest the face's mouth shape, whose statistics are compared.
 REST_FRAMES = 15
@@ -54,6 +73,16 @@ SPREAD_LIMIT = 1.0
 #: ``"session"``: the lower face's ellipse about the mouth's centre, in mouth widths: half
 #: its width, how far it reaches above and below the centre.
 LOWER_FACE = (0.75, 0.5, 0.6)
+
+#: :func:`source_frames`: the training frames nearest a viseme image in the description that
+#: are compared with it pixel by pixel.
+NEAREST = 8
+
+#: :func:`source_frames`: the largest mean absolute difference (levels, over the mouth region's
+#: colours) at which a training frame is the one a viseme image was cut from. Measured on five
+#: models (s1's 8 clips, the four folds of the weekly addresses): 0.04 to 0.79 for the
+#: nearest, 1.89 or more for the next (the same clip's neighbouring frames).
+MATCH_LEVELS = 1.5
 
 
 def _lab(rgb: np.ndarray) -> np.ndarray:
@@ -187,3 +216,73 @@ def patch_light(frames: MouthFrames, face: np.ndarray, how: str) -> PatchLight |
         x, y, w, h = frames.patch
         return border_shift(frames, face[y : y + h, x : x + w])
     raise MiketalkError(f"the patches' light must be {' or '.join(PATCH_LIGHTS)}, not {how!r}")
+
+
+def source_frames(images: Mapping[str, np.ndarray], frames: MouthFrames) -> dict[str, int | None]:
+    """Each viseme image's own training frame (an index of ``frames``; None: none matches).
+
+    The build laid each frame's lower face unchanged onto the reference: inside the mouth
+    region the image is the frame's, to the rounding. Of the :data:`NEAREST` frames nearest
+    the image in the description, the one whose mouth region differs least from it, when that
+    mean absolute difference is at most :data:`MATCH_LEVELS`.
+    """
+    px, py = frames.patch[:2]
+    rx, ry, rw, rh = frames.region
+    names = tuple(images)
+    regions = np.stack([images[v][ry : ry + rh, rx : rx + rw] for v in names]).astype(np.float32)
+    coords = frames.project(grey(regions))
+    out: dict[str, int | None] = {}
+    for name, c, region in zip(names, coords, regions, strict=True):
+        near = np.argsort(np.linalg.norm(frames.coords - c, axis=1), kind="stable")[:NEAREST]
+        cut = (slice(ry - py, ry - py + rh), slice(rx - px, rx - px + rw))
+        diff = [float(np.abs(frames.patches[s][cut].astype(np.float32) - region).mean())
+                for s in near]  # fmt: skip
+        best = int(np.argmin(diff))
+        out[name] = int(near[best]) if diff[best] <= MATCH_LEVELS else None
+    return out
+
+
+def pasted(frames: MouthFrames, size: tuple[int, int]) -> np.ndarray:
+    """(H, W) float32: how much of a viseme image is its own frame's, the build's paste
+    (:func:`miketalk.corpus.viseme_choice.paste_weight` over the flow region,
+    :func:`miketalk.mouth.flow_region`), about the mouth box that ``frames``' mouth region
+    was cut about (its centre and width; ``size`` (H, W))."""
+    from miketalk.corpus.viseme_choice import PASTE_FEATHER, paste_weight
+    from miketalk.mouth.region import FLOW_EXTENT, REGION_EXTENT
+
+    rx, ry, rw, _ = frames.region
+    side, above, _ = REGION_EXTENT
+    width = rw / (2.0 * side)
+    centre = (rx + rw / 2.0, ry + above * width)
+    box = patch_box((centre[0] - width / 2.0, centre[1], width, 0), size, FLOW_EXTENT)
+    return paste_weight(size, box, feather=PASTE_FEATHER * rw)
+
+
+def lit_visemes(
+    images: Mapping[str, np.ndarray], frames: MouthFrames, how: str = "session"
+) -> dict[str, np.ndarray]:
+    """The viseme images (``viseme -> (H, W, 3) uint8``, with the silence image, the face)
+    brought to the face's light by ``how`` (:data:`VISEME_LIGHTS`, the module docstring).
+
+    ``"session"``: each image whose own frame :func:`source_frames` finds gets that frame's
+    clip's :class:`SessionLight` transfer (the trained face's, onto the silence image)
+    weighed by :func:`pasted`; the silence image, and an image whose frame is not found, stay
+    as built.
+    """
+    if how not in VISEME_LIGHTS:
+        raise MiketalkError(
+            f"the viseme images' light must be {' or '.join(VISEME_LIGHTS)}, not {how!r}"
+        )
+    if how == "built" or SILENCE not in images:
+        return dict(images)
+    face = images[SILENCE]
+    light = SessionLight(frames, face)
+    weight = pasted(frames, face.shape[:2])[..., None]
+    out = dict(images)
+    for name, s in source_frames(images, frames).items():
+        if name == SILENCE or s is None:
+            continue
+        image = np.asarray(images[name], np.float32)
+        lit = light.apply(image, int(frames.clip[s]))
+        out[name] = np.clip(np.rint(image + weight * (lit - image)), 0, 255).astype(np.uint8)
+    return out
