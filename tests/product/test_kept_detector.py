@@ -1,4 +1,4 @@
-"""dlib's frontal face detector kept in the user's cache (miketalk.track.kept_detector):
+"""dlib's frontal face detector kept in the user's cache (miketalk.stabilize.kept_detector):
 read back from it, the same detector as dlib's own; a damaged entry is made again."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pickle
 import dlib
 import pytest
 
-from miketalk.track.kept_detector import KIND, frontal_face_detector
+from miketalk.stabilize.kept_detector import KIND, frontal_face_detector
 
 
 @pytest.fixture(scope="module")

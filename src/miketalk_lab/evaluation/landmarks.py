@@ -90,7 +90,7 @@ class FaceLandmarks:
                 "pip install -e ."
             ) from err
         self._dlib = dlib
-        from miketalk.track.kept_detector import frontal_face_detector
+        from miketalk.stabilize.kept_detector import frontal_face_detector
 
         self._detector = frontal_face_detector()  # dlib's, kept in binary form: 1 ms to load
         self._predictor = dlib.shape_predictor(str(predictor_path()))
