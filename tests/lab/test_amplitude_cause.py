@@ -122,26 +122,3 @@ def test_bad_arguments_are_a_usage_error(extra, tmp_path, capsys) -> None:
         main(["--out", str(tmp_path / "out"), *extra])
     assert stop.value.code == 2 and "--" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()  # nothing made
-
-
-def test_the_unsure_words_frames_are_found_in_the_video(tmp_path) -> None:
-    from types import SimpleNamespace
-
-    from miketalk_lab.bench.relabelled import unsure_frames
-
-    build = tmp_path / "b"
-    build.mkdir()
-    _corpus(build / "corpus", {"u1": 10, "u2": 70}, TRANSCRIPT)
-    (build / "model" / "build").mkdir(parents=True)
-    (build / "model" / "build" / "segments.json").write_text(
-        '{"not_confident": [{"word": "bin", "start": 0.5, "end": 0.6},'
-        ' {"word": "at", "start": 3.0, "end": 3.05}]}'
-    )
-    # frames 0-4 of u1 (video frames 10-14: 0.40-0.60 s), frames 0-2 of u2 (video 70-72)
-    frames = SimpleNamespace(clip_ids=["u1", "u2"], clip=np.array([0] * 5 + [1] * 3),
-                             clip_frame=np.array([0, 1, 2, 3, 4, 0, 1, 2]), fps=25.0)  # fmt: skip
-    out = unsure_frames(build, frames)
-    # 0.5-0.6 s overlaps video frames 12-14 (0.48-0.60 s); 3.0-3.05 s is video frame 75-76: none
-    assert out.tolist() == [False, False, True, True, True, False, False, False]
-    (build / "model" / "build" / "segments.json").write_text('{"words_from": "given"}')
-    assert not unsure_frames(build, frames).any()  # a transcript build: nothing unsure

@@ -25,7 +25,9 @@ measures it (:func:`choose_recording_lipsync`) rather than assuming it:
 The morph's and the learned model's viseme images (and the learned model's dominance
 parameters) were chosen on every training clip, the held-back one included; the trained
 face never sees the clip it predicts. The comparison leans, if anything, towards the
-morph, which is the fallback.
+morph, which is the fallback. The frames of words heard without confidence
+(:mod:`miketalk.corpus.unsure`) are not judged, as the trained face is not fitted to them
+(:class:`~miketalk.draw.trained.training.FitSettings` ``leave_unsure``).
 
 :func:`write_choice` keeps the choice in the model (:data:`miketalk.model.parts.
 LIPSYNC_CHOICE`), which :func:`miketalk.model.parts.own_recording_model` reads.
@@ -165,6 +167,7 @@ def held_back_predictions(
     descriptions less the clip's mean, in memory); a model the face lacks is left out."""
     from miketalk.draw.coarticulation import predict_trajectory, read_params
     from miketalk.draw.coarticulation.weights import paper_trajectory
+    from miketalk.draw.trained.build import read_trained
     from miketalk.draw.trained.mouths import load_frames
     from miketalk.draw.trained.training import training_set
     from miketalk.lipsync.timeline import keyframes, plan
@@ -173,7 +176,8 @@ def held_back_predictions(
     model_dir = Path(model_dir)
     trained = Path(trained) if trained is not None else model_dir / TRAINED_DIRECTORY
     frames = load_frames(trained)
-    data = training_set(corpus_dir, frames)
+    fitting = read_trained(trained).fitting
+    data = training_set(corpus_dir, frames, leave_unsure=fitting.leave_unsure)
     real = [np.asarray(c, float) for c in data.coords]
     targets = _viseme_descriptions(model_dir, frames)
     out: dict[str, list[np.ndarray]] = {"paper": []}
@@ -192,7 +196,8 @@ def held_back_predictions(
     out["trained"] = _trained_drawn(trained, data, table, centred=centred)
     if (trained / "trajectory.npz").is_file() and _has_pooled(trained):
         out["pooled"] = _trained_drawn(trained, data, table, centred=centred, kind="pooled")
-    return real, out
+    # judged on the frames the fits learn from: not the unsure words' (FitSettings)
+    return data.fitted_rows(real), {name: data.fitted_rows(p) for name, p in out.items()}
 
 
 def _has_pooled(folder: Path) -> bool:

@@ -45,16 +45,20 @@ def corpus_stage(
 
     ``corpus`` is the face's corpus settings (paths absolute); ``segments`` the
     ``segments.json`` of a face from one video, whose training part must show
-    :data:`MIN_VISEME_CLASSES` viseme classes (:func:`check_viseme_classes`); ``crop``
+    :data:`MIN_VISEME_CLASSES` viseme classes (:func:`check_viseme_classes`), and whose
+    recognized words heard without confidence are recorded (:func:`~miketalk.corpus.unsure.
+    write_unsure`: ``unsure.tsv``, left out of the trained face's fits); ``crop``
     the face crop to work in (:func:`miketalk.corpus.clips.ingest_clips`).
     """
     from miketalk.corpus.clips import ingest_clips
     from miketalk.corpus.one_video import face_clips
+    from miketalk.corpus.unsure import write_unsure
 
     clips = face_clips(dict(corpus), "train", segments=segments)
     report = ingest_clips(Path(corpus_dir), clips=clips, workers=workers, crop=crop)
     if segments is not None:  # a face from one video: its utterances must show the classes
         check_viseme_classes(corpus_dir)
+        write_unsure(corpus_dir, segments)  # the spans of words heard without confidence
     return report
 
 

@@ -35,17 +35,22 @@ speech (:data:`COLUMNS`):
 the build's own code) on build ``FRAMES``'s training frames (its corpus, eigenlips and
 reference) with build ``LABELS``'s phones, mapped through the joined video's frames
 (:func:`relabelled`): which of the two (the frames or the phones) moves the amplitude.
-``--without-unsure BUILD`` fits ``BUILD``'s ``heard`` trajectory again without the frames of
-the words its recognizer heard without confidence (:func:`without_unsure`), in memory.
+``--without-unsure BUILD`` fits ``BUILD``'s trained face again as a build now fits it: the
+frames of the words its recognizer heard without confidence recorded in its corpus and left
+out of every fit (:func:`without_unsure`), in memory.
 ``--window`` takes ``LABELS``'s phones only inside those spans of the joined video (seconds),
 ``FRAMES``'s own elsewhere; ``--shift`` moves every phone of ``LABELS`` by ``S`` seconds (a
 null: a transcript's phones a frame's half later). ``FRAMES:FRAMES`` fits the build's own face
 again: its figures must be the build's to the digit.
 
+``--trained NAME=BUILD:FOLDER`` draws the trained face kept in ``FOLDER`` (a model's
+``trained/``, fitted again as a build now fits it) with ``BUILD``'s model and corpus.
+
 ``--patch-light`` lights the drawn patches as the held-out evaluation that made the builds'
 ``clips.csv`` did (``border`` before the ``session`` light became the default).
-``--draw`` also draws ``trained_heard`` of every face for real and measures it as the
-held-out evaluation does (``drawn_*``: for a build's own face, its ``clips.csv`` figures).
+``--draw`` also draws ``trained_heard`` and ``trained`` of every face for real and measures
+them as the held-out evaluation does (``drawn_*``, ``drawn_text_*``: for a build's own face,
+its ``clips.csv`` figures).
 
 Writes ``OUT/clips.csv`` (one row per face and clip) and ``OUT/summary.md`` (each face
 minus the base: the mean difference, its sd and 95 % interval).
@@ -66,7 +71,7 @@ import pandas as pd
 from miketalk.draw.trained.light import PATCH_LIGHTS
 from miketalk.errors import MiketalkError
 from miketalk_lab.bench.command import bench_parser, run_bench
-from miketalk_lab.bench.relabelled import relabelled, unsure_frames
+from miketalk_lab.bench.relabelled import relabelled
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -191,8 +196,9 @@ DRAWN = ("lip_opening_corr_speech", "mouth_lmd", "lip_opening_amplitude_speech")
 
 def _drawn_measures(model, face, held, recording, speech: slice, light) -> dict[str, float]:
     """``trained_heard`` of ``face`` drawn along a held-out clip (as
-    :func:`~miketalk.draw.trained.draw.render_trained` draws it, with the patch ``light``)
-    and marked as the held-out evaluation marks it."""
+    :func:`~miketalk.draw.trained.draw.render_trained` draws it, with the patch ``light``),
+    and ``trained`` (its default trajectory, the phones alone: ``drawn_text_*``), marked as
+    the held-out evaluation marks them."""
     from miketalk.draw.trained.selection import PatchCompositor
     from miketalk.visemes import SILENCE
     from miketalk_lab.evaluation.heldout import MAX_LAG
@@ -204,12 +210,13 @@ def _drawn_measures(model, face, held, recording, speech: slice, light) -> dict[
         face.frames, model.image(SILENCE), joins=face.selection.joins,
         morph_options=getattr(model, "morph_options", None), light=light,
     )  # fmt: skip
-    rows = face.plan(held.timeline, kind="heard", recording=recording)
-    drawn = [compositor.frame(row) for row in rows]
-    _, measures = landmark_scores(
-        marks.real, marks.of(np.stack(list(drawn))), speech=speech, max_lag=MAX_LAG
-    )
-    return {f"drawn_{k}": float(measures[k]) for k in DRAWN}
+    out = {}
+    for prefix, kind, heard in (("drawn_", "heard", recording), ("drawn_text_", None, None)):
+        rows = face.plan(held.timeline, kind=kind, recording=heard)
+        drawn = np.stack([compositor.frame(row) for row in rows])
+        _, measures = landmark_scores(marks.real, marks.of(drawn), speech=speech, max_lag=MAX_LAG)
+        out |= {f"{prefix}{k}": float(measures[k]) for k in DRAWN}
+    return out
 
 
 def refit(frames_of: Path, labels_of: Path, dest: Path, *, windows=None, shift: float = 0.0):
@@ -228,35 +235,27 @@ def refit(frames_of: Path, labels_of: Path, dest: Path, *, windows=None, shift: 
     )  # fmt: skip
 
 
-def without_unsure(build: Path):
-    """``build``'s own trained face with its ``heard`` trajectory fitted again without the
-    frames of the words heard without confidence (:func:`unsure_frames`; in memory, the
-    build's own code and settings; every frame can still be drawn)."""
-    from miketalk.draw.trained.gains import amplitude_gain, cv_amplitude_gain
-    from miketalk.draw.trained.training import TrainingSet, training_set
-    from miketalk.draw.trained.trajectory import HEARD_HALF, Context, fit_window
+def without_unsure(build: Path, dest: Path, *, leave_unsure: bool = True):
+    """``build``'s trained face fitted again as ``build`` fits it now (the build's own code and
+    settings, in memory) on its corpus with the spans of its words heard without confidence
+    recorded (``dest``: links to the corpus's files and the ``unsure.tsv``
+    :func:`~miketalk.corpus.unsure.write_unsure` writes from the build's ``segments.json``):
+    those frames left out of every fit (``leave_unsure``; False: fitted, the way before)."""
+    from miketalk.corpus.unsure import UNSURE_TABLE, write_unsure
+    from miketalk.draw.trained.build import fitted_face
+    from miketalk.draw.trained.mouths import load_frames
     from miketalk.model.face import Model
 
-    face = Model(build / "model").trained_face
-    frames, table = face.frames, face.table
-    left_out = unsure_frames(build, frames)
-    data = training_set(build / "corpus", frames)
-    keep = [~left_out[frames.clip == c] for c in range(len(frames.clip_ids))]
-    data = TrainingSet(
-        data.phones, tuple(t[k] for t, k in zip(data.times, keep, strict=True)),
-        tuple(x[k] for x, k in zip(data.coords, keep, strict=True)), data.recordings,
-    )  # fmt: skip
-    held: dict = {}
-    heard, report = fit_window(
-        data, Context.of(data.phones, table), table, half=face.fitting.half, heard=HEARD_HALF,
-        predictions=held,
-    )  # fmt: skip
-    report |= {"amplitude_gain": amplitude_gain(heard, data, table),
-               "amplitude_gain_cv": cv_amplitude_gain(held, data),
-               "frames_left_out": int(left_out.sum())}  # fmt: skip
-    return dataclasses.replace(
-        face, trajectories={**face.trajectories, "heard": heard},
-        report={**face.report, "fit": {**face.report["fit"], "heard": report}},
+    dest.mkdir(parents=True, exist_ok=True)
+    for f in (build / "corpus").iterdir():
+        if f.name != UNSURE_TABLE and not (dest / f.name).exists():
+            (dest / f.name).symlink_to(f.resolve())
+    write_unsure(dest, build / "model" / "build" / "segments.json")
+    own = Model(build / "model").trained_face
+    return fitted_face(
+        load_frames(build / "model" / "trained"), dest, selection=own.selection,
+        fitting=dataclasses.replace(own.fitting, leave_unsure=leave_unsure), table=own.table,
+        default=own.default,
     )  # fmt: skip
 
 
@@ -268,7 +267,8 @@ def paired(table: pd.DataFrame, base: str) -> pd.DataFrame:
     for name in [f for f in dict.fromkeys(table["face"]) if f != base]:
         b = table[table["face"] == name].set_index("clip")
         common = a.index.intersection(b.index)
-        for column in [c for c in (*COLUMNS, *(f"drawn_{k}" for k in DRAWN)) if c in table]:
+        drawn = [f"drawn_{p}{k}" for p in ("", "text_") for k in DRAWN]
+        for column in [c for c in (*COLUMNS, *drawn) if c in table]:
             diff = (b.loc[common, column] - a.loc[common, column]).dropna()
             half = 1.96 * diff.std(ddof=1) / np.sqrt(len(diff)) if len(diff) > 1 else np.nan
             rows.append({
@@ -298,6 +298,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="BUILD",
         help="BUILD's face, heard fitted without its unsure words' frames",
     )
+    parser.add_argument("--trained", action="append", default=[], metavar="NAME=BUILD:FOLDER",
+                        help="the trained face in FOLDER (a model's trained/), drawn with "
+                        "BUILD's model and corpus")  # fmt: skip
     parser.add_argument("--patch-light", choices=PATCH_LIGHTS, default=None,
                         help="how patches are lit (default: the product's; the builds' "
                         "evaluation's own to compare with their clips.csv)")  # fmt: skip
@@ -318,6 +321,11 @@ def _check(args: argparse.Namespace) -> str | None:
         parts = spec.split(":")
         if len(parts) not in (2, 3) or not set(parts[:2]) <= set(builds):
             return f"--refit {spec}: FRAMES:LABELS[:TAG], both among the --build names"
+    for spec in args.trained:
+        name, _, where = spec.partition("=")
+        build, _, folder = where.partition(":")
+        if not name or build not in builds or not (Path(folder) / "trained.json").is_file():
+            return f"--trained {spec}: NAME=BUILD:FOLDER, BUILD a --build name, FOLDER a face"
     if not set(args.without_unsure) <= set(builds):
         return "--without-unsure BUILD: one of the --build names"
     try:
@@ -352,8 +360,17 @@ def _work(args: argparse.Namespace) -> str:
         rows += face_rows(name, builds[frames_of], clips, options, face=face, draw=args.draw,
                           light=args.patch_light)  # fmt: skip
     for name in args.without_unsure:
-        face = without_unsure(builds[name])
+        face = without_unsure(builds[name], args.out / f"corpus_{name}_unsure")
+        print(f"{name}: {face.report['fit']['frames_left_out']} frames of unsure words left "
+              "out of the fits", file=sys.stderr)  # fmt: skip
         rows += face_rows(f"{name}_without_unsure", builds[name], clips, options, face=face,
+                          draw=args.draw, light=args.patch_light)  # fmt: skip
+    for spec in args.trained:
+        from miketalk.draw.trained.build import read_trained
+
+        name, _, where = spec.partition("=")
+        build, _, folder = where.partition(":")
+        rows += face_rows(name, builds[build], clips, options, face=read_trained(folder),
                           draw=args.draw, light=args.patch_light)  # fmt: skip
     table = pd.DataFrame(rows)
     table.to_csv(args.out / "clips.csv", index=False, float_format="%.5f")
@@ -377,7 +394,8 @@ def _summary(args: argparse.Namespace, table: pd.DataFrame, base: str) -> str:
         )
     summary = "\n".join(lines) + "\n"
     (args.out / "summary.md").write_text(summary, "utf-8")
-    keys = ("build", "refit", "window", "shift", "limit", "draw", "patch_light", "without_unsure")
+    keys = ("build", "refit", "window", "shift", "limit", "draw", "patch_light", "without_unsure",
+            "trained")  # fmt: skip
     settings = {k: getattr(args, k) for k in keys}
     (args.out / "settings.json").write_text(json.dumps(settings, indent=1) + "\n", "utf-8")
     return summary

@@ -1,19 +1,16 @@
-"""One build's phones given to another build's frames, and the frames of its unsure words.
+"""One build's phones given to another build's frames.
 
 The :mod:`miketalk_lab.bench.amplitude_cause` bench's corpus surgery: two builds of the same
 joined video (:mod:`miketalk_lab.bench.recognized_build`) cut it into utterances differently;
 :func:`joined_phones` places a corpus's phones in the joined video's time, :func:`relabelled`
-gives them to the other corpus's clips (:func:`clip_phones`), and :func:`unsure_frames` finds
-the training frames of the words a recognizer heard without confidence.
+gives them to the other corpus's clips (:func:`clip_phones`).
 """
 
 from __future__ import annotations
 
 import itertools
-import json
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 
@@ -92,19 +89,4 @@ def relabelled(target: Path, source: Path, dest: Path, *, windows=None, shift: f
     return dest
 
 
-def unsure_frames(build: Path, frames) -> np.ndarray:
-    """``(N,)`` bool: the training frames of ``build`` that overlap a word its recognizer
-    heard without confidence (``segments.json``'s ``not_confident``, video seconds; the
-    frames placed in the video by the corpus's ``sources.tsv``)."""
-    doc = json.loads((build / "model" / "build" / "segments.json").read_text("utf-8"))
-    sources = pd.read_csv(build / "corpus" / "sources.tsv", sep="\t", dtype={"clip": str})
-    first = dict(zip(sources["clip"], sources["first_frame"], strict=True))
-    start = np.array([first[frames.clip_ids[c]] for c in frames.clip]) + frames.clip_frame
-    start = start / frames.fps
-    out = np.zeros(len(start), bool)
-    for word in doc.get("not_confident", ()):
-        out |= (start < word["end"]) & (start + 1.0 / frames.fps > word["start"])
-    return out
-
-
-__all__ = ["clip_phones", "joined_phones", "relabelled", "unsure_frames"]
+__all__ = ["clip_phones", "joined_phones", "relabelled"]

@@ -316,7 +316,7 @@ def fitted_face(
     :class:`FitSettings`). ``predictions``, when given, receives each trajectory model's
     cross-validated prediction of each clip (``name -> clip index -> (frames, n)``)."""
     fitting = fitting or FitSettings()
-    data = training_set(corpus_dir, frames)
+    data = training_set(corpus_dir, frames, leave_unsure=fitting.leave_unsure)
     if fitting.centred:
         offsets = clip_offsets(frames)
         data = dataclasses.replace(
@@ -340,6 +340,8 @@ def fitted_face(
         report["amplitude_gain"] = amplitude_gain(model, data, table)
         report["amplitude_gain_cv"] = cv_amplitude_gain(held[name], data)
     report = {"fit": {name: report for name, (_, report) in fitted.items()}}
+    left_out = sum(int((~k).sum()) for k in data.kept or ())
+    report["fit"]["frames_left_out"] = left_out  # unsure words' frames (FitSettings)
     models = {name: model for name, (model, _) in fitted.items()}
     shown = np.full(len(frames.coords), -1, np.int64)
     for c, (phones, times) in enumerate(zip(data.phones, data.times, strict=True)):

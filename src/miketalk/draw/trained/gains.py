@@ -66,9 +66,9 @@ def amplitude_gain(model, data: TrainingSet, table: VisemeTable) -> list[float]:
 
 
 def _spread_ratio(predicted: list[np.ndarray], data: TrainingSet) -> list[float]:
-    """Per component, the clips' real spread over ``predicted``'s (one array per clip),
-    clipped to 1 to 4."""
-    return spread_ratio(predicted, data.coords)
+    """Per component, the clips' real spread over ``predicted``'s (one array per clip; both on
+    the frames the fits learn from, :attr:`TrainingSet.kept`), clipped to 1 to 4."""
+    return spread_ratio(data.fitted_rows(predicted), data.fitted_rows(data.coords))
 
 
 def spread_ratio(predicted: list[np.ndarray], real) -> list[float]:

@@ -281,7 +281,9 @@ def fit_pooled(
     pooled = pooled or package_pooled()
     dt = _frame_step(data)
     bounds = np.cumsum([0, *(len(t) for t in data.times)])
-    real = [geometry[a:b] for a, b in itertools.pairwise(bounds)]
+    kept = data.kept_rows()  # the frames it learns from
+    rows = np.concatenate([a + k for a, k in zip(bounds[:-1], kept, strict=True)])
+    real = data.fitted_rows([geometry[a:b] for a, b in itertools.pairwise(bounds)])
     shared = {}  # (variant, lag) -> each clip's pooled geometry
     for lag in LAGS:
         clips = [
@@ -289,31 +291,33 @@ def fit_pooled(
             for p, t, r in zip(data.phones, data.times, data.recordings, strict=True)
         ]
         for v in range(len(pooled.variants)):
-            shared[v, lag] = [c[v] for c in clips]
+            shared[v, lag] = [c[v] for c in clips]  # every frame, predicted
+    fitted = {key: data.fitted_rows(inputs) for key, inputs in shared.items()}
     errors, held = {}, {}
     for (v, lag), inputs in shared.items():
+        learnt = fitted[v, lag]
         for strength in grid:
             key = (v, lag, strength)
             err, count, held[key] = 0.0, 0, {}
             for train, valid in data.folds(folds):
                 w, b = ridge(
-                    np.concatenate([inputs[i] for i in train]),
+                    np.concatenate([learnt[i] for i in train]),
                     np.concatenate([real[i] for i in train]),
                     strength,
                 )
                 for i in valid:
                     held[key][i] = inputs[i] @ w + b
-                    err = err + ((held[key][i] - real[i]) ** 2).sum(axis=0)
+                    err = err + ((held[key][i][kept[i]] - real[i]) ** 2).sum(axis=0)
                     count += len(real[i])
             errors[key] = err / count
     # the least error over the dimensions' spreads (each dimension counts alike)
-    spread = np.maximum(geometry.var(axis=0), 1e-12)
+    spread = np.maximum(geometry[rows].var(axis=0), 1e-12)
     best = min(errors, key=lambda k: (float((errors[k] / spread).mean()), abs(k[1]), k[0], k[2]))
     if predictions is not None:
         predictions.update(held[best])
     v, lag, strength = best
-    w, b = ridge(np.concatenate(shared[v, lag]), geometry, strength)
-    r2 = np.clip(1.0 - errors[best] / geometry.var(axis=0), 0.0, 1.0)
+    w, b = ridge(np.concatenate(fitted[v, lag]), geometry[rows], strength)
+    r2 = np.clip(1.0 - errors[best] / geometry[rows].var(axis=0), 0.0, 1.0)
     report = {
         "cv_mse": {
             f"{pooled.variants[k[0]]}:{k[1]}:{k[2]}": float(e.mean()) for k, e in errors.items()
@@ -323,8 +327,10 @@ def fit_pooled(
         "lag": lag,
         "variant": pooled.variants[v],
         "pooled": pooled.digest,
-        "amplitude_gain": spread_ratio([x @ w + b for x in shared[v, lag]], real),
-        "amplitude_gain_cv": spread_ratio([held[best][i] for i in range(len(real))], real),
+        "amplitude_gain": spread_ratio([x @ w + b for x in fitted[v, lag]], real),
+        "amplitude_gain_cv": spread_ratio(
+            data.fitted_rows([held[best][i] for i in range(len(real))]), real
+        ),
     }
     return PooledTrajectory(pooled, lag * dt, w, b, strength, geometry, v), report
 

@@ -33,10 +33,15 @@ class FitSettings:
         out); the join cost still compares the frames as they are.
     half : int
         The window regressions' phone context, frames each side.
+    leave_unsure : bool
+        The frames of words heard without confidence (the corpus's ``unsure.tsv``:
+        :mod:`miketalk.corpus.unsure`) are left out of every fit and of its scoring (they
+        can still be drawn); False fits them as their phones label them (the way before).
     """
 
     centred: bool = False
     half: int = 6
+    leave_unsure: bool = True
 
     def to_dict(self) -> dict:
         """JSON-ready form."""
@@ -51,6 +56,18 @@ class TrainingSet:
     times: tuple[np.ndarray, ...]
     coords: tuple[np.ndarray, ...]
     recordings: tuple[Recording, ...] | None = None  # each clip's sound, for ``heard``
+    #: Per clip, the frames the fits learn from and are scored on (None: every frame).
+    kept: tuple[np.ndarray, ...] | None = None
+
+    def fitted_rows(self, per_clip) -> list[np.ndarray]:
+        """Each clip's array (one per clip, a row per frame) cut to its :attr:`kept` frames."""
+        if self.kept is None:
+            return list(per_clip)
+        return [a[k] for a, k in zip(per_clip, self.kept, strict=True)]
+
+    def kept_rows(self) -> list[np.ndarray]:
+        """Each clip's :attr:`kept` frames, as row indices into the clip."""
+        return self.fitted_rows([np.arange(len(c)) for c in self.coords])
 
     def folds(self, k: int) -> list[tuple[list[int], list[int]]]:
         """``k`` (train, validation) splits of the clips, every ``k``-th clip held out."""
@@ -61,11 +78,16 @@ class TrainingSet:
         ]
 
 
-def training_set(corpus_dir: str | os.PathLike[str], frames: MouthFrames) -> TrainingSet:
+def training_set(
+    corpus_dir: str | os.PathLike[str], frames: MouthFrames, *, leave_unsure: bool = True
+) -> TrainingSet:
     """Each training clip's aligned phones (``phones.tsv``), frame times, descriptions and
-    sound (``audio.wav`` from the clip's start in ``clips.tsv``)."""
+    sound (``audio.wav`` from the clip's start in ``clips.tsv``); with ``leave_unsure``, the
+    frames of the words heard without confidence (:func:`~miketalk.corpus.unsure.unsure_frames`)
+    are not :attr:`~TrainingSet.kept`."""
     import pandas as pd
 
+    from miketalk.corpus.unsure import unsure_frames
     from miketalk.media.audio import read_wav
 
     phones_table = pd.read_csv(Path(corpus_dir) / "phones.tsv", sep="\t", dtype={"clip": str})
@@ -87,7 +109,13 @@ def training_set(corpus_dir: str | os.PathLike[str], frames: MouthFrames) -> Tra
         first = round(float(starts[clip_id]) * rate)
         last = first + round(len(rows) / frames.fps * rate)
         recordings.append(Recording(samples[first:last], rate))
-    return TrainingSet(tuple(phones), tuple(times), tuple(coords), tuple(recordings))
+    kept = None
+    if leave_unsure:
+        unsure = unsure_frames(corpus_dir, frames.clip_ids, frames.clip, frames.clip_frame,
+                               frames.fps)  # fmt: skip
+        if unsure.any():
+            kept = tuple(~unsure[frames.clip == c] for c in range(len(frames.clip_ids)))
+    return TrainingSet(tuple(phones), tuple(times), tuple(coords), tuple(recordings), kept)
 
 
 def clip_offsets(frames: MouthFrames) -> np.ndarray:

@@ -316,27 +316,26 @@ def fit_window(
         window_features(context, p, t, table, recording=r, **settings)
         for p, t, r in zip(data.phones, data.times, recordings, strict=True)
     ]
+    # fitted and scored on the kept frames (:attr:`TrainingSet.kept`), predicted at every one
+    fx, fy, kept = data.fitted_rows(xs), data.fitted_rows(data.coords), data.kept_rows()
     err: dict[float, Any] = dict.fromkeys(grid, 0.0)
     held: dict[float, dict[int, np.ndarray]] = {strength: {} for strength in grid}
     count = 0
     for train, valid in data.folds(folds):
         fits = ridge_path(
-            np.concatenate([xs[i] for i in train]),
-            np.concatenate([data.coords[i] for i in train]),
-            grid,
+            np.concatenate([fx[i] for i in train]), np.concatenate([fy[i] for i in train]), grid
         )
         for strength, (w, b) in zip(grid, fits, strict=True):
             for i in valid:
                 held[strength][i] = xs[i] @ w + b
-                err[strength] = err[strength] + ((held[strength][i] - data.coords[i]) ** 2).sum(
-                    axis=0
-                )
-        count += sum(len(data.coords[i]) for i in valid)
+                miss = held[strength][i][kept[i]] - fy[i]
+                err[strength] = err[strength] + (miss**2).sum(axis=0)
+        count += sum(len(fy[i]) for i in valid)
     errors = {strength: err[strength] / count for strength in grid}
     best = min(errors, key=lambda s: (float(errors[s].mean()), s))
     if predictions is not None:
         predictions.update(held[best])
-    w, b = ridge(np.concatenate(xs), np.concatenate(data.coords), best)
+    w, b = ridge(np.concatenate(fx), np.concatenate(fy), best)
     report = _report(errors, best, data)
     fitted = WindowRegression(context, half, step, w, b, best, pauses, heard)
     return fitted, report | {"ridge": best}
@@ -348,7 +347,7 @@ def _report(errors: Mapping[float, np.ndarray], best: float, data: TrainingSet) 
     The R^2 of a component (1 - its held-out squared error / its variance) says
     how much of it the phones predict: the selection weighs its target cost by it.
     """
-    var = np.concatenate(data.coords).var(axis=0)
+    var = np.concatenate(data.fitted_rows(data.coords)).var(axis=0)
     r2 = np.clip(1.0 - errors[best] / var, 0.0, 1.0)
     return {
         "cv_mse": {str(k): float(v.mean()) for k, v in errors.items()},
@@ -368,14 +367,17 @@ def fit_regularized(
     """Fit :class:`RegularizedTrajectory` (smoothness by cross-validation); it and a report
     (``predictions`` as :func:`fit_window`)."""
     labels = [context.labels(p, t, table) for p, t in zip(data.phones, data.times, strict=True)]
-    y_all = np.concatenate(data.coords)
+    kept = data.kept_rows()  # the frames it learns from
+    labels = [(pid[k], vid[k]) for (pid, vid), k in zip(labels, kept, strict=True)]
+    ys = data.fitted_rows(data.coords)
+    y_all = np.concatenate(ys)
     scale = y_all.var(axis=0)
     floor = 1e-3 * scale
 
     def fitted(clips: Sequence[int], smoothness: float) -> RegularizedTrajectory:
         pid = np.concatenate([labels[i][0] for i in clips])
         vid = np.concatenate([labels[i][1] for i in clips])
-        y = np.concatenate([data.coords[i] for i in clips])
+        y = np.concatenate([ys[i] for i in clips])
         pm, pv = _stats(pid, y, len(context.phones), floor)
         vm, vv = _stats(vid, y, len(context.visemes), floor)
         return RegularizedTrajectory(context, pm, pv, vm, vv, scale, smoothness)
@@ -387,8 +389,8 @@ def fit_regularized(
             model = fitted(train, smoothness)
             for i in valid:
                 pred = held[smoothness][i] = model.predict(data.phones[i], data.times[i], table)
-                err = err + ((pred - data.coords[i]) ** 2).sum(axis=0)
-                count += len(data.coords[i])
+                err = err + ((pred[kept[i]] - ys[i]) ** 2).sum(axis=0)
+                count += len(ys[i])
         errors[smoothness] = err / count
     best = min(errors, key=lambda s: (float(errors[s].mean()), s))
     if predictions is not None:
