@@ -542,3 +542,27 @@ def test_a_recordings_folds_and_chains_in_its_region_are_those_of_the_whole_fram
     assert np.array_equal(boxed.fold_of_steps(9, 2), whole.fold_of_steps(9, 2))
     steps = boxed.steps(3, 11)
     assert np.array_equal(boxed.chain(steps, 3), whole.chain(steps, 3))
+
+
+def test_the_mixed_flow_in_a_region_is_the_same_computed_in_its_box():
+    """The mixed strategy's window chains (CONCATENATION-DOWN) and its direct-then-chained
+    flows, computed in the region's box, are the whole frame's to the bit."""
+    from miketalk.flow.mixed import window_chains
+    from miketalk.flow.registry import in_region
+
+    shape, box = (72, 96), (18, 12, 56, 44)
+    y = np.mgrid[: shape[0], : shape[1]][0].astype(np.float32)
+    grey = _texture(shape, seed=7).astype(np.float32)
+    frames = []
+    for k in range(7):
+        flow = np.zeros((*shape, 2), np.float32)
+        flow[..., 0] = 0.6 * k * np.sin(2 * np.pi * y / 72)
+        frames.append((backward_warp(grey, flow) * 255).astype(np.uint8))
+    estimate = in_region(get_estimator("bergen", levels=2), box)
+    chains = window_chains(frames, 6, estimate, window=4)
+    boxed = window_chains(frames, 6, estimate, window=4, support=box)
+    assert len(chains) == 4 and np.abs(chains[0]).max() > 1
+    assert all(np.array_equal(a, b) for a, b in zip(chains, boxed, strict=True))
+    whole, info = mixed_flow(frames[0], frames, 6, estimate, window=4)
+    within, info_within = mixed_flow(frames[0], frames, 6, estimate, window=4, support=box)
+    assert np.array_equal(whole, within) and info == info_within

@@ -68,8 +68,12 @@ def concat_flows(flow_ab: np.ndarray, flow_bc: np.ndarray) -> np.ndarray:
     return _concat(flow_ab, flow_bc)
 
 
-def _concat(flow_ab: np.ndarray, flow_bc: np.ndarray) -> np.ndarray:
-    return flow_ab + _remap(flow_bc, flow_ab)
+def _concat(flow_ab: np.ndarray, flow_bc: np.ndarray, support: Support | None = None) -> np.ndarray:
+    """``C_ac`` unchecked; with ``support``, computed in that box (:func:`concat_in_box`)."""
+    if support is None:
+        return flow_ab + _remap(flow_bc, flow_ab)
+    inner = support_slices(support, flow_ab.shape)
+    return whole_field(concat_in_box(flow_ab[inner], flow_bc, inner), inner, flow_ab.shape)
 
 
 def consecutive_flows(frames: Sequence[np.ndarray], estimator: FlowEstimator) -> list[np.ndarray]:
@@ -150,7 +154,9 @@ def whole_field(box: np.ndarray, inner: tuple[slice, slice], shape: tuple[int, .
     return out
 
 
-def concatenate_down_flows(flows: Sequence[np.ndarray]) -> list[np.ndarray]:
+def concatenate_down_flows(
+    flows: Sequence[np.ndarray], support: Support | None = None
+) -> list[np.ndarray]:
     """CONCATENATION-DOWN (Fig. 10) of precomputed consecutive flows: every ``C_{in}``.
 
     ``C_{in} = C_{i(i+1)} + backward_warp(C_{(i+1)n}, C_{i(i+1)})`` for
@@ -161,6 +167,9 @@ def concatenate_down_flows(flows: Sequence[np.ndarray]) -> list[np.ndarray]:
     ----------
     flows : sequence of ndarray, shape (H, W, 2)
         ``C_{01}, C_{12}, ..., C_{(n-1)n}``.
+    support : (x, y, w, h), optional
+        A box outside which every flow is zero: computed there only, as
+        :func:`concatenate_up_flows` does.
 
     Returns
     -------
@@ -171,7 +180,7 @@ def concatenate_down_flows(flows: Sequence[np.ndarray]) -> list[np.ndarray]:
     flows = _check_flows(flows)
     to_last = [flows[-1].copy()]
     for step in reversed(flows[:-1]):
-        to_last.append(_concat(step, to_last[-1]))
+        to_last.append(_concat(step, to_last[-1], support))
     to_last.reverse()
     return to_last
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from miketalk.checks import check_image, to_grey_float32
 from miketalk.errors import MiketalkError
-from miketalk.flow.concat import _concat, concatenate_down_flows, consecutive_flows
+from miketalk.flow.concat import Support, _concat, concatenate_down_flows, consecutive_flows
 from miketalk.flow.warp import _remap
 
 FlowEstimator = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -82,6 +82,7 @@ def mixed_flow(
     penalty: float = 0.0005,
     mask: np.ndarray | None = None,
     chains: Sequence[np.ndarray] | None = None,
+    support: Support | None = None,
 ) -> tuple[np.ndarray, MixedFlowInfo]:
     """Flow from a start viseme to ``frames[end_index]`` by the mixed strategy (section 5.2).
 
@@ -108,6 +109,9 @@ def mixed_flow(
         :func:`window_chains` of the same ``frames``, ``end_index``, ``estimator``
         and ``window``, when several start visemes share one end viseme (they
         are computed here otherwise).
+    support : (x, y, w, h), optional
+        A box outside which the estimator's flows are zero (estimated in a region):
+        the concatenations are computed there only, with the same numbers.
 
     Returns
     -------
@@ -151,7 +155,7 @@ def mixed_flow(
             )
 
     if chains is None:
-        chains = window_chains(frames, end_index, estimator, window=window)
+        chains = window_chains(frames, end_index, estimator, window=window, support=support)
     elif len(chains) != len(candidates) - 1:
         raise MiketalkError(
             f"chains must hold {len(candidates) - 1} flows (window_chains of the same "
@@ -163,7 +167,7 @@ def mixed_flow(
     flows, residuals, scores = [], [], []
     for k, j in enumerate(candidates):
         direct = estimator(start, frames[j])
-        flow = direct if j == end_index else _concat(direct, chains[k])
+        flow = direct if j == end_index else _concat(direct, chains[k], support)
         residual = _residual(start_grey, end_grey, flow, mask)
         flows.append(flow)
         residuals.append(residual)
@@ -181,7 +185,12 @@ def mixed_flow(
 
 
 def window_chains(
-    frames: Sequence[np.ndarray], end_index: int, estimator: FlowEstimator, *, window: int
+    frames: Sequence[np.ndarray],
+    end_index: int,
+    estimator: FlowEstimator,
+    *,
+    window: int,
+    support: Support | None = None,
 ) -> list[np.ndarray]:
     """Concatenated flows ``C_{j, end}`` from each window frame ``j < end`` to the end frame.
 
@@ -190,12 +199,13 @@ def window_chains(
     ``max(0, end - window) + k`` to ``frames[end_index]``. Empty for a window of
     one frame. They depend only on the end frame, so every start viseme of one
     end viseme can share them (:func:`mixed_flow`'s ``chains``).
+    With ``support``, computed in that box (:func:`mixed_flow`).
     """
     first = max(0, int(end_index) - int(window))
     window_frames = [frames[j] for j in range(first, int(end_index) + 1)]
     if len(window_frames) < 2:
         return []
-    return concatenate_down_flows(consecutive_flows(window_frames, estimator))
+    return concatenate_down_flows(consecutive_flows(window_frames, estimator), support)
 
 
 def warp_residual(

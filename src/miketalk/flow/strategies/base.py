@@ -174,7 +174,7 @@ class Recording:
         """:func:`~miketalk.flow.mixed.window_chains` to frame ``end``, once per end frame."""
         if end not in self._chains:
             self._chains[end] = window_chains(
-                _LazyFrames(self), end, self.estimate, window=self.window
+                _LazyFrames(self), end, self.estimate, window=self.window, support=self.support
             )
         return self._chains[end]
 

@@ -29,6 +29,7 @@ def mixed_flows(pair: Pair, recording: Recording) -> PairFlows:
             window=recording.window,
             mask=recording.mask,
             chains=recording.chains_to(end),
+            support=recording.support,
         )
         info[f"{direction}_intermediate"] = chose.index
         info[f"{direction}_chain"] = end - chose.index
