@@ -501,14 +501,22 @@ def _flows_in_box(rng, shape, box, scale, n):
 def test_a_chain_of_flows_zero_outside_a_box_is_computed_in_the_box_to_the_bit(scale, box):
     """Concatenation in the support box gives the whole concatenation's numbers (equal
     arrays, not close ones), for small and large flows and boxes at the frame's edges."""
-    from miketalk.flow.warp import _remap, warp_flow_in_box
+    from miketalk.flow.warp import _remap, warp_in_box
 
     rng = np.random.default_rng(int(scale * 10) + box[0])
     shape = (80, 120)
     flows = _flows_in_box(rng, shape, box, scale, 6)
     x, y, w, h = box
-    warped = warp_flow_in_box(flows[1], flows[0][y : y + h, x : x + w], (x, y))
+    warped = warp_in_box(flows[1], flows[0][y : y + h, x : x + w], (x, y))
     assert np.array_equal(warped, _remap(flows[1], flows[0])[y : y + h, x : x + w])
+    for image in (
+        rng.integers(0, 256, (*shape, 3), dtype=np.uint8),
+        rng.integers(0, 256, shape, dtype=np.uint8),
+        rng.normal(0, 1, shape).astype(np.float32),
+        rng.normal(0, 1, (*shape, 3)).astype(np.float32),
+    ):
+        warped = warp_in_box(image, flows[0][y : y + h, x : x + w], (x, y))
+        assert np.array_equal(warped, _remap(image, flows[0])[y : y + h, x : x + w])
     whole = concatenate_up_flows(flows)
     boxed = concatenate_up_flows(flows, support=box)
     assert np.abs(whole).max() > scale / 2

@@ -24,7 +24,7 @@ import numpy as np
 
 from miketalk.checks import check_flow
 from miketalk.errors import MiketalkError
-from miketalk.flow.warp import _remap, warp_flow_in_box
+from miketalk.flow.warp import _remap, warp_in_box
 
 FlowEstimator = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -144,7 +144,7 @@ def concat_in_box(total: np.ndarray, step: np.ndarray, inner: tuple[slice, slice
     Outside a box where both flows are zero, ``C_ac(p) = 0 + C_bc(p) = 0``: a chain of flows
     zero outside one box is zero there too, so only the box is computed.
     """
-    return total + warp_flow_in_box(step, total, (inner[1].start, inner[0].start))
+    return total + warp_in_box(step, total, (inner[1].start, inner[0].start))
 
 
 def whole_field(box: np.ndarray, inner: tuple[slice, slice], shape: tuple[int, ...]) -> np.ndarray:

@@ -42,7 +42,7 @@ import numpy as np
 from miketalk.checks import check_image, to_grey_float32
 from miketalk.errors import MiketalkError
 from miketalk.flow.concat import Support, _concat, concatenate_down_flows, consecutive_flows
-from miketalk.flow.warp import _remap
+from miketalk.flow.warp import warp_in_box
 
 FlowEstimator = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -226,4 +226,11 @@ def warp_residual(
 
 
 def _residual(start: np.ndarray, end: np.ndarray, flow: np.ndarray, mask: np.ndarray) -> float:
-    return float(np.abs(start - _remap(end, flow))[mask].mean())
+    """The residual over ``mask``, ``end`` warped over the mask's bounding box only (the
+    same pixels in the same order: the same mean)."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not rows.size:
+        return float("nan")  # nothing to measure (mixed_flow refuses such a mask)
+    inner = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    warped = warp_in_box(end, flow[inner], (cols[0], rows[0]))
+    return float(np.abs(start[inner] - warped)[mask[inner]].mean())

@@ -58,31 +58,46 @@ def backward_warp(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
     return _remap(image, flow)
 
 
-def warp_flow_in_box(
-    field: np.ndarray, flow_in_box: np.ndarray, corner: tuple[int, int]
-) -> np.ndarray:
-    """``_remap(field, flow)`` over one box of the output: a flow field warped along a flow.
+def warp_in_box(image: np.ndarray, flow_in_box: np.ndarray, corner: tuple[int, int]) -> np.ndarray:
+    """``_remap(image, flow)`` over one box of the output only: the same numbers, to the bit.
 
-    ``field`` is a whole ``(H, W, 2)`` float32 flow field, sampled as :func:`backward_warp`
-    samples it (its borders replicated); ``flow_in_box`` is the warping flow over the box
-    whose top-left corner is ``corner`` ``(x, y)``. The result is the box of the whole
-    warp, to the bit: OpenCV rounds a relative map to its fixed-point grid (1/32 pixel)
-    before it adds each pixel's position, so the box's map is rounded the same way
-    (``cv2.convertMaps``) and its positions added as integers. (Checked for two-channel
-    float32 fields only: OpenCV rounds images of one, three or four channels otherwise.)
+    ``image`` is sampled whole, as :func:`backward_warp` samples it (its borders
+    replicated); ``flow_in_box`` is the warping flow over the box whose top-left corner is
+    ``corner`` ``(x, y)``. OpenCV turns a relative map into positions in two ways, and each
+    is followed here:
+
+    - a flow field (two float32 channels) is warped on OpenCV's fixed-point grid: the
+      relative map is rounded to 1/32 pixel before each pixel's position is added, so the
+      box's map is rounded the same way (``cv2.convertMaps``) and its positions added as
+      integers;
+    - an image (one or three channels, uint8 or float32) is warped at the float32 sum of
+      each pixel's position and its flow, made here the same way.
+
+    Checked against the whole remap for flow fields, grey and RGB images, uint8 and float32
+    (tests/product/test_flow.py).
     """
     x, y = corner
     h, w = flow_in_box.shape[:2]
-    whole, fraction = cv2.convertMaps(np.ascontiguousarray(flow_in_box), None, cv2.CV_16SC2)
-    grid = np.empty((h, w, 2), np.int32)
-    grid[..., 0] = np.arange(x, x + w, dtype=np.int32)[None, :]
-    grid[..., 1] = np.arange(y, y + h, dtype=np.int32)[:, None]
-    grid += whole
-    whole = np.clip(grid, -32768, 32767).astype(np.int16)
-    return cv2.remap(
-        np.ascontiguousarray(field, np.float32), whole, fraction, cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_REPLICATE,
-    )  # fmt: skip
+    flow_in_box = np.ascontiguousarray(flow_in_box, np.float32)
+    if image.dtype != np.uint8:
+        image = image.astype(np.float32, copy=False)
+    image = np.ascontiguousarray(image)
+    if image.ndim == 3 and image.shape[2] == 2:
+        whole, fraction = cv2.convertMaps(flow_in_box, None, cv2.CV_16SC2)
+        grid = np.empty((h, w, 2), np.int32)
+        grid[..., 0] = np.arange(x, x + w, dtype=np.int32)[None, :]
+        grid[..., 1] = np.arange(y, y + h, dtype=np.int32)[:, None]
+        grid += whole
+        maps = (np.clip(grid, -32768, 32767).astype(np.int16), fraction)
+    elif image.ndim == 2 or image.shape[2] in (1, 3):
+        at = flow_in_box.copy()
+        at[..., 0] += np.arange(x, x + w, dtype=np.float32)[None, :]
+        at[..., 1] += np.arange(y, y + h, dtype=np.float32)[:, None]
+        maps = (at, None)
+    else:
+        raise MiketalkError(f"warp_in_box warps 1, 2 or 3 channels, not {image.shape[2]}")
+    out = cv2.remap(image, *maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(h, w, *image.shape[2:])
 
 
 def _remap(image: np.ndarray, flow: np.ndarray) -> np.ndarray:
