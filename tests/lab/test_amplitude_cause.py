@@ -115,6 +115,9 @@ def test_faces_are_paired_clip_by_clip_against_the_base() -> None:
         ["--build", "a=x", "--refit", "a:b"],
         ["--build", "a=x", "--without-unsure", "b"],
         ["--build", "a=x", "--window", "2,1"],
+        ["--build", "a=x", "--with-unsure", "b"],
+        ["--build", "a=x", "--trained", "f=b:nowhere"],
+        ["--build", "a=x", "--trained", "f=a:nowhere"],  # no face in the folder
     ],
 )
 def test_bad_arguments_are_a_usage_error(extra, tmp_path, capsys) -> None:

@@ -7,8 +7,9 @@ FRAMES:LABELS[:TAG] ...] [--window LO,HI ...] [--shift S] [--config .bench/confi
 Issue 53: the face built from recognized words draws the held-out s1 clips' mouth (the
 trained face hearing each recording, ``trained_heard``) with an amplitude 0.09 over the
 transcript-built face's. Each ``--build`` is a :mod:`miketalk_lab.bench.recognized_build`
-build folder (``model/``, ``corpus/``, ``heldout/frames.csv`` and ``clips.csv``); the first
-is the base every other is paired against, clip by clip.
+build folder (``model/``, ``corpus/``, ``heldout/frames.csv`` and ``clips.csv``; a build without
+``heldout/`` has its real opening marked by the bench, and no ``measured`` nor ``proxy_r``);
+the first is the base every other is paired against, clip by clip.
 
 For each face the bench draws every training frame alone onto the face and marks its lip
 opening (dlib, as the held-out evaluation marks the frames it draws:
@@ -37,7 +38,8 @@ reference) with build ``LABELS``'s phones, mapped through the joined video's fra
 (:func:`relabelled`): which of the two (the frames or the phones) moves the amplitude.
 ``--without-unsure BUILD`` fits ``BUILD``'s trained face again as a build now fits it: the
 frames of the words its recognizer heard without confidence recorded in its corpus and left
-out of every fit (:func:`without_unsure`), in memory.
+out of every fit (:func:`without_unsure`), in memory; ``--with-unsure BUILD`` fits them (the
+way before).
 ``--window`` takes ``LABELS``'s phones only inside those spans of the joined video (seconds),
 ``FRAMES``'s own elsewhere; ``--shift`` moves every phone of ``LABELS`` by ``S`` seconds (a
 null: a transcript's phones a frame's half later). ``FRAMES:FRAMES`` fits the build's own face
@@ -151,10 +153,12 @@ def face_rows(
     face = face or model.trained_face
     opening = frame_openings(model, face, light)
     beta, fit = opening_map(face.frames.coords, opening)
-    frames = pd.read_csv(build / "heldout" / "frames.csv")
-    frames = frames[frames["renderer"] == "trained_heard"]
-    measured = pd.read_csv(build / "heldout" / "clips.csv")
-    measured = measured[measured["renderer"] == "trained_heard"].set_index("clip")
+    evaluated = (build / "heldout" / "frames.csv").is_file()  # else: no measured, no proxy_r
+    if evaluated:
+        frames = pd.read_csv(build / "heldout" / "frames.csv")
+        frames = frames[frames["renderer"] == "trained_heard"]
+        measured = pd.read_csv(build / "heldout" / "clips.csv")
+        measured = measured[measured["renderer"] == "trained_heard"].set_index("clip")
     stabilizer, decode = corpus_stabilizer(build / "corpus"), corpus_decoder(build / "corpus")
     table = VisemeTable(grouping=options["grouping"])
     faces = {v: dataclasses.replace(face, selection=dataclasses.replace(face.selection, **o))
@@ -162,9 +166,12 @@ def face_rows(
     rows = []
     for clip in clips:
         held = prepare_heldout(clip, stabilizer=stabilizer, table=table, decode=decode)
-        marked = frames[frames["clip"] == clip.id].sort_values("frame")
-        real = marked["lip_opening_real"].to_numpy()
-        drawn = marked["lip_opening_synth"].to_numpy()
+        if evaluated:
+            marked = frames[frames["clip"] == clip.id].sort_values("frame")
+            real = marked["lip_opening_real"].to_numpy()
+            drawn = marked["lip_opening_synth"].to_numpy()
+        else:  # a build not evaluated: the real opening marked here
+            real, drawn, own = _real_opening(held.real), None, False
         if len(real) != len(held.timeline.frames):
             raise MiketalkError(f"{name}: clip {clip.id}'s frames.csv does not match its frames")
         speech, recording = speech_frames(held.timeline), Recording(held.samples, held.rate)
@@ -188,6 +195,14 @@ def face_rows(
             row |= _drawn_measures(model, face, held, recording, speech, light)
         rows.append(row)
     return rows
+
+
+def _real_opening(real: np.ndarray) -> np.ndarray:
+    """A held-out clip's real lip opening per frame, marked as the held-out evaluation marks it."""
+    from miketalk_lab.evaluation.landmark_scores import ClipLandmarks
+    from miketalk_lab.evaluation.landmarks import face_landmarks, lip_opening
+
+    return lip_opening(ClipLandmarks(face_landmarks(), real).real)
 
 
 #: The held-out evaluation's measures of ``trained_heard`` drawn for real (``--draw``).
@@ -298,6 +313,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="BUILD",
         help="BUILD's face, heard fitted without its unsure words' frames",
     )
+    parser.add_argument("--with-unsure", action="append", default=[], metavar="BUILD",
+                        help="BUILD's face fitted again with its unsure words' frames (the way "
+                        "before)")  # fmt: skip
     parser.add_argument("--trained", action="append", default=[], metavar="NAME=BUILD:FOLDER",
                         help="the trained face in FOLDER (a model's trained/), drawn with "
                         "BUILD's model and corpus")  # fmt: skip
@@ -326,8 +344,8 @@ def _check(args: argparse.Namespace) -> str | None:
         build, _, folder = where.partition(":")
         if not name or build not in builds or not (Path(folder) / "trained.json").is_file():
             return f"--trained {spec}: NAME=BUILD:FOLDER, BUILD a --build name, FOLDER a face"
-    if not set(args.without_unsure) <= set(builds):
-        return "--without-unsure BUILD: one of the --build names"
+    if not set(args.without_unsure) | set(args.with_unsure) <= set(builds):
+        return "--without-unsure/--with-unsure BUILD: one of the --build names"
     try:
         windows = [tuple(float(x) for x in w.split(",")) for w in args.window]
     except ValueError:
@@ -365,6 +383,10 @@ def _work(args: argparse.Namespace) -> str:
               "out of the fits", file=sys.stderr)  # fmt: skip
         rows += face_rows(f"{name}_without_unsure", builds[name], clips, options, face=face,
                           draw=args.draw, light=args.patch_light)  # fmt: skip
+    for name in args.with_unsure:
+        face = without_unsure(builds[name], args.out / f"corpus_{name}_unsure", leave_unsure=False)
+        rows += face_rows(f"{name}_with_unsure", builds[name], clips, options, face=face,
+                          draw=args.draw, light=args.patch_light)  # fmt: skip
     for spec in args.trained:
         from miketalk.draw.trained.build import read_trained
 
@@ -395,7 +417,7 @@ def _summary(args: argparse.Namespace, table: pd.DataFrame, base: str) -> str:
     summary = "\n".join(lines) + "\n"
     (args.out / "summary.md").write_text(summary, "utf-8")
     keys = ("build", "refit", "window", "shift", "limit", "draw", "patch_light", "without_unsure",
-            "trained")  # fmt: skip
+            "with_unsure", "trained")  # fmt: skip
     settings = {k: getattr(args, k) for k in keys}
     (args.out / "settings.json").write_text(json.dumps(settings, indent=1) + "\n", "utf-8")
     return summary
