@@ -129,15 +129,15 @@ BLEND_COLOUR = "lips"
 #: held-out sentences (8-clip model): mouth PSNR +0.69 dB (39 of 40), opening r -0.004.
 PATCH_LIGHT = "session"
 
-#: How a face built from clips brings its viseme images, which the paper's morph and the
-#: learned coarticulation draw, to the light of its face (:mod:`miketalk.draw.trained.light`,
+#: How a face built from clips brings the viseme images the paper's morph draws to the light
+#: of its face (:mod:`miketalk.draw.trained.light`,
 #: :func:`~miketalk.draw.trained.light.lit_visemes`): ``"session"`` (each image's clip's CIELAB
 #: shift, the trained face's patches') or ``"built"`` (as the build cut them, each in its own
 #: day's light). On the 8 weekly addresses held out (docs/anyone.md, "The morph's viseme
 #: images"), paired with ``"built"``: the morph's lips' CIELAB distance from his 2.73 -> 2.33
-#: (6 of 8 nearer), the learned's 2.52 -> 2.59 (4 of 8; its spread over frames +0.23); opening
-#: r, amplitude and LMD within 0.07. On s1's 40 held-out sentences: the morph's opening r
-#: +0.013, the learned's -0.003.
+#: (6 of 8 nearer); opening r, amplitude and LMD within 0.04. On s1's 40 held-out sentences:
+#: opening r +0.013. The learned coarticulation draws the images as built: lit, its lips came
+#: no nearer (2.52 -> 2.59) and s1's one-video model's amplitude moved 0.1.
 VISEME_LIGHT = "session"
 
 #: Keep the blend off the reference's backdrop and clothes

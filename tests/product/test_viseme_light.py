@@ -127,26 +127,32 @@ def test_the_default_and_the_bench_switch_name_a_viseme_light() -> None:
 
 
 def test_a_model_from_clips_draws_its_viseme_images_in_its_faces_light(s1_built) -> None:
-    """s1's model from four clips: every viseme image's own frame is found, the morph draws
-    the lit images (the default), ``"built"`` the files; s1's one studio light moves them
-    little."""
+    """s1's model from four clips: every viseme image's own frame is found; the paper's
+    morph draws the lit images (the default), ``"built"`` the files; the learned
+    coarticulation's images (``image``, ``frame``) stay the files; s1's one studio light
+    moves them little."""
     from miketalk.media.images import read_image
     from miketalk.model.face import Model
 
     with Model(s1_built, viseme_light="built") as built, Model(s1_built) as model:
         files = {v: read_image(s1_built / built.manifest["images"][v]) for v in built.visemes}
-        assert all(np.array_equal(built.image(v), files[v]) for v in built.visemes)
+        assert all(np.array_equal(built.lit_image(v), files[v]) for v in built.visemes)
         frames = model.trained_face.frames
         assert None not in source_frames(files, frames).values()
         want = lit_visemes(files, frames)
-        drawn = {v: model.image(v) for v in model.visemes}
+        drawn = {v: model.lit_image(v) for v in model.visemes}
         assert all(np.array_equal(drawn[v], want[v]) for v in model.visemes)
+        assert all(np.array_equal(model.image(v), files[v]) for v in model.visemes)
         assert np.array_equal(drawn[SILENCE], files[SILENCE])
         moved = [np.abs(drawn[v].astype(np.int16) - files[v]).mean() for v in model.visemes]
         assert 0 < max(moved) < 3  # one studio's light
-        # the morph draws them: a transition's ends are the lit images
+        # the paper's drawing morphs the lit images; a frame asked for plainly, the files
         v = model.visemes[int(np.argmax(moved))]
-        assert np.array_equal(model.frame(v, SILENCE, 0.0), want[v])
-        assert np.array_equal(built.frame(v, SILENCE, 0.0), files[v])
+        assert np.array_equal(model.frame(v, SILENCE, 0.0, lit=True), want[v])
+        assert np.array_equal(model.frame(v, SILENCE, 0.0), files[v])
+        assert np.array_equal(built.frame(v, SILENCE, 0.0, lit=True), files[v])
+        lit, plain = model.frame(v, SILENCE, 0.5, lit=True), model.frame(v, SILENCE, 0.5)
+        assert not np.array_equal(lit, plain)
+        assert np.array_equal(plain, built.frame(v, SILENCE, 0.5, lit=True))
     with pytest.raises(MiketalkError, match="the viseme images' light must be"):
         Model(s1_built, viseme_light="sun")

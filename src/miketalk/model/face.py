@@ -78,8 +78,8 @@ class Model(Morphs):
         Some of :class:`miketalk.render.morph_settings.MorphSettings` by name, checked here (an
         unknown one is a one-line error).
     viseme_light : str, optional
-        How its viseme images are brought to its face's light before they are drawn
-        (:data:`miketalk.draw.trained.light.VISEME_LIGHTS`; None:
+        How its viseme images are brought to its face's light before the paper's morph
+        draws them (:data:`miketalk.draw.trained.light.VISEME_LIGHTS`; None:
         :data:`miketalk.defaults.VISEME_LIGHT`): a face built from clips only.
 
     Raises
@@ -153,9 +153,11 @@ class Model(Morphs):
 
     # --- how its mouth is drawn -------------------------------------------------------
 
-    def image(self, viseme: str) -> np.ndarray:
-        """The viseme's image as drawn, (H, W, 3) uint8: in its face's light
-        (:attr:`lit_images`)."""
+    def lit_image(self, viseme: str) -> np.ndarray:
+        """The viseme's image as the paper's morph draws it, (H, W, 3) uint8: in its face's
+        light (:attr:`lit_images`). The learned coarticulation draws :meth:`image`, as built:
+        measured, it gained nothing from the light (docs/anyone.md, "The morph's viseme
+        images")."""
         self._check(viseme)
         return self.lit_images[viseme]
 

@@ -82,6 +82,12 @@ class Morphs:
         self._check(viseme)
         return self._images[viseme]
 
+    def lit_image(self, viseme: str) -> np.ndarray:
+        """The viseme's image as the paper's morph draws it (``lit=True``): here the image
+        itself; a :class:`~miketalk.model.face.Model` from clips brings it to its face's
+        light."""
+        return self.image(viseme)
+
     def displacement(self, a: str, b: str) -> float:
         """The largest flow displacement of transition a -> b, in pixels (0 for a == b)."""
         self._check(a)
@@ -89,16 +95,17 @@ class Morphs:
         return 0.0 if a == b else self._displacement[(a, b)]
 
     @property
-    def _morphers(self) -> OrderedDict[tuple[str, str], Morpher]:
-        """This thread's morphers, least recently used first."""
+    def _morphers(self) -> OrderedDict[tuple[str, str, bool], Morpher]:
+        """This thread's morphers ``(a, b, lit)``, least recently used first."""
         cache = getattr(self._local, "morphers", None)
         if cache is None:
             cache = self._local.morphers = OrderedDict()
         return cache
 
-    def morpher(self, a: str, b: str) -> Morpher:
-        """A morpher for transition a -> b (cached; each thread has its own)."""
-        key = (a, b)
+    def morpher(self, a: str, b: str, *, lit: bool = False) -> Morpher:
+        """A morpher for transition a -> b (cached; each thread has its own), between the
+        :meth:`lit_image` images with ``lit``."""
+        key = (a, b, lit)
         morphers = self._morphers
         if key in morphers:
             morphers.move_to_end(key)
@@ -112,7 +119,8 @@ class Morphs:
                         f"{flow.shape[1]}x{flow.shape[0]} pixels, but the model's images are "
                         f"{self.size[1]}x{self.size[0]}: it belongs to another model"
                     )
-            morpher = Morpher(self.image(a), self.image(b), forward, backward, **self.morph_options)
+            image = self.lit_image if lit else self.image
+            morpher = Morpher(image(a), image(b), forward, backward, **self.morph_options)
         except MiketalkError as err:
             path = self.flows.path_for(a, b)
             if path.name in str(err):
@@ -122,7 +130,7 @@ class Morphs:
             ) from None
         finally:
             with self._lock:
-                self._reads.pop(key, None)
+                self._reads.pop((a, b), None)
         morphers[key] = morpher
         if len(morphers) > self._cache_size:
             morphers.popitem(last=False)
@@ -135,7 +143,7 @@ class Morphs:
         them itself; rendering a timeline overlaps with reading its flows.
         """
         for a, b in transitions:
-            if a != b and (a, b) not in self._morphers:
+            if a != b and not {(a, b, True), (a, b, False)} & self._morphers.keys():
                 self._read(a, b)
 
     def _read(self, a: str, b: str) -> Future:
@@ -192,13 +200,15 @@ class Morphs:
             np.ascontiguousarray(backward, np.float32),
         )
 
-    def frame(self, a: str, b: str, alpha: float) -> np.ndarray:
-        """The morph from viseme a to b at ``alpha``."""
+    def frame(self, a: str, b: str, alpha: float, *, lit: bool = False) -> np.ndarray:
+        """The morph from viseme a to b at ``alpha`` (of the :meth:`lit_image` images with
+        ``lit``: the paper's drawing, :meth:`draw`)."""
+        image = self.lit_image if lit else self.image
         if a == b or alpha <= 0.0:
-            return self.image(a)
+            return image(a)
         if alpha >= 1.0:
-            return self.image(b)
-        return self.morpher(a, b).frame(alpha)
+            return image(b)
+        return self.morpher(a, b, lit=lit).frame(alpha)
 
     def exposure(
         self, timeline: Timeline, samples: Sequence[tuple[int, float, float]]
@@ -211,7 +221,7 @@ class Morphs:
         total = np.zeros((*self.size, 3), np.float32)
         for i, alpha, weight in samples:
             t = timeline.transitions[i]
-            image = self.frame(t.source, t.target, alpha)
+            image = self.frame(t.source, t.target, alpha, lit=True)
             cv2.addWeighted(image, weight, total, 1.0, 0.0, dst=total, dtype=cv2.CV_32F)
         return np.clip(np.rint(total), 0, 255).astype(np.uint8)
 
@@ -220,7 +230,7 @@ class Morphs:
         if sample.samples:
             return self.exposure(timeline, sample.samples)
         t = timeline.transitions[sample.transition]
-        return self.frame(t.source, t.target, sample.alpha)
+        return self.frame(t.source, t.target, sample.alpha, lit=True)
 
     def render(
         self, timeline: Timeline, *, lookahead: int = 8, workers: int | None = None

@@ -19,12 +19,13 @@ Two ways, :data:`PATCH_LIGHTS` (:data:`miketalk.defaults.PATCH_LIGHT` is the def
   each frame's statistics, their median over those frames: a median image would be
   blurred): the same mouth shape, another day's light, so what differs is the light.
 
-The paper's morph (and the learned coarticulation, which draws through its images) draws
-viseme images that the build cut from frames of those same clips: each image is its frame's
-lower face laid onto the reference (:func:`miketalk.corpus.viseme_choice.composite`), so it
-keeps its day's light too (a red frame among brown ones). :func:`lit_visemes` brings them to
-the face's light the same way, :data:`VISEME_LIGHTS` (:data:`miketalk.defaults.VISEME_LIGHT`
-is the default): ``"session"`` finds each image's own training frame among the trained face's
+The paper's morph draws viseme images that the build cut from frames of those same clips:
+each image is its frame's lower face laid onto the reference
+(:func:`miketalk.corpus.viseme_choice.composite`), so it keeps its day's light too (a red
+frame among brown ones). :func:`lit_visemes` brings them to the face's light the same way
+(:meth:`miketalk.model.face.Model.lit_image`; the learned coarticulation draws them as
+built), :data:`VISEME_LIGHTS` (:data:`miketalk.defaults.VISEME_LIGHT` is the default):
+``"session"`` finds each image's own training frame among the trained face's
 (:func:`source_frames`: the build pasted it unchanged), so its clip, and applies that clip's
 :class:`SessionLight` transfer where the image is the frame's (:func:`pasted`); ``"built"``
 leaves the images as the build made them.
