@@ -81,9 +81,9 @@ NEAREST = 8
 
 #: :func:`source_frames`: the largest mean absolute difference (levels, over the mouth region's
 #: colours) at which a training frame is the one a viseme image was cut from. Measured on five
-#: models (s1's 8 clips, the four folds of the weekly addresses): 0.04 to 0.79 for the
-#: nearest, 1.89 or more for the next (the same clip's neighbouring frames).
-MATCH_LEVELS = 1.5
+#: models (s1's 8 clips, the four folds of the weekly addresses; 80 images): 0.04 to 0.79 for
+#: its own frame, 1.32 or more for any other.
+MATCH_LEVELS = 1.0
 
 
 def _lab(rgb: np.ndarray) -> np.ndarray:
