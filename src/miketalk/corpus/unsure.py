@@ -33,13 +33,26 @@ EDGE = 1e-6
 def write_unsure(corpus_dir: str | Path, segments: str | Path) -> int:
     """Write the corpus's ``unsure.tsv``: each word ``segments`` (``segments.json``) names as
     heard without confidence, cut to each clip it overlaps, in that clip's seconds (the clip
-    placed in the video by ``sources.tsv``). Returns how many spans."""
+    placed in the video by ``sources.tsv`` in a face crop's corpus, by the segmentation's
+    utterances in a corpus of the video's own frames, which has no ``sources.tsv``).
+    Returns how many spans."""
     from miketalk.corpus.clips import SOURCES_TABLE
 
     corpus = Path(corpus_dir)
-    words = json.loads(Path(segments).read_text(encoding="utf-8")).get("not_confident", ())
-    sources = pd.read_csv(corpus / SOURCES_TABLE, sep="\t", dtype={"clip": str})
+    segmentation = json.loads(Path(segments).read_text(encoding="utf-8"))
+    words = segmentation.get("not_confident", ())
     lines = ["clip\tword\tclip_start\tclip_end"]
+    if not words:
+        write_text_atomic(corpus / UNSURE_TABLE, "\n".join(lines) + "\n")
+        return 0
+    if (corpus / SOURCES_TABLE).is_file():  # a face crop's corpus: its clips as cut
+        sources = pd.read_csv(corpus / SOURCES_TABLE, sep="\t", dtype={"clip": str})
+    else:  # the video's own frames: the utterances as segmented
+        fps = float(segmentation["fps"])
+        sources = pd.DataFrame(
+            [(u["id"], u["first_frame"], u["frames"], fps) for u in segmentation["utterances"]],
+            columns=["clip", "first_frame", "frames", "fps"],
+        )
     for c in sources.itertuples():
         lo, hi = c.first_frame / c.fps, (c.first_frame + c.frames) / c.fps
         for w in words:
