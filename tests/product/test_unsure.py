@@ -127,9 +127,9 @@ def test_a_build_from_recognized_words_leaves_their_frames_out(tmp_path) -> None
 
 
 def test_a_corpus_of_the_videos_own_frames_places_its_clips_by_the_segmentation(tmp_path) -> None:
-    """A build in the video's own frames (``--frame full``) writes no ``sources.tsv``: the
-    spans are placed by ``segments.json``'s utterances, and a script-given build (no unsure
-    words) needs neither."""
+    """A corpus without ``sources.tsv`` (a ``--frame full`` build's, before the table was
+    written for every video's parts): the spans are placed by ``segments.json``'s
+    utterances, and a script-given build (no unsure words) needs neither."""
     corpus = tmp_path / "corpus"
     corpus.mkdir()
     segments = tmp_path / "segments.json"
@@ -145,3 +145,20 @@ def test_a_corpus_of_the_videos_own_frames_places_its_clips_by_the_segmentation(
     spans = pd.read_csv(corpus / UNSURE_TABLE, sep="\t", dtype={"clip": str})
     assert spans["clip"].tolist() == ["u0002"]
     assert np.allclose(spans[["clip_start", "clip_end"]], [[0.2, 0.26]])
+
+
+def test_a_corpus_of_the_videos_own_frames_says_where_its_clips_are(s1_built) -> None:
+    """A ``--frame full`` build of one video writes ``sources.tsv`` too: each clip's span in the
+    video (a clip cut in pieces, ``u0003.1``, placed by its own), so unsure spans land in
+    pieces as they do in a face crop's corpus."""
+    corpus = s1_built.parent / "corpus"
+    sources = pd.read_csv(corpus / "sources.tsv", sep="\t", dtype={"clip": str})
+    clips = pd.read_csv(corpus / "clips.tsv", sep="\t", dtype={"clip": str})
+    assert sources["clip"].tolist() == clips["clip"].tolist()
+    assert sources["frames"].tolist() == clips["frames"].tolist()
+    segments = json.loads((s1_built / "build" / "segments.json").read_text())
+    first = {u["id"]: u["first_frame"] for u in segments["utterances"]}
+    for c in sources.itertuples():  # a piece starts within its utterance
+        utterance = c.clip.split(".")[0]
+        assert first[utterance] <= c.first_frame
+    assert (sources["fps"] == segments["fps"]).all()

@@ -92,7 +92,8 @@ STABILIZATION_TABLE = "stabilization.tsv"
 SKIPPED_TABLE = "skipped.tsv"
 
 
-#: A face crop's corpus: each clip's media file and span in it (its shot, cut by the tracker).
+#: Each clip's media file and span in it, in a face crop's corpus and in a corpus of a video's
+#: parts (its utterances, and their pieces cut at a shot change or a frame left out).
 SOURCES_TABLE = "sources.tsv"
 
 
@@ -170,7 +171,7 @@ def ingest_clips(
     stabilizer = None
     size = fps = None
     rows_clips, rows_phones, rows_stab, audio, words = [], [], [], [], []
-    rows_sources: list[tuple] = []  # a face crop's: where each clip is in its video
+    rows_sources: list[tuple] = []  # a face crop's, a video's parts': where each clip is in it
     n_total = 0
     regions: dict = {}
     for item in decoded:
@@ -232,7 +233,7 @@ def ingest_clips(
         audio.append(_fit(item.samples, round(duration * RATE)))
         phones = _clipped(item.phones, duration)
         rows_clips.append((clip.id, first, n, f"{offset:.6f}", f"{duration:.6f}", clip.text))
-        if crop is not None:
+        if crop is not None or clip.span is not None:
             where = _where(item)
             rows_sources.append((clip.id, where["media"], where.get("first_frame", 0), n, item.fps))
         for i, p in enumerate(phones):
@@ -268,7 +269,7 @@ def ingest_clips(
         rows_stab,
     )
     write_table(out / SKIPPED_TABLE, ("clip", "reason"), skipped)
-    if crop is not None:
+    if crop is not None or rows_sources:
         write_table(out / SOURCES_TABLE, ("clip", "media", "first_frame", "frames", "fps"),
                     rows_sources)  # fmt: skip
     table = ["frame\ttime\tclip\tclip_frame"]

@@ -33,8 +33,9 @@ EDGE = 1e-6
 def write_unsure(corpus_dir: str | Path, segments: str | Path) -> int:
     """Write the corpus's ``unsure.tsv``: each word ``segments`` (``segments.json``) names as
     heard without confidence, cut to each clip it overlaps, in that clip's seconds (the clip
-    placed in the video by ``sources.tsv`` in a face crop's corpus, by the segmentation's
-    utterances in a corpus of the video's own frames, which has no ``sources.tsv``).
+    placed in the video by the corpus's ``sources.tsv``; a corpus made before it was written
+    for the video's own frames has none, and its clips are placed by the segmentation's
+    utterances).
     Returns how many spans."""
     from miketalk.corpus.clips import SOURCES_TABLE
 
@@ -45,9 +46,9 @@ def write_unsure(corpus_dir: str | Path, segments: str | Path) -> int:
     if not words:
         write_text_atomic(corpus / UNSURE_TABLE, "\n".join(lines) + "\n")
         return 0
-    if (corpus / SOURCES_TABLE).is_file():  # a face crop's corpus: its clips as cut
+    if (corpus / SOURCES_TABLE).is_file():  # its clips as cut: pieces too (``u0003.1``)
         sources = pd.read_csv(corpus / SOURCES_TABLE, sep="\t", dtype={"clip": str})
-    else:  # the video's own frames: the utterances as segmented
+    else:  # a corpus without the table (made before it was written for every video's parts)
         fps = float(segmentation["fps"])
         sources = pd.DataFrame(
             [(u["id"], u["first_frame"], u["frames"], fps) for u in segmentation["utterances"]],
