@@ -126,25 +126,15 @@ def test_a_build_from_recognized_words_leaves_their_frames_out(tmp_path) -> None
     assert np.array_equal(again.trajectories["heard"].weights, before.trajectories["heard"].weights)
 
 
-def test_a_corpus_of_the_videos_own_frames_places_its_clips_by_the_segmentation(tmp_path) -> None:
-    """A corpus without ``sources.tsv`` (a ``--frame full`` build's, before the table was
-    written for every video's parts): the spans are placed by ``segments.json``'s
-    utterances, and a script-given build (no unsure words) needs neither."""
+def test_a_segmentation_with_no_unsure_word_needs_no_sources_table(tmp_path) -> None:
+    """A script-given build (no unsure words) writes an empty table without reading the
+    corpus's ``sources.tsv``."""
     corpus = tmp_path / "corpus"
     corpus.mkdir()
     segments = tmp_path / "segments.json"
     segments.write_text(json.dumps({"words_from": "given", "fps": 25.0, "utterances": []}))
     assert write_unsure(corpus, segments) == 0
-    segments.write_text(json.dumps({
-        "fps": 25.0,
-        "utterances": [{"id": "u0001", "first_frame": 10, "frames": 50},
-                       {"id": "u0002", "first_frame": 70, "frames": 50}],
-        "not_confident": [{"word": "at", "start": 3.0, "end": 3.06, "probability": 0.4}],
-    }))  # fmt: skip
-    assert write_unsure(corpus, segments) == 1
-    spans = pd.read_csv(corpus / UNSURE_TABLE, sep="\t", dtype={"clip": str})
-    assert spans["clip"].tolist() == ["u0002"]
-    assert np.allclose(spans[["clip_start", "clip_end"]], [[0.2, 0.26]])
+    assert (corpus / UNSURE_TABLE).read_text() == "clip\tword\tclip_start\tclip_end\n"
 
 
 def test_a_corpus_of_the_videos_own_frames_says_where_its_clips_are(s1_built) -> None:

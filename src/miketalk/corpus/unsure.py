@@ -32,28 +32,20 @@ EDGE = 1e-6
 
 def write_unsure(corpus_dir: str | Path, segments: str | Path) -> int:
     """Write the corpus's ``unsure.tsv``: each word ``segments`` (``segments.json``) names as
-    heard without confidence, cut to each clip it overlaps, in that clip's seconds (the clip
-    placed in the video by the corpus's ``sources.tsv``; a corpus made before it was written
-    for the video's own frames has none, and its clips are placed by the segmentation's
-    utterances).
-    Returns how many spans."""
+    heard without confidence, cut to each clip it overlaps, in that clip's seconds (the clip,
+    or its piece, placed in the video by the corpus's ``sources.tsv``, which a corpus of a
+    video's parts holds; a segmentation with no such word needs none). Returns how many
+    spans."""
     from miketalk.corpus.clips import SOURCES_TABLE
 
     corpus = Path(corpus_dir)
-    segmentation = json.loads(Path(segments).read_text(encoding="utf-8"))
-    words = segmentation.get("not_confident", ())
+    words = json.loads(Path(segments).read_text(encoding="utf-8")).get("not_confident", ())
     lines = ["clip\tword\tclip_start\tclip_end"]
-    if not words:
-        write_text_atomic(corpus / UNSURE_TABLE, "\n".join(lines) + "\n")
-        return 0
-    if (corpus / SOURCES_TABLE).is_file():  # its clips as cut: pieces too (``u0003.1``)
-        sources = pd.read_csv(corpus / SOURCES_TABLE, sep="\t", dtype={"clip": str})
-    else:  # a corpus without the table (made before it was written for every video's parts)
-        fps = float(segmentation["fps"])
-        sources = pd.DataFrame(
-            [(u["id"], u["first_frame"], u["frames"], fps) for u in segmentation["utterances"]],
-            columns=["clip", "first_frame", "frames", "fps"],
-        )
+    sources = (
+        pd.read_csv(corpus / SOURCES_TABLE, sep="\t", dtype={"clip": str})
+        if words
+        else pd.DataFrame(columns=["clip", "first_frame", "frames", "fps"])
+    )
     for c in sources.itertuples():
         lo, hi = c.first_frame / c.fps, (c.first_frame + c.frames) / c.fps
         for w in words:
