@@ -97,16 +97,11 @@ class Model(Morphs):
         morph_options: dict | None = None,
         viseme_light: str | None = None,
     ) -> None:
-        from miketalk.draw.trained.light import VISEME_LIGHTS
+        from miketalk.draw.trained.light import check_viseme_light
 
         self.directory = Path(directory)
         MorphSettings.of(morph_options)  # checked before anything is read
-        self.viseme_light = viseme_light or defaults.VISEME_LIGHT
-        if self.viseme_light not in VISEME_LIGHTS:
-            raise MiketalkError(
-                f"the viseme images' light must be {' or '.join(VISEME_LIGHTS)}, "
-                f"not {self.viseme_light!r}"
-            )
+        self.viseme_light = check_viseme_light(viseme_light or defaults.VISEME_LIGHT)
         manifest = read_manifest(self.directory)
         self.manifest = manifest
         visemes = tuple(manifest["visemes"])

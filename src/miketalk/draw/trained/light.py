@@ -49,6 +49,7 @@ __all__ = [
     "PatchLight",
     "SessionLight",
     "border_shift",
+    "check_viseme_light",
     "lit_visemes",
     "lower_face",
     "pasted",
@@ -259,6 +260,15 @@ def pasted(frames: MouthFrames, size: tuple[int, int]) -> np.ndarray:
     return paste_weight(size, box, feather=PASTE_FEATHER * rw)
 
 
+def check_viseme_light(how: str) -> str:
+    """``how`` when it is one of :data:`VISEME_LIGHTS`, else a one-line :class:`MiketalkError`."""
+    if how not in VISEME_LIGHTS:
+        raise MiketalkError(
+            f"the viseme images' light must be {' or '.join(VISEME_LIGHTS)}, not {how!r}"
+        )
+    return how
+
+
 def lit_visemes(
     images: Mapping[str, np.ndarray], frames: MouthFrames, how: str = "session"
 ) -> dict[str, np.ndarray]:
@@ -270,10 +280,7 @@ def lit_visemes(
     weighed by :func:`pasted`; the silence image, and an image whose frame is not found, stay
     as built.
     """
-    if how not in VISEME_LIGHTS:
-        raise MiketalkError(
-            f"the viseme images' light must be {' or '.join(VISEME_LIGHTS)}, not {how!r}"
-        )
+    check_viseme_light(how)
     if how == "built" or SILENCE not in images:
         return dict(images)
     face = images[SILENCE]
